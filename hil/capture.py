@@ -1,0 +1,112 @@
+"""A captured (or simulated) set of synchronous signals, and its ``.npz`` file format.
+
+Channel names carry their SI unit as a suffix (``torque_nm``, ``time_s``, ``ia_a``,
+``rotor_angle_mech_rad``, ``dc_bus_v``, ``encoder_counts``); ``units`` repeats it explicitly so a
+file is self-describing. ``meta`` holds scalars and strings (pole pairs, counts per revolution,
+sample rate, instrument names) and is stored as JSON inside the file. Files are written
+atomically and a SHA-256 of the bytes on disk is returned, for the run record.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hil.errors import InputError
+
+REQUIRED_CHANNELS = ("time_s",)
+
+
+@dataclass
+class Capture:
+    """Synchronous sampled channels with units and metadata."""
+
+    channels: dict[str, np.ndarray]
+    units: dict[str, str] = field(default_factory=dict)
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        lengths = {name: len(values) for name, values in self.channels.items()}
+        if len(set(lengths.values())) > 1:
+            raise InputError(f"capture channels differ in length: {lengths}")
+        for name in self.channels:
+            self.units.setdefault(name, _unit_from_name(name))
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.channels[name]
+        except KeyError:
+            raise InputError(
+                f"capture has no channel {name!r}; it has {sorted(self.channels)}") from None
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.channels
+
+    def __len__(self) -> int:
+        return len(next(iter(self.channels.values()))) if self.channels else 0
+
+    def to_bytes(self) -> bytes:
+        buffer = io.BytesIO()
+        arrays = {f"ch_{name}": np.asarray(values) for name, values in self.channels.items()}
+        header = json.dumps({"units": self.units, "meta": self.meta}, sort_keys=True, default=str)
+        np.savez_compressed(buffer, __header__=np.frombuffer(header.encode(), dtype=np.uint8),
+                            **arrays)
+        return buffer.getvalue()
+
+    def save(self, path: str | os.PathLike) -> str:
+        """Write atomically (temp file + rename) and return the SHA-256 of the file's bytes."""
+        data = self.to_bytes()
+        atomic_write_bytes(Path(path), data)
+        return hashlib.sha256(data).hexdigest()
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Capture":
+        """Read a capture file; a missing, truncated or foreign file raises InputError."""
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"capture file {str(path)!r} does not exist")
+        try:
+            with np.load(path, allow_pickle=False) as npz:
+                header = json.loads(bytes(npz["__header__"]).decode())
+                channels = {key[3:]: npz[key] for key in npz.files if key.startswith("ch_")}
+        except (OSError, ValueError, KeyError, EOFError, json.JSONDecodeError) as exc:
+            raise InputError(f"capture file {str(path)!r} is not a readable ripple-hil capture "
+                             f"({type(exc).__name__}: {exc})") from None
+        missing = [name for name in REQUIRED_CHANNELS if name not in channels]
+        if missing:
+            raise InputError(f"capture file {str(path)!r} lacks channel(s) {missing}")
+        return cls(channels=channels, units=header.get("units", {}), meta=header.get("meta", {}))
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` via a temp file in the same folder, fsync and rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+_SUFFIX_UNITS = {"_s": "s", "_nm": "N*m", "_a": "A", "_v": "V", "_rad": "rad", "_rpm": "rpm",
+                 "_hz": "Hz", "_counts": "counts", "_pu": "1"}
+
+
+def _unit_from_name(name: str) -> str:
+    for suffix, unit in _SUFFIX_UNITS.items():
+        if name.endswith(suffix):
+            return unit
+    return ""

@@ -1,0 +1,1 @@
+"""Sub-commands of the ``hil`` CLI; each module defines ``register(subparsers)``."""
