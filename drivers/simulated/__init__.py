@@ -1,0 +1,1 @@
+"""Simulated instruments: protocol servers backed by the digital twin (``hil.sim``)."""
