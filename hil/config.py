@@ -1,0 +1,545 @@
+"""The bench file: a TOML description of one test bench, validated on load.
+
+Sections (design.md section 4): ``[motor]`` (Table I defaults), ``[drive]`` (python-can bus and
+CANopen node), ``[daq]`` (Modbus TCP or RTU), ``[torque]`` (serial torque transducer),
+``[limits]``, ``[operating_point]``, ``[[instrument]]`` (identity, accuracy and calibration of
+each instrument), ``[lab]`` (for the report) and the top-level ``simulated`` flag.
+
+Only ``tomllib`` parses the file: no code is evaluated. Every key is checked for type and range;
+an unknown key (most often a typo) is refused. Errors are :class:`hil.errors.InputError` naming
+the key path (``daq.port``), the bad value and what is allowed.
+
+On a simulated bench (``simulated = true``) the instrument addresses may be left out: whoever
+starts the simulated instruments fills them in with :meth:`BenchConfig.with_overrides`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import hashlib
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field, fields
+from datetime import date
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import can
+
+from hil.errors import InputError
+from hil.motor import MotorParameters
+
+#: python-can interface names accepted in ``drive.interface``.
+CAN_INTERFACES: tuple[str, ...] = tuple(sorted(can.interfaces.VALID_INTERFACES))
+#: CiA 301 standard CAN bit rates, bit/s.
+CAN_BITRATES: tuple[int, ...] = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000,
+                                 1_000_000)
+#: Serial line rates accepted for Modbus RTU and the torque transducer, baud.
+SERIAL_BAUDRATES: tuple[int, ...] = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200,
+                                     230400, 460800, 921600)
+TORQUE_DIALECTS: tuple[str, ...] = ("magtrol", "himmelstein")
+DAQ_TRANSPORTS: tuple[str, ...] = ("tcp", "rtu")
+INSTRUMENT_ROLES: tuple[str, ...] = ("drive", "daq", "torque", "dyno")
+
+_ALWAYS, _REAL, _OPTIONAL = "always", "real", "optional"
+
+
+@dataclass(frozen=True)
+class _Spec:
+    """How one bench-file key is checked: its kind, inclusive range or choices, and need."""
+
+    kind: str                      # int | float | str | bool | path | date | channel
+    lo: float | None = None
+    hi: float | None = None
+    choices: tuple | None = None
+    required: str = _OPTIONAL      # always | real (required unless simulated) | optional
+
+
+def _key(default: Any, kind: str, **spec: Any) -> Any:
+    return field(default=default, metadata={"spec": _Spec(kind, **spec)})
+
+
+# --------------------------------------------------------------------------- sections
+
+@dataclass(frozen=True)
+class MotorIdentity:
+    """The motor under test as named on its nameplate (for the report), from ``[motor]``."""
+
+    model: str = _key("", "str")
+    serial_number: str = _key("", "str")
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """``[drive]``: the drive under test on a CAN bus (python-can) as CANopen node ``node_id``."""
+
+    interface: str = _key("virtual", "str", choices=CAN_INTERFACES, required=_REAL)
+    channel: str | int | None = _key(None, "channel", required=_REAL)
+    bitrate: int = _key(500_000, "int", choices=CAN_BITRATES)
+    node_id: int = _key(1, "int", lo=1, hi=127)
+    eds: Path | None = _key(None, "path")  # None: the EDS shipped with the drivers
+    sdo_timeout_s: float = _key(0.5, "float", lo=0.01, hi=10.0)
+    heartbeat_timeout_s: float = _key(1.0, "float", lo=0.05, hi=30.0)
+
+
+@dataclass(frozen=True)
+class DaqConfig:
+    """``[daq]``: the Modbus data-acquisition unit, over TCP (host/port) or RTU (serial)."""
+
+    transport: str = _key("tcp", "str", choices=DAQ_TRANSPORTS)
+    host: str | None = _key(None, "str")
+    port: int | None = _key(None, "int", lo=1, hi=65535)
+    serial_port: str | None = _key(None, "str")
+    baudrate: int | None = _key(None, "int", choices=SERIAL_BAUDRATES)
+    unit_id: int = _key(1, "int", lo=0, hi=255)
+    register_map: Path | None = _key(None, "path")  # None: the map shipped with the drivers
+    timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
+
+    def _check(self, path: str, ctx: "_Context") -> None:
+        need, other = (("host", "port"), ("serial_port", "baudrate")) if self.transport == "tcp" \
+            else (("serial_port", "baudrate"), ("host", "port"))
+        for name in other:
+            if getattr(self, name) is not None:
+                ctx.fail(f"{path}.{name} is only used with transport = "
+                         f"{'rtu' if self.transport == 'tcp' else 'tcp'!r}, "
+                         f"not with transport = {self.transport!r}")
+        if not ctx.simulated:
+            for name in need:
+                if getattr(self, name) is None:
+                    ctx.fail(f"{path}.{name} is required with transport = {self.transport!r}")
+        if self.transport == "rtu" and not 1 <= self.unit_id <= 247:
+            ctx.fail(f"{path}.unit_id = {self.unit_id} is out of range for Modbus RTU; "
+                     f"allowed 1..247")
+
+
+@dataclass(frozen=True)
+class TorqueConfig:
+    """``[torque]``: the in-line torque transducer on a serial line, speaking ``dialect``."""
+
+    serial_port: str | None = _key(None, "str", required=_REAL)
+    baudrate: int = _key(19200, "int", choices=SERIAL_BAUDRATES)
+    dialect: str = _key("magtrol", "str", choices=TORQUE_DIALECTS)
+    full_scale_nm: float = _key(5.0, "float", lo=0.01, hi=10_000.0, required=_REAL)
+    timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """``[limits]``: safety limits checked before any command is sent (design.md section 6)."""
+
+    current_a: float = _key(60.0, "float", lo=0.1, hi=100.0, required=_REAL)
+    speed_rpm: float = _key(3000.0, "float", lo=1.0, hi=3000.0, required=_REAL)
+    torque_nm: float = _key(5.0, "float", lo=0.01, hi=10_000.0, required=_REAL)
+    temperature_c: float = _key(100.0, "float", lo=20.0, hi=250.0, required=_REAL)
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    """``[operating_point]``: defaults for tests that do not set their own.
+
+    ``current_a`` is the commanded peak phase-current amplitude; ``current_angle_deg`` is the
+    angle φ by which the current lags the back EMF (paper eq. 4), in degrees at this user edge.
+    """
+
+    speed_rpm: float = _key(500.0, "float", lo=-3000.0, hi=3000.0)
+    current_a: float = _key(20.0, "float", lo=0.0, hi=100.0)
+    current_angle_deg: float = _key(0.0, "float", lo=-90.0, hi=90.0)
+
+    @property
+    def current_angle_rad(self) -> float:
+        return math.radians(self.current_angle_deg)
+
+
+@dataclass(frozen=True)
+class InstrumentEntry:
+    """One ``[[instrument]]``: what the certificate says about an instrument of the bench.
+
+    ``range``, ``accuracy_class`` and ``resolution`` are written as on the data sheet, with
+    units (``"±5 N*m"``, ``"0.1 % FS"``, ``"0.0005 N*m"``); :meth:`accuracy_pct_fs` and
+    :meth:`resolution_nm` read the numbers out of them.
+    """
+
+    role: str = _key(None, "str", choices=INSTRUMENT_ROLES, required=_ALWAYS)
+    model: str = _key(None, "str", required=_ALWAYS)
+    serial_number: str = _key(None, "str", required=_ALWAYS)
+    range: str | None = _key(None, "str")
+    accuracy_class: str | None = _key(None, "str")
+    resolution: str | None = _key(None, "str")
+    calibration_date: date | None = _key(None, "date")
+    calibration_due: date | None = _key(None, "date")
+
+    def _check(self, path: str, ctx: "_Context") -> None:
+        if self.accuracy_class is not None and self.role == "torque" \
+                and self.accuracy_pct_fs() is None:
+            ctx.fail(f"{path}.accuracy_class = {self.accuracy_class!r} is not a percentage of "
+                     f"full scale; write it like \"0.1 % FS\"")
+        if self.calibration_date and self.calibration_due \
+                and self.calibration_due < self.calibration_date:
+            ctx.fail(f"{path}.calibration_due = {self.calibration_due} is before "
+                     f"calibration_date = {self.calibration_date}")
+
+    def accuracy_pct_fs(self) -> float | None:
+        """The accuracy class as a percentage of full scale, or None if not written that way."""
+        match = re.fullmatch(r"\s*(?:class\s*)?(\d+(?:\.\d*)?|\.\d+)\s*%\s*"
+                             r"(?:FS|F\.S\.|of full scale|full scale)?\s*",
+                             self.accuracy_class or "", flags=re.IGNORECASE)
+        return float(match.group(1)) if match else None
+
+    def resolution_nm(self) -> float | None:
+        """The resolution in N·m when written as a torque (``"0.001 N*m"``, ``"1 mN*m"``)."""
+        match = re.fullmatch(r"\s*(\d+(?:\.\d*)?(?:e-?\d+)?|\.\d+)\s*(m?)N\s*[*·.\- ]?\s*m\s*",
+                             self.resolution or "", flags=re.IGNORECASE)
+        if not match:
+            return None
+        return float(match.group(1)) * (1e-3 if match.group(2) else 1.0)
+
+
+@dataclass(frozen=True)
+class LabInfo:
+    """``[lab]``: who measured where, printed on the report."""
+
+    name: str = _key("", "str")
+    address: str = _key("", "str")
+    operator: str = _key("", "str")
+
+
+_SECTIONS: dict[str, type] = {"drive": DriveConfig, "daq": DaqConfig, "torque": TorqueConfig,
+                              "limits": Limits, "operating_point": OperatingPoint, "lab": LabInfo}
+_TOP_KEYS = ("simulated", "motor", *_SECTIONS, "instrument")
+
+
+# --------------------------------------------------------------------------- the bench
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """A validated bench file. Build it with :func:`load_bench` or :meth:`from_dict`."""
+
+    simulated: bool
+    motor: MotorParameters
+    motor_identity: MotorIdentity
+    drive: DriveConfig
+    daq: DaqConfig
+    torque: TorqueConfig
+    limits: Limits
+    operating_point: OperatingPoint
+    instruments: tuple[InstrumentEntry, ...]
+    lab: LabInfo
+    source: str | None = field(default=None, compare=False)  # bench file path, or a label
+    sha256: str | None = field(default=None, compare=False)  # of the file bytes (or canonical JSON)
+    raw: dict = field(default_factory=dict, repr=False, compare=False)
+    base_dir: Path | None = field(default=None, repr=False, compare=False)
+
+    @classmethod
+    def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,
+                  base_dir: str | Path | None = None) -> "BenchConfig":
+        """Validate a bench as a dict (the parsed TOML). Relative paths resolve from ``base_dir``.
+
+        ``sha256`` defaults to the hash of the dict's canonical JSON (sorted keys).
+        """
+        if not isinstance(d, dict):
+            raise InputError(f"{source or 'bench'}: a bench must be a table of sections, "
+                             f"got {type(d).__name__}")
+        ctx = _Context(source or "bench", Path(base_dir) if base_dir is not None else None)
+        _reject_unknown(d.keys(), _TOP_KEYS, "", ctx)
+        simulated = d.get("simulated", False)
+        if not isinstance(simulated, bool):
+            ctx.fail(f"simulated = {simulated!r} must be true or false")
+        ctx.simulated = simulated
+        sections = {name: _parse_section(section_cls, d.get(name, {}), name, ctx)
+                    for name, section_cls in _SECTIONS.items()}
+        motor, motor_identity = _parse_motor(d.get("motor", {}), ctx)
+        instruments = _parse_instruments(d.get("instrument", []), ctx)
+        bench = cls(simulated=simulated, motor=motor, motor_identity=motor_identity,
+                    instruments=instruments, source=source, raw=_plain(d),
+                    sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
+                    base_dir=ctx.base_dir, **sections)
+        bench._check(ctx)
+        return bench
+
+    def _check(self, ctx: "_Context") -> None:
+        op, lim = self.operating_point, self.limits
+        if abs(op.speed_rpm) > lim.speed_rpm:
+            ctx.fail(f"operating_point.speed_rpm = {op.speed_rpm} exceeds limits.speed_rpm = "
+                     f"{lim.speed_rpm}; allowed -{lim.speed_rpm}..{lim.speed_rpm}")
+        if op.current_a > lim.current_a:
+            ctx.fail(f"operating_point.current_a = {op.current_a} exceeds limits.current_a = "
+                     f"{lim.current_a}; allowed 0..{lim.current_a}")
+        if not self.simulated and self.instrument("torque") is None:
+            ctx.fail("instrument: a real bench needs an [[instrument]] with role = \"torque\" "
+                     "(its accuracy class enters the uncertainty budget)")
+
+    def instrument(self, role: str) -> InstrumentEntry | None:
+        """The ``[[instrument]]`` entry with this role, or None."""
+        return next((entry for entry in self.instruments if entry.role == role), None)
+
+    def calibration_problems(self, today: date) -> list[str]:
+        """Instruments whose calibration is past due (or dated in the future) or not stated.
+
+        On a simulated bench, an instrument without calibration dates is not a problem (a
+        simulated instrument has no certificate); stated dates are still checked.
+        """
+        problems = []
+        for entry in self.instruments:
+            name = f"{entry.role} {entry.model} s/n {entry.serial_number}"
+            if entry.calibration_due is None or entry.calibration_date is None:
+                if not self.simulated:
+                    missing = [key for key in ("calibration_date", "calibration_due")
+                               if getattr(entry, key) is None]
+                    problems.append(f"{name}: {' and '.join(missing)} not stated")
+            if entry.calibration_due is not None and entry.calibration_due < today:
+                problems.append(f"{name}: calibration was due {entry.calibration_due.isoformat()}"
+                                f" (today is {today.isoformat()})")
+            if entry.calibration_date is not None and entry.calibration_date > today:
+                problems.append(f"{name}: calibration_date {entry.calibration_date.isoformat()} "
+                                f"is in the future (today is {today.isoformat()})")
+        return problems
+
+    def uncertainty_inputs(self) -> dict:
+        """Instrument figures for the torque uncertainty budget (plain dict, SI units).
+
+        ``torque_accuracy_pct_fs``: accuracy class of the torque transducer, % of full scale
+        (None if not stated); ``torque_full_scale_nm``; ``torque_resolution_nm``: the DAQ's torque
+        resolution if stated in N·m, else the transducer's, else None.
+        """
+        torque = self.instrument("torque")
+        daq = self.instrument("daq")
+        resolution = next((entry.resolution_nm() for entry in (daq, torque)
+                           if entry is not None and entry.resolution_nm() is not None), None)
+        return {
+            "torque_accuracy_pct_fs": torque.accuracy_pct_fs() if torque else None,
+            "torque_full_scale_nm": self.torque.full_scale_nm,
+            "torque_resolution_nm": resolution,
+            "torque_model": torque.model if torque else None,
+            "torque_serial_number": torque.serial_number if torque else None,
+        }
+
+    def to_dict(self) -> dict:
+        """The bench as validated, defaults filled in, JSON-safe; ``from_dict`` accepts it."""
+        motor = {f.name: getattr(self.motor, f.name) for f in fields(MotorParameters)}
+        motor.update(_section_to_dict(self.motor_identity))
+        out: dict[str, Any] = {"simulated": self.simulated, "motor": motor}
+        for name in _SECTIONS:
+            out[name] = _section_to_dict(getattr(self, name))
+        out["instrument"] = [_section_to_dict(entry) for entry in self.instruments]
+        return out
+
+    def with_overrides(self, changes: dict) -> "BenchConfig":
+        """A new bench with ``changes`` merged into the file's tables and validated again.
+
+        Example: ``bench.with_overrides({"daq": {"host": "127.0.0.1", "port": 5020}})``. The
+        ``sha256`` stays that of the original file; ``raw`` shows the merged tables.
+        """
+        merged = _deep_merge(self.raw, changes)
+        return BenchConfig.from_dict(merged, source=self.source, sha256=self.sha256,
+                                     base_dir=self.base_dir)
+
+
+def load_bench(path: str | Path) -> BenchConfig:
+    """Read and validate a bench file; any problem raises InputError naming the key."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"bench file {str(path)!r} cannot be read: {exc.strerror}") from None
+    try:
+        table = tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputError(f"bench file {str(path)!r} is not UTF-8 text") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"bench file {str(path)!r} is not valid TOML: {exc}") from None
+    return BenchConfig.from_dict(table, source=str(path), sha256=hashlib.sha256(data).hexdigest(),
+                                 base_dir=path.resolve().parent)
+
+
+def example_bench_path(name: str = "sim-bench") -> Path:
+    """Path of a bench file shipped in ``hil/examples`` (``sim-bench`` or ``real-bench``)."""
+    path = Path(str(resources.files("hil") / "examples" / f"{name}.toml"))
+    if not path.is_file():
+        raise InputError(f"no shipped example bench {name!r}; "
+                         f"there are {sorted(p.stem for p in path.parent.glob('*.toml'))}")
+    return path
+
+
+def default_sim_bench() -> BenchConfig:
+    """The shipped simulated bench (``hil/examples/sim-bench.toml``)."""
+    return load_bench(example_bench_path("sim-bench"))
+
+
+# --------------------------------------------------------------------------- validation
+
+class _Context:
+    def __init__(self, source: str, base_dir: Path | None) -> None:
+        self.source = source
+        self.base_dir = base_dir
+        self.simulated = False
+
+    def fail(self, message: str) -> None:
+        raise InputError(f"{self.source}: {message}")
+
+
+def _specs(cls: type) -> list[tuple[dataclasses.Field, _Spec]]:
+    return [(f, f.metadata["spec"]) for f in fields(cls)]
+
+
+def _reject_unknown(keys, allowed, path: str, ctx: _Context) -> None:
+    for key in keys:
+        if key not in allowed:
+            where = f"{path}.{key}" if path else str(key)
+            close = difflib.get_close_matches(str(key), list(allowed), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            ctx.fail(f"unknown key {where!r}{hint}; allowed keys"
+                     f"{' in [' + path + ']' if path else ''}: {', '.join(allowed)}")
+
+
+def _parse_section(cls: type, table: Any, path: str, ctx: _Context,
+                   extra: tuple[str, ...] = ()):
+    if not isinstance(table, dict):
+        ctx.fail(f"{path} must be a table ([{path}]), got {type(table).__name__}")
+    specs = _specs(cls)
+    _reject_unknown(table.keys(), [f.name for f, _ in specs] + list(extra), path, ctx)
+    values = {}
+    for f, spec in specs:
+        key = f"{path}.{f.name}"
+        value = table.get(f.name)
+        if value is None:
+            if spec.required == _ALWAYS or (spec.required == _REAL and not ctx.simulated):
+                ctx.fail(f"{key} is required{'' if ctx.simulated else ' on a real bench'}"
+                         f"{_allowed(spec)}")
+            continue
+        values[f.name] = _coerce(spec, value, key, ctx)
+    obj = cls(**values)
+    check = getattr(obj, "_check", None)
+    if check is not None:
+        check(path, ctx)
+    return obj
+
+
+def _coerce(spec: _Spec, value: Any, key: str, ctx: _Context) -> Any:
+    kind = spec.kind
+    if kind == "bool":
+        if not isinstance(value, bool):
+            ctx.fail(f"{key} = {value!r} must be true or false")
+        return value
+    if kind == "int" or (kind == "channel" and isinstance(value, int)):
+        if isinstance(value, bool) or not isinstance(value, int):
+            ctx.fail(f"{key} = {value!r} must be an integer{_allowed(spec)}")
+    elif kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value):
+            ctx.fail(f"{key} = {value!r} must be a finite number{_allowed(spec)}")
+        value = float(value)
+    elif kind in ("str", "path", "channel"):
+        if not isinstance(value, str) or not value.strip():
+            ctx.fail(f"{key} = {value!r} must be a non-empty string{_allowed(spec)}")
+    elif kind == "date":
+        value = _to_date(value, key, ctx)
+    if spec.choices is not None and value not in spec.choices:
+        ctx.fail(f"{key} = {value!r} is not allowed{_allowed(spec)}")
+    if spec.lo is not None and not spec.lo <= value <= spec.hi:
+        ctx.fail(f"{key} = {value!r} is out of range{_allowed(spec)}")
+    if kind == "path":
+        value = _resolve_path(value, key, ctx)
+    return value
+
+
+def _allowed(spec: _Spec) -> str:
+    if spec.choices is not None:
+        return "; allowed: " + ", ".join(repr(c) if isinstance(c, str) else str(c)
+                                         for c in spec.choices)
+    if spec.lo is not None:
+        return f"; allowed {spec.lo:g}..{spec.hi:g}"
+    return {"date": "; a date like 2026-03-31", "path": "; a file path"}.get(spec.kind, "")
+
+
+def _to_date(value: Any, key: str, ctx: _Context) -> date:
+    if isinstance(value, date) and not hasattr(value, "hour"):
+        return value
+    if isinstance(value, str):
+        try:
+            return date.fromisoformat(value)
+        except ValueError:
+            pass
+    ctx.fail(f"{key} = {value!r} must be a date like 2026-03-31")
+    raise AssertionError  # unreachable: fail raises
+
+
+def _resolve_path(value: str, key: str, ctx: _Context) -> Path:
+    path = Path(value).expanduser()
+    if not path.is_absolute() and ctx.base_dir is not None:
+        path = ctx.base_dir / path
+    if not path.is_file():
+        ctx.fail(f"{key} = {value!r}: no such file ({path}); relative paths are relative to "
+                 f"the bench file's folder")
+    return path
+
+
+def _parse_motor(table: Any, ctx: _Context) -> tuple[MotorParameters, MotorIdentity]:
+    if not isinstance(table, dict):
+        ctx.fail(f"motor must be a table ([motor]), got {type(table).__name__}")
+    identity_keys = tuple(f.name for f in fields(MotorIdentity))
+    parameter_keys = tuple(f.name for f in fields(MotorParameters))
+    _reject_unknown(table.keys(), parameter_keys + identity_keys, "motor", ctx)
+    values = {}
+    for f in fields(MotorParameters):
+        if f.name in table:
+            kind = "int" if isinstance(f.default, int) else "float"
+            values[f.name] = _coerce(_Spec(kind), table[f.name], f"motor.{f.name}", ctx)
+    try:
+        motor = MotorParameters(**values)
+    except ValueError as exc:
+        ctx.fail(f"motor.{exc}")
+    identity = _parse_section(MotorIdentity, {k: v for k, v in table.items() if k in identity_keys},
+                              "motor", ctx)
+    return motor, identity
+
+
+def _parse_instruments(entries: Any, ctx: _Context) -> tuple[InstrumentEntry, ...]:
+    if isinstance(entries, dict):
+        entries = [entries]
+    if not isinstance(entries, list):
+        ctx.fail("instrument must be an array of tables ([[instrument]])")
+    parsed = tuple(_parse_section(InstrumentEntry, entry, f"instrument[{i}]", ctx)
+                   for i, entry in enumerate(entries))
+    roles = [entry.role for entry in parsed]
+    for role in set(roles):
+        if roles.count(role) > 1:
+            ctx.fail(f"instrument: role {role!r} appears {roles.count(role)} times; "
+                     f"each role is one instrument")
+    return parsed
+
+
+# --------------------------------------------------------------------------- helpers
+
+def _section_to_dict(obj: Any) -> dict:
+    return {f.name: _plain(getattr(obj, f.name)) for f in fields(obj)}
+
+
+def _plain(value: Any) -> Any:
+    """TOML values (dates, paths, nested tables) as JSON-safe values."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (date, Path)):
+        return value.isoformat() if isinstance(value, date) else str(value)
+    if hasattr(value, "isoformat"):          # datetime.time
+        return value.isoformat()
+    return value
+
+
+def _canonical_json(d: dict) -> bytes:
+    return json.dumps(_plain(d), sort_keys=True, separators=(",", ":")).encode()
+
+
+def _deep_merge(base: dict, changes: dict) -> dict:
+    merged = dict(base)
+    for key, value in changes.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key] = _deep_merge(merged[key], value)
+        else:
+            merged[key] = value
+    return merged
