@@ -1,0 +1,142 @@
+"""Measured vs predicted ripple: magnitude with a guard band (ILAC-G8) and order signature.
+
+Magnitude: the tolerance zone around the prediction ``p_pred`` is
+``[p_pred − T, p_pred + T]`` with ``T = abs_tol_pu + rel_tol·|p_pred|``. The guard band is
+``w = guard_band_factor·U`` (U: expanded uncertainty of the measured pk_pk_pu, k = 2). With the
+measured value x (ILAC-G8:2009, four outcomes):
+
+* **pass** — ``x ± w`` lies inside the zone (acceptance limits ``p_pred ± (T − w)``);
+* **conditional pass** — x inside the zone, but ``x ± w`` crosses a limit;
+* **conditional fail** — x outside the zone, but ``x ± w`` reaches into it;
+* **fail** — ``x ± w`` lies wholly outside the zone.
+
+Signature: the predicted order must be the dominant order of the measured spectrum, or, when
+``min_order_share`` is set, at least carry that share of the AC power. A wrong signature makes the
+decision "fail" whatever the magnitude (the measured ripple is not the predicted source's).
+``guarded_pass`` — the binary rule for CI gating — is True only for "pass".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+from hil.analysis.metrics import RippleResult
+from hil.errors import InputError
+
+DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
+
+
+@dataclass(frozen=True)
+class DecisionRule:
+    """The acceptance rule of a test, recorded beside its verdict (module docstring)."""
+
+    rel_tol: float = 0.25
+    abs_tol_pu: float = 0.005
+    guard_band_factor: float = 1.0
+    check_signature: bool = True
+    min_order_share: float | None = None
+
+    def __post_init__(self) -> None:
+        _require(0.0 <= self.rel_tol <= 10.0, "rel_tol", self.rel_tol, "0..10")
+        _require(0.0 <= self.abs_tol_pu <= 10.0, "abs_tol_pu", self.abs_tol_pu, "0..10 pu")
+        _require(0.0 <= self.guard_band_factor <= 10.0, "guard_band_factor",
+                 self.guard_band_factor, "0..10")
+        _require(self.rel_tol > 0 or self.abs_tol_pu > 0, "abs_tol_pu", self.abs_tol_pu,
+                 "> 0 when rel_tol is 0 (the tolerance zone must not be empty)")
+        if self.min_order_share is not None:
+            _require(0.0 < self.min_order_share <= 1.0, "min_order_share", self.min_order_share,
+                     "0 < share <= 1 or None")
+
+    def tolerance_pu(self, predicted_pu: float) -> float:
+        """Half-width T of the tolerance zone around ``predicted_pu``."""
+        return self.abs_tol_pu + self.rel_tol * abs(predicted_pu)
+
+
+def _require(ok: bool, name: str, value, allowed: str) -> None:
+    if not ok:
+        raise InputError(f"decision rule {name}={value!r} is out of range; allowed: {allowed}")
+
+
+def classify(measured: float, guard_band: float, lower: float, upper: float) -> str:
+    """ILAC-G8 zone of ``measured`` against the limits [lower, upper] with guard band w ≥ 0."""
+    if lower + guard_band <= measured <= upper - guard_band:
+        return "pass"
+    if lower <= measured <= upper:
+        return "conditional pass"
+    if lower - guard_band <= measured <= upper + guard_band:
+        return "conditional fail"
+    return "fail"
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Outcome of :func:`decide`, with everything needed to re-check it."""
+
+    decision: str
+    guarded_pass: bool
+    magnitude_decision: str
+    measured_pk_pk_pu: float
+    expanded_uncertainty_pu: float
+    predicted_pk_pk_pu: float
+    lower_limit_pu: float
+    upper_limit_pu: float
+    guard_band_pu: float
+    acceptance_lower_pu: float
+    acceptance_upper_pu: float
+    predicted_order: int | None
+    dominant_order: int
+    predicted_order_share: float | None
+    signature_ok: bool | None
+    reason: str
+    rule: DecisionRule
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["rule"] = asdict(self.rule)
+        data["rule"]["name"] = "ILAC-G8 guard band = guard_band_factor x expanded uncertainty"
+        return data
+
+
+def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: int | None = None,
+           rule: DecisionRule | None = None) -> Verdict:
+    """Compare ``measured.pk_pk_pu`` (with its expanded U) and spectrum with a prediction."""
+    rule = rule or DecisionRule()
+    if not (math.isfinite(predicted_pk_pk_pu) and predicted_pk_pk_pu >= 0):
+        raise InputError(f"predicted_pk_pk_pu must be a finite number >= 0, "
+                         f"got {predicted_pk_pk_pu!r}")
+    value = measured.pk_pk_pu
+    expanded = measured.uncertainty.expanded_pu
+    if not (math.isfinite(value) and math.isfinite(expanded)):
+        raise InputError(f"the measurement has no finite pk_pk_pu ({value!r}) or expanded "
+                         f"uncertainty ({expanded!r}); a verdict needs >= 2 revolutions and a "
+                         "non-zero mean torque")
+    tolerance = rule.tolerance_pu(predicted_pk_pk_pu)
+    guard = rule.guard_band_factor * expanded
+    lower, upper = predicted_pk_pk_pu - tolerance, predicted_pk_pk_pu + tolerance
+    magnitude = classify(value, guard, lower, upper)
+
+    share = signature_ok = None
+    if predicted_order is not None:
+        if not isinstance(predicted_order, int) or not 1 <= predicted_order <= measured.max_order:
+            raise InputError(f"predicted_order must be an integer in 1..{measured.max_order} "
+                             f"(the analysed band), got {predicted_order!r}")
+        share = measured.order_power_share(predicted_order)
+        if rule.check_signature:
+            signature_ok = (measured.dominant_order == predicted_order
+                            or (rule.min_order_share is not None
+                                and share >= rule.min_order_share))
+    decision = "fail" if signature_ok is False else magnitude
+    reason = (f"pk-pk {value:.4g} pu ± {guard:.2g} vs prediction {predicted_pk_pk_pu:.4g} pu, "
+              f"tolerance zone [{lower:.4g}, {upper:.4g}]: {magnitude}")
+    if signature_ok is False:
+        reason += (f"; signature wrong: dominant order {measured.dominant_order}, predicted order "
+                   f"{predicted_order} carries {share:.1%} of the AC power")
+    return Verdict(decision=decision, guarded_pass=decision == "pass",
+                   magnitude_decision=magnitude, measured_pk_pk_pu=value,
+                   expanded_uncertainty_pu=expanded, predicted_pk_pk_pu=predicted_pk_pk_pu,
+                   lower_limit_pu=lower, upper_limit_pu=upper, guard_band_pu=guard,
+                   acceptance_lower_pu=lower + guard, acceptance_upper_pu=upper - guard,
+                   predicted_order=predicted_order, dominant_order=measured.dominant_order,
+                   predicted_order_share=share, signature_ok=signature_ok, reason=reason,
+                   rule=rule)
