@@ -6,7 +6,7 @@ timeout from a protocol fault from a device-reported fault.
 
 from __future__ import annotations
 
-from hil.errors import HilError
+from hil.errors import HilError, InputError
 
 
 class InstrumentError(HilError):
@@ -41,3 +41,11 @@ class HeartbeatLost(InstrumentError):
 
 class LimitError(InstrumentError):
     """A command or a measured value is outside the bench's configured limits."""
+
+
+class InjectionRangeError(LimitError, InputError):
+    """A fault-injection or command value outside the range the drive's EDS (or the drive) allows.
+
+    Both a ``LimitError`` (for the safety guard) and an ``InputError`` (the CLI prints it on one
+    line and exits 2): the message names the knob, the value and the allowed range.
+    """

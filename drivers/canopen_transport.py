@@ -1,0 +1,114 @@
+"""CAN bus settings from the bench file, opening a python-can bus, and a loopback bus server.
+
+Any adapter python-can supports works: ``CanBusSettings(interface, channel, bitrate)`` is passed to
+``can.Bus``. Two transports matter for the simulated bench:
+
+* ``virtual`` — python-can's in-process bus (one process; tests).
+* ``remote`` — python-can-remote (``can_remote``): a websocket bridge on TCP. ``serve_bus`` runs
+  its server on 127.0.0.1 in front of a ``virtual`` channel, so a second process reaches the
+  simulated drive with only ``interface="remote", channel="ws://127.0.0.1:<port>/"``.
+
+python-can-remote 0.3.0 with python-can 4.6: plain frames and ``send_periodic`` start/stop work,
+but its ``CyclicSendTask.modify_data`` raises TypeError (``super(self)``), which canopen calls when
+a periodic frame's data change (heartbeat producer after an NMT change, SYNC counter). ``open_bus``
+therefore gives the remote bus python-can's own thread-based periodic sender instead.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from dataclasses import dataclass
+
+import can
+
+from hil.errors import InputError
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class CanBusSettings:
+    """python-can bus settings as written in the bench file's ``[drive]`` table."""
+
+    interface: str = "virtual"
+    channel: str = "hil"
+    bitrate: int = 500_000
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.interface, str) or not self.interface:
+            raise InputError(f"drive.interface must be a python-can interface name, "
+                             f"got {self.interface!r}")
+        if not isinstance(self.bitrate, int) or not 10_000 <= self.bitrate <= 1_000_000:
+            raise InputError(f"drive.bitrate={self.bitrate!r} is outside 10000..1000000 bit/s")
+
+    def bus_kwargs(self) -> dict:
+        return {"interface": self.interface, "channel": self.channel, "bitrate": self.bitrate}
+
+
+def _remote_bus_class():
+    from can_remote.client import RemoteBus
+
+    class RemoteBusWithThreadedPeriodic(RemoteBus):
+        """RemoteBus whose periodic frames are sent by python-can's threaded task (modifiable)."""
+
+        def _send_periodic_internal(self, msgs, period, duration=None, autostart=True,
+                                    modifier_callback=None):
+            return can.BusABC._send_periodic_internal(self, msgs, period, duration, autostart,
+                                                      modifier_callback)
+
+    return RemoteBusWithThreadedPeriodic
+
+
+def open_bus(settings: CanBusSettings) -> can.BusABC:
+    """Open the bus described by ``settings`` (python-can raises CanError if it cannot)."""
+    if settings.interface == "remote":
+        return _remote_bus_class()(channel=settings.channel, bitrate=settings.bitrate)
+    return can.Bus(**settings.bus_kwargs())
+
+
+class _QuietServerMixin:
+    def handle_error(self, request, client_address) -> None:
+        # A client closing its websocket ends the HTTP keep-alive loop with a broken pipe.
+        logger.debug("CAN remote server: connection from %s ended with an error", client_address,
+                     exc_info=True)
+
+
+class BusServer:
+    """A python-can-remote server on 127.0.0.1 bridging TCP clients onto a local bus channel.
+
+    ``settings`` is the server-side bus (normally ``virtual`` with the channel the simulated
+    drive uses). ``client_settings`` is what a second process puts in its bench file.
+    """
+
+    def __init__(self, settings: CanBusSettings, *, host: str = "127.0.0.1", port: int = 0):
+        from can_remote.server import RemoteServer
+
+        server_class = type("QuietRemoteServer", (_QuietServerMixin, RemoteServer), {})
+        self._server = server_class(host=host, port=port, **settings.bus_kwargs())
+        self.host = host
+        self.port = self._server.server_port
+        self._bitrate = settings.bitrate
+        self._thread = threading.Thread(target=self._server.serve_forever, kwargs={"poll_interval": 0.1},
+                                        name=f"can-remote-server:{self.port}", daemon=True)
+
+    @property
+    def client_settings(self) -> CanBusSettings:
+        return CanBusSettings(interface="remote", channel=f"ws://{self.host}:{self.port}/",
+                              bitrate=self._bitrate)
+
+    def start(self) -> "BusServer":
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._server.shutdown()
+        self._server.server_close()
+        self._thread.join(timeout=2.0)
+
+    def __enter__(self) -> "BusServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+

@@ -1,0 +1,522 @@
+"""Master-side driver of the CiA 402 PMSM drive over CANopen (``canopen`` + ``python-can``).
+
+Everything about the drive's dictionary comes from the shipped EDS (``drivers.canopen_eds``).
+The driver does its own CiA 402 state handling on a ``canopen.RemoteNode`` instead of using
+``canopen.BaseNode402``, whose 2.4.x version asserts the NMT state with a substring test in
+``setup_pdos()``, swallows errors in the ``op_mode`` setter and has a ``reset_from_fault()`` that
+never produces the rising edge of the fault-reset bit. Here every step has a timeout and raises a
+typed error (``drivers.errors``) naming the instrument and what it was doing.
+
+Cyclic objects (configured by ``connect``, asynchronous with an event timer):
+RPDO1 = controlword 0x6040; TPDO1 = statusword 0x6041 + mode display 0x6061;
+TPDO2 = torque actual 0x6077 + velocity actual 0x606C; TPDO3 = position actual 0x6064.
+Commands: current command through 0x2100 ``current_command_a [mA]``, or target torque 0x6071 in
+per mille of the rated torque 0x6076; target velocity 0x60FF in rpm.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+
+import can
+import canopen
+from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
+
+from drivers import canopen_402 as sm
+from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
+                                 ScaledObject, current_command_object, injection_objects,
+                                 load_dictionary)
+from drivers.canopen_transport import CanBusSettings, open_bus
+from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
+                            InstrumentTimeout, ProtocolError)
+from hil.errors import InputError
+
+logger = logging.getLogger(__name__)
+
+CIA402_PROFILE = 402
+VALUE_RANGE_ABORTS = (0x06090030, 0x06090031, 0x06090032)
+NMT_OPERATIONAL = 5
+
+_NEXT_COMMAND_TOWARDS_ENABLED = {
+    sm.SWITCH_ON_DISABLED: sm.CW_SHUTDOWN,
+    sm.READY_TO_SWITCH_ON: sm.CW_SWITCH_ON,
+    sm.SWITCHED_ON: sm.CW_ENABLE_OPERATION,
+    sm.QUICK_STOP_ACTIVE: sm.CW_DISABLE_VOLTAGE,
+    sm.NOT_READY: sm.CW_DISABLE_VOLTAGE,
+}
+
+
+class Cia402Drive:
+    """A CiA 402 drive on a CAN bus: state machine, modes, commands, fault injection, health."""
+
+    def __init__(self, settings: CanBusSettings, node_id: int = 5, eds_path=None, *,
+                 sdo_timeout_s: float = 0.5, heartbeat_timeout_s: float = 0.5,
+                 instrument_name: str = "drive", tpdo_event_timer_ms: int = 10) -> None:
+        if not 1 <= int(node_id) <= 127:
+            raise InputError(f"drive.node_id={node_id!r} is outside 1..127")
+        if not 0.01 <= sdo_timeout_s <= 10:
+            raise InputError(f"drive sdo_timeout_s={sdo_timeout_s!r} is outside 0.01..10 s")
+        if not 0.02 <= heartbeat_timeout_s <= 60:
+            raise InputError(f"drive heartbeat_timeout_s={heartbeat_timeout_s!r} is outside "
+                             f"0.02..60 s")
+        if not 1 <= tpdo_event_timer_ms <= 1000:
+            raise InputError(f"drive tpdo_event_timer_ms={tpdo_event_timer_ms!r} is outside 1..1000")
+        self.settings = settings
+        self.node_id = int(node_id)
+        self.eds_path = eds_path
+        self.sdo_timeout_s = sdo_timeout_s
+        self.heartbeat_timeout_s = heartbeat_timeout_s
+        self.instrument_name = instrument_name
+        self.tpdo_event_timer_ms = tpdo_event_timer_ms
+        self._knobs = injection_objects(eds_path)
+        self._current_command = current_command_object(eds_path)
+        self._lock = threading.RLock()
+        self._tpdo_update = threading.Condition()
+        self._heartbeat_update = threading.Condition()
+        self._tpdo_values: dict[int, int] = {}
+        self._tpdo_time: dict[int, float] = {}
+        self._last_heartbeat: float | None = None
+        self._heartbeat_state: int | None = None
+        self._connected_at: float | None = None
+        self._emcy: canopen.emcy.EmcyError | None = None
+        self._identity: dict | None = None
+        self.network: canopen.Network | None = None
+        self.node: canopen.RemoteNode | None = None
+
+    # -- errors -----------------------------------------------------------------------------
+    def _error(self, cls, action: str, detail: str) -> InstrumentError:
+        return cls(self.instrument_name, action, detail)
+
+    def _sdo(self, action: str, func):
+        try:
+            return func()
+        except SdoAbortedError as exc:
+            if exc.code in VALUE_RANGE_ABORTS:
+                raise self._error(InjectionRangeError, action, f"drive refused the value: {exc}") from None
+            raise self._error(ProtocolError, action, f"SDO abort: {exc}") from None
+        except SdoCommunicationError as exc:
+            if "No SDO response" in str(exc):
+                raise self._error(InstrumentTimeout, action,
+                                  f"no SDO answer within {self.sdo_timeout_s} s") from None
+            raise self._error(ProtocolError, action, f"SDO error: {exc}") from None
+        except can.CanError as exc:
+            raise self._error(InstrumentError, action, f"CAN bus error: {exc}") from None
+
+    def _require_node(self, action: str) -> canopen.RemoteNode:
+        if self.node is None:
+            raise self._error(InstrumentError, action, "not connected (call connect())")
+        return self.node
+
+    def sdo_read(self, index: int, subindex: int = 0, *, action: str | None = None):
+        """Upload one object by SDO; typed errors on abort or timeout."""
+        action = action or f"SDO read 0x{index:04X}:{subindex:02X}"
+        node = self._require_node(action)
+        with self._lock:
+            variable = node.sdo[index] if subindex == 0 and not _is_compound(node, index) \
+                else node.sdo[index][subindex]
+            return self._sdo(action, lambda: variable.raw)
+
+    def sdo_write(self, index: int, subindex: int, value, *, action: str | None = None) -> None:
+        """Download one object by SDO; typed errors on abort or timeout."""
+        action = action or f"SDO write 0x{index:04X}:{subindex:02X}={value!r}"
+        node = self._require_node(action)
+        with self._lock:
+            variable = node.sdo[index] if subindex == 0 and not _is_compound(node, index) \
+                else node.sdo[index][subindex]
+
+            def write():
+                variable.raw = value
+            self._sdo(action, write)
+
+    def _write_verified(self, index: int, value: int, action: str) -> None:
+        self.sdo_write(index, 0, value, action=action)
+        read_back = self.sdo_read(index, 0, action=f"{action}: read back")
+        if read_back != value:
+            raise self._error(ProtocolError, action, f"read back {read_back!r}, wrote {value!r}")
+
+    # -- connection -------------------------------------------------------------------------
+    def connect(self) -> "Cia402Drive":
+        """Open the bus, check the device is a CiA 402 drive, configure PDOs and heartbeat, start."""
+        action = f"connect to node {self.node_id} on {self.settings.interface}:{self.settings.channel}"
+        try:
+            bus = open_bus(self.settings)
+        except (can.CanError, OSError, ValueError, ImportError) as exc:
+            raise self._error(InstrumentError, action, f"cannot open CAN bus: {exc}") from None
+        self.network = canopen.Network(bus)
+        self.network.connect()
+        node = canopen.RemoteNode(self.node_id, load_dictionary(self.eds_path, self.node_id))
+        node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
+        self.network.add_node(node)
+        node.nmt.add_heartbeat_callback(self._on_heartbeat)
+        node.emcy.add_callback(self._on_emcy)
+        self.node = node
+        self._connected_at = time.monotonic()
+        try:
+            device_type = self.sdo_read(0x1000, action=f"{action}: read device type 0x1000")
+            if device_type & 0xFFFF != CIA402_PROFILE:
+                raise self._error(ProtocolError, action,
+                                  f"device type 0x{device_type:08X} is not a CiA 402 device")
+            self._identity = self._read_identity()
+            node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO configuration allowed
+            producer_ms = max(1, int(self.heartbeat_timeout_s * 1000 / 4))
+            self._write_verified(0x1017, producer_ms, f"{action}: set producer heartbeat time")
+            self._configure_pdos(action)
+            node.nmt.send_command(0x01)  # OPERATIONAL
+            self._wait_heartbeat_state(NMT_OPERATIONAL, time.monotonic() + 3 * self.heartbeat_timeout_s,
+                                       f"{action}: heartbeat showing OPERATIONAL")
+            self._wait_tpdo(0x6041, time.monotonic() + max(1.0, 10 * self.tpdo_event_timer_ms / 1000),
+                            f"{action}: first statusword TPDO")
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def _configure_pdos(self, action: str) -> None:
+        node = self.node
+        layout = {
+            ("rpdo", 1): [0x6040],
+            ("tpdo", 1): [0x6041, 0x6061],
+            ("tpdo", 2): [0x6077, 0x606C],
+            ("tpdo", 3): [0x6064],
+        }
+        for kind, base in (("rpdo", 0x200), ("tpdo", 0x180)):
+            maps = getattr(node, kind)
+            for number in range(1, 5):
+                pdo_map = maps[number]
+                pdo_map.clear()
+                for index in layout.get((kind, number), []):
+                    pdo_map.add_variable(index)
+                pdo_map.cob_id = base + 0x100 * (number - 1) + self.node_id
+                pdo_map.enabled = (kind, number) in layout
+                pdo_map.trans_type = 255
+                if kind == "tpdo":
+                    pdo_map.event_timer = self.tpdo_event_timer_ms
+                self._sdo(f"{action}: configure {kind.upper()}{number}", pdo_map.save)
+                if kind == "tpdo" and pdo_map.enabled:
+                    pdo_map.add_callback(self._on_tpdo)
+        self._controlword_pdo = node.rpdo[1]
+
+    def close(self) -> None:
+        """Leave the drive as it is (the safety guard disables it first) and release the bus."""
+        network, self.network, self.node = self.network, None, None
+        if network is not None:
+            try:
+                network.disconnect()
+            except Exception:  # already broken bus: nothing more to release
+                logger.debug("drive: network disconnect failed", exc_info=True)
+
+    def __enter__(self) -> "Cia402Drive":
+        return self.connect()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _read_identity(self) -> dict:
+        def text(index):
+            value = self.sdo_read(index, action=f"read identity 0x{index:04X}")
+            return value if isinstance(value, str) else bytes(value).decode("ascii", "replace")
+        return {
+            "vendor": self.sdo_read(0x1018, 1, action="read identity vendor-ID 0x1018:01"),
+            "product": self.sdo_read(0x1018, 2, action="read identity product 0x1018:02"),
+            "revision": self.sdo_read(0x1018, 3, action="read identity revision 0x1018:03"),
+            "serial": self.sdo_read(0x1018, 4, action="read identity serial 0x1018:04"),
+            "device_name": text(0x1008),
+            "firmware": text(0x100A),
+        }
+
+    def identity(self) -> dict:
+        """Vendor-ID, product code, revision, serial number, device name, firmware version."""
+        if self._identity is None:
+            self._identity = self._read_identity()
+        return dict(self._identity)
+
+    # -- bus events -------------------------------------------------------------------------
+    def _on_heartbeat(self, nmt_state: int) -> None:
+        with self._heartbeat_update:
+            self._last_heartbeat = time.monotonic()
+            self._heartbeat_state = nmt_state
+            self._heartbeat_update.notify_all()
+
+    def _wait_heartbeat_state(self, nmt_state: int, deadline: float, action: str) -> None:
+        with self._heartbeat_update:
+            while self._heartbeat_state != nmt_state:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise self._error(HeartbeatLost, action,
+                                      f"heartbeat state {self._heartbeat_state}, expected {nmt_state}")
+                self._heartbeat_update.wait(remaining)
+
+    def _on_emcy(self, error) -> None:
+        logger.warning("%s: EMCY %s", self.instrument_name, error)
+        self._emcy = error if error.code != 0 else None
+
+    def _on_tpdo(self, pdo_map) -> None:
+        now = time.monotonic()
+        with self._tpdo_update:
+            for variable in pdo_map:
+                self._tpdo_values[variable.index] = variable.raw
+                self._tpdo_time[variable.index] = now
+            self._tpdo_update.notify_all()
+
+    def _wait_tpdo(self, index: int, deadline: float, action: str, *, newer_than: float = 0.0) -> int:
+        with self._tpdo_update:
+            while self._tpdo_time.get(index, -1.0) <= newer_than:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise self._error(InstrumentTimeout, action,
+                                      f"no TPDO with 0x{index:04X} before the timeout")
+                self._tpdo_update.wait(remaining)
+            return self._tpdo_values[index]
+
+    def _fresh_tpdo(self, index: int):
+        """The latest TPDO value of ``index`` if younger than three event periods, else None."""
+        with self._tpdo_update:
+            stamp = self._tpdo_time.get(index)
+            if stamp is None or time.monotonic() - stamp > max(0.1, 3 * self.tpdo_event_timer_ms / 1000):
+                return None
+            return self._tpdo_values[index]
+
+    # -- CiA 402 state machine --------------------------------------------------------------
+    @property
+    def statusword(self) -> int:
+        value = self._fresh_tpdo(0x6041)
+        if value is None:
+            value = self.sdo_read(0x6041, action="read statusword 0x6041")
+        return value
+
+    @property
+    def state(self) -> str:
+        """CiA 402 state name decoded from the latest statusword (TPDO, or SDO if stale)."""
+        return sm.state_from_statusword(self.statusword)
+
+    def _send_controlword(self, controlword: int, action: str) -> float:
+        """Send the controlword by RPDO1; returns the monotonic time just before sending."""
+        self._require_node(action)
+        sent_at = time.monotonic()
+        with self._lock:
+            self._controlword_pdo[0x6040].raw = controlword
+            try:
+                self._controlword_pdo.transmit()
+            except can.CanError as exc:
+                raise self._error(InstrumentError, action, f"CAN bus error: {exc}") from None
+        return sent_at
+
+    def _await_state(self, wanted: tuple[str, ...], sent_at: float, deadline: float,
+                     action: str) -> str:
+        """Wait for a statusword TPDO received after ``sent_at`` showing one of ``wanted``."""
+        newer_than = sent_at
+        while True:
+            try:
+                statusword = self._wait_tpdo(0x6041, deadline, action, newer_than=newer_than)
+                newer_than = self._tpdo_time[0x6041]
+            except InstrumentTimeout:
+                statusword = self.sdo_read(0x6041, action=f"{action}: read statusword")
+                state = sm.state_from_statusword(statusword)
+                if state in wanted:
+                    return state
+                raise self._error(InstrumentTimeout, action,
+                                  f"drive stayed in {state}, expected {' or '.join(wanted)}") from None
+            state = sm.state_from_statusword(statusword)
+            if state in wanted:
+                return state
+
+    def _command(self, controlword: int, wanted: tuple[str, ...], deadline: float,
+                 action: str) -> str:
+        sent_at = self._send_controlword(controlword, action)
+        return self._await_state(wanted, sent_at, deadline, action)
+
+    def enable(self, timeout_s: float = 1.0) -> None:
+        """Shutdown → switch on → enable operation, until OPERATION ENABLED (CiA 402 2, 3, 4)."""
+        deadline = time.monotonic() + timeout_s
+        action = "enable operation"
+        self.check_health()
+        state = self.state
+        while state != sm.OPERATION_ENABLED:
+            if state in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+                raise self._error(DeviceFault, action, f"drive is in {state}; call fault_reset()")
+            command = _NEXT_COMMAND_TOWARDS_ENABLED.get(state)
+            if command is None:
+                raise self._error(ProtocolError, action, f"unexpected drive state {state}")
+            if time.monotonic() >= deadline:
+                raise self._error(InstrumentTimeout, action, f"drive still in {state} after {timeout_s} s")
+            target = sm.device_transition(state, command, 0)
+            state = self._command(command, (target, sm.FAULT), deadline, f"{action}: {state} → {target}")
+
+    def quick_stop(self, timeout_s: float = 1.0) -> str:
+        """Quick stop: OPERATION ENABLED → QUICK STOP ACTIVE (others → SWITCH ON DISABLED)."""
+        deadline = time.monotonic() + timeout_s
+        state = self.state
+        if state in (sm.SWITCH_ON_DISABLED, sm.FAULT, sm.QUICK_STOP_ACTIVE, sm.NOT_READY):
+            return state
+        wanted = (sm.QUICK_STOP_ACTIVE,) if state == sm.OPERATION_ENABLED else (sm.SWITCH_ON_DISABLED,)
+        return self._command(sm.CW_QUICK_STOP, wanted + (sm.FAULT,), deadline, "quick stop")
+
+    def disable(self, timeout_s: float = 1.0) -> str:
+        """Disable voltage → SWITCH ON DISABLED (gates off). A drive in FAULT is left there."""
+        deadline = time.monotonic() + timeout_s
+        state = self.state
+        if state in (sm.SWITCH_ON_DISABLED, sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+            return state
+        return self._command(sm.CW_DISABLE_VOLTAGE, (sm.SWITCH_ON_DISABLED, sm.FAULT), deadline,
+                             "disable voltage")
+
+    def fault_reset(self, timeout_s: float = 1.0) -> str:
+        """Rising edge of controlword bit 7 in FAULT → SWITCH ON DISABLED (transition 15)."""
+        deadline = time.monotonic() + timeout_s
+        if self.state not in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+            return self.state
+        self._send_controlword(sm.CW_DISABLE_VOLTAGE, "fault reset: clear bit 7")
+        state = self._command(sm.CW_FAULT_RESET, (sm.SWITCH_ON_DISABLED,), deadline, "fault reset")
+        self._send_controlword(sm.CW_DISABLE_VOLTAGE, "fault reset: release bit 7")
+        self._emcy = None
+        return state
+
+    # -- modes and commands -----------------------------------------------------------------
+    def set_mode(self, mode: str, timeout_s: float | None = None) -> None:
+        """Write modes of operation 0x6060 and wait for 0x6061 to confirm it."""
+        action = f"set mode of operation {mode!r}"
+        if mode not in sm.MODE_CODES:
+            raise InputError(f"drive mode {mode!r} is not one of {sorted(sm.MODE_CODES)}")
+        code = sm.MODE_CODES[mode]
+        supported = self.sdo_read(0x6502, action=f"{action}: read supported drive modes 0x6502")
+        if not supported & sm.supported_mode_bit(code):
+            names = [name for name, c in sm.MODE_CODES.items() if supported & sm.supported_mode_bit(c)]
+            raise InputError(f"drive mode {mode!r} is not supported by the drive; it supports {names}")
+        deadline = time.monotonic() + (timeout_s if timeout_s is not None else 2 * self.sdo_timeout_s)
+        self.sdo_write(0x6060, 0, code, action=action)
+        while True:
+            display = self.sdo_read(0x6061, action=f"{action}: read mode display 0x6061")
+            if display == code:
+                return
+            if time.monotonic() >= deadline:
+                raise self._error(InstrumentTimeout, action, f"mode display shows {display}")
+            time.sleep(0.005)
+
+    def mode(self) -> str:
+        code = self.sdo_read(0x6061, action="read mode display 0x6061")
+        return next((name for name, c in sm.MODE_CODES.items() if c == code), f"code {code}")
+
+    def _rated_torque_nm(self) -> float:
+        return self.sdo_read(0x6076, action="read motor rated torque 0x6076") / 1000.0
+
+    def _checked_count(self, obj: ScaledObject, value_si, action: str) -> int:
+        try:
+            return obj.check_si(value_si)
+        except ValueError as exc:
+            raise self._error(InjectionRangeError, action, str(exc)) from None
+
+    def set_current_command_a(self, current_a: float) -> None:
+        """Peak phase-current command through 0x2100 (mA), verified by read-back."""
+        action = f"set current command {current_a!r} A"
+        count = self._checked_count(self._current_command, current_a, action)
+        self._write_verified(CURRENT_COMMAND_INDEX, count, action)
+
+    def set_target_torque_nm(self, torque_nm: float) -> None:
+        """Target torque 0x6071 in per mille of the rated torque 0x6076, verified by read-back."""
+        action = f"set target torque {torque_nm!r} N·m"
+        rated_nm = self._rated_torque_nm()
+        od = self._require_node(action).object_dictionary[0x6071]
+        per_mille = round(torque_nm / rated_nm * 1000.0) if math.isfinite(torque_nm) else None
+        if per_mille is None or not od.min <= per_mille <= od.max:
+            raise self._error(InjectionRangeError, action,
+                              f"target torque must be in {od.min * rated_nm / 1000:g}.."
+                              f"{od.max * rated_nm / 1000:g} N·m")
+        self._write_verified(0x6071, per_mille, action)
+
+    def set_target_velocity_rpm(self, speed_rpm: float) -> None:
+        """Target velocity 0x60FF in rpm (on the simulated bench: the dyno speed setpoint)."""
+        action = f"set target velocity {speed_rpm!r} rpm"
+        od = self._require_node(action).object_dictionary[0x60FF]
+        value = round(speed_rpm) if math.isfinite(speed_rpm) else None
+        if value is None or not od.min <= value <= od.max:
+            raise self._error(InjectionRangeError, action, f"speed_rpm must be in {od.min}..{od.max}")
+        self._write_verified(0x60FF, value, action)
+
+    # -- fault injection --------------------------------------------------------------------
+    def injection_limits(self) -> dict[str, tuple]:
+        """(low, high, default) of every knob in SI units, from the EDS."""
+        return {k: (o.low_si, o.high_si, o.default_si) for k, o in self._knobs.items()}
+
+    def set_injection(self, **knobs) -> None:
+        """Write fault-injection knobs (SI units); all are range-checked before any is sent."""
+        counts = {}
+        for knob, value in knobs.items():
+            action = f"set injection {knob}={value!r}"
+            if knob not in self._knobs:
+                raise InputError(f"unknown injection knob {knob!r}; known: {sorted(self._knobs)}")
+            counts[knob] = self._checked_count(self._knobs[knob], value, action)
+        for knob, count in counts.items():
+            obj = self._knobs[knob]
+            self._write_verified(obj.index, count,
+                                 f"set injection {knob}={knobs[knob]!r} (0x{obj.index:04X}={count})")
+
+    def injection(self) -> dict:
+        """Every knob read back from the drive, in SI units."""
+        return {knob: obj.to_si(self.sdo_read(obj.index, action=f"read injection {knob}"))
+                for knob, obj in self._knobs.items()}
+
+    def restore_injection_defaults(self) -> None:
+        """Write the "load" signature to 0x2000, then check every knob reads its EDS default."""
+        action = "restore injection defaults"
+        self.sdo_write(RESTORE_DEFAULTS_INDEX, 0, RESTORE_SIGNATURE, action=action)
+        for knob, obj in self._knobs.items():
+            count = self.sdo_read(obj.index, action=f"{action}: read back {knob}")
+            if count != obj.default_count:
+                raise self._error(ProtocolError, action,
+                                  f"{knob} reads {obj.to_si(count)!r}, default is {obj.default_si!r}")
+
+    # -- actual values and health -----------------------------------------------------------
+    def actual(self, max_age_s: float | None = None) -> dict:
+        """Latest PDO-fed actual values: torque_nm, velocity_rpm, position_counts, state, age_s."""
+        max_age_s = max_age_s if max_age_s is not None else max(0.1, 5 * self.tpdo_event_timer_ms / 1000)
+        if not hasattr(self, "_rated_torque_cache"):
+            self._rated_torque_cache = self._rated_torque_nm()
+        with self._tpdo_update:
+            needed = (0x6041, 0x6077, 0x606C, 0x6064)
+            missing = [f"0x{i:04X}" for i in needed if i not in self._tpdo_time]
+            if missing:
+                raise self._error(InstrumentTimeout, "read actual values", f"no TPDO yet for {missing}")
+            age_s = time.monotonic() - min(self._tpdo_time[i] for i in needed)
+            values = {i: self._tpdo_values[i] for i in needed}
+        if age_s > max_age_s:
+            raise self._error(InstrumentTimeout, "read actual values",
+                              f"newest TPDOs are {age_s:.3f} s old (limit {max_age_s} s)")
+        return {
+            "torque_nm": values[0x6077] / 1000.0 * self._rated_torque_cache,
+            "velocity_rpm": float(values[0x606C]),
+            "position_counts": int(values[0x6064]),
+            "state": sm.state_from_statusword(values[0x6041]),
+            "age_s": age_s,
+        }
+
+    def check_health(self) -> None:
+        """Raise HeartbeatLost if the heartbeat is older than the timeout, DeviceFault on EMCY/FAULT."""
+        action = "check health"
+        now = time.monotonic()
+        last = self._last_heartbeat
+        if last is None:
+            if self._connected_at is None or now - self._connected_at > self.heartbeat_timeout_s:
+                raise self._error(HeartbeatLost, action,
+                                  f"no heartbeat from node {self.node_id} since connect")
+        elif now - last > self.heartbeat_timeout_s:
+            raise self._error(HeartbeatLost, action, f"last heartbeat from node {self.node_id} "
+                              f"{now - last:.3f} s ago (timeout {self.heartbeat_timeout_s} s)")
+        emcy = self._emcy
+        if emcy is not None:
+            raise self._error(DeviceFault, action,
+                              f"EMCY 0x{emcy.code:04X} ({emcy.get_desc() or 'manufacturer'}), "
+                              f"error register 0x{emcy.register:02X}, data {bytes(emcy.data)!r}")
+        if self._heartbeat_state is not None and self._heartbeat_state != NMT_OPERATIONAL:
+            raise self._error(DeviceFault, action,
+                              f"node {self.node_id} left NMT OPERATIONAL (heartbeat state "
+                              f"{self._heartbeat_state})")
+        state_word = self._fresh_tpdo(0x6041)
+        if state_word is not None and sm.state_from_statusword(state_word) == sm.FAULT:
+            raise self._error(DeviceFault, action, "drive statusword shows FAULT")
+
+
+def _is_compound(node, index: int) -> bool:
+    return not isinstance(node.object_dictionary[index], canopen.objectdictionary.ODVariable)

@@ -1,0 +1,272 @@
+"""The simulated CiA 402 drive: a CANopen slave backed by one ``hil.sim.DriveTwin``.
+
+Object dictionary: the shipped EDS (``drivers/data/ripple_drive.eds``). Behaviour:
+
+* CiA 402 state machine driven by controlword writes (SDO or RPDO); entering OPERATION ENABLED
+  calls ``twin.enable()``, leaving it (disable, quick stop, fault, NMT stop) ``twin.disable()``.
+* Live objects are read from the twin: statusword, mode display, position actual (encoder
+  counts), velocity actual (rpm), torque actual (per mille of 0x6076, from the twin's
+  electromagnetic torque — a real drive reports its own current-based estimate), and every
+  injection knob (0x2001..) from ``twin.injection``, so a read-back proves the twin took it.
+* Writes to injection objects go to ``twin.set_injection`` (out of range → SDO abort
+  0x06090031/32 from the EDS limits, or 0x06090030 when the twin rejects the value);
+  0x2000 ← 0x64616F6C ("load") calls ``twin.restore_defaults()``; 0x6071 target torque and
+  0x2100 current command set ``twin.current_command_a`` (torque / kt, kt from ``hil.motor``);
+  0x60FF target velocity sets the dyno speed ``twin.speed_rpm`` (the simulated bench has one speed).
+* TPDOs (statusword, actual values) are sent on change, on their event timer or on SYNC; RPDOs
+  are applied to the dictionary; a master's PDO remap takes effect (see ``can_pdo``).
+* Heartbeat producer from 0x1017; EMCY on ``raise_fault`` and on fault reset (code 0x0000).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+
+import canopen
+
+from drivers import canopen_402 as sm
+from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
+                                 current_command_object, injection_objects, load_dictionary)
+from drivers.canopen_transport import CanBusSettings, open_bus
+from drivers.simulated.can_node import (ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode)
+from drivers.simulated.can_pdo import PdoEngine, is_pdo_config_index, validate_mapping_entry
+from canopen.sdo import SdoAbortedError
+from hil.motor import TABLE_I
+
+logger = logging.getLogger(__name__)
+
+_STATUS_CACHE_S = 0.001
+
+
+def _error_register_for(code: int) -> int:
+    """Error register 0x1001 bits for an EMCY code (CiA 301: generic + class bit)."""
+    class_bits = {0x2: 0x02, 0x3: 0x04, 0x4: 0x08, 0x8: 0x10}
+    return 0x01 | class_bits.get(code >> 12, 0)
+
+
+class SimulatedDrive:
+    """CiA 402 drive node on a python-can bus, backed by a ``DriveTwin`` in simulated time."""
+
+    def __init__(self, twin, settings: CanBusSettings, node_id: int = 5, *, eds_path=None,
+                 serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None):
+        if not 1 <= node_id <= 127:
+            raise ValueError(f"node_id={node_id} is outside 1..127")
+        self.twin = twin
+        self.settings = settings
+        self.node_id = node_id
+        self.serial_number = serial_number
+        self._eds_path = eds_path
+        self._kt = torque_constant_nm_per_a or TABLE_I.torque_constant_nm_per_a
+        self._knobs = {obj.index: obj for obj in injection_objects(eds_path).values()}
+        self._current_command = current_command_object(eds_path)
+        self._lock = threading.RLock()
+        self._state = sm.SWITCH_ON_DISABLED
+        self._controlword = 0
+        self._error_code = 0
+        self._error_register = 0
+        self._heartbeat_stopped = False
+        self._status_cache: tuple[float, dict] | None = None
+        self.network: canopen.Network | None = None
+        self.node: DriveLocalNode | None = None
+        self.pdo: PdoEngine | None = None
+
+    # -- lifecycle --------------------------------------------------------------------------
+    def start(self) -> "SimulatedDrive":
+        od = load_dictionary(self._eds_path, self.node_id)
+        self._rated_torque_nm = od[0x6076].default / 1000.0
+        self._supported_modes = od[0x6502].default
+        self.network = canopen.Network(open_bus(self.settings))
+        self.network.connect()
+        self.node = DriveLocalNode(self.node_id, od, validate_and_apply=self._validate_and_apply,
+                                   after_store=self._after_store, on_nmt_reset=self._on_nmt_reset,
+                                   on_nmt_state=self._on_nmt_state)
+        self.node.add_read_callback(self._read_live)
+        self.network.add_node(self.node)
+        self.pdo = PdoEngine(self.node, self.network,
+                             is_operational=lambda: self.node.nmt.state == "OPERATIONAL")
+        self.pdo.reload()
+        self.pdo.start()
+        with self.twin.lock:
+            self.twin.disable()
+        self.node.nmt.send_command(0x81)  # INITIALISING: boot-up message
+        self.node.nmt.send_command(0x80)  # PRE-OPERATIONAL, heartbeat starts from 0x1017
+        return self
+
+    def stop(self) -> None:
+        if self.network is None:
+            return
+        try:
+            self.twin.disable()
+        finally:
+            self.pdo.stop()
+            self.node.nmt.stop_heartbeat()
+            self.network.disconnect()
+            self.network = None
+
+    def __enter__(self) -> "SimulatedDrive":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    # -- test hooks -------------------------------------------------------------------------
+    @property
+    def state(self) -> str:
+        with self._lock:
+            return self._state
+
+    def raise_fault(self, code: int = 0x2310, text: str = "overcurrent") -> None:
+        """Enter FAULT (gates off) and send an EMCY with ``code`` and up to 5 bytes of ``text``."""
+        with self._lock:
+            self._error_code = code
+            self._error_register = _error_register_for(code)
+            self._set_state(sm.FAULT)
+        self.node.emcy.send(code, self._error_register, text.encode("ascii", "replace")[:5])
+        self.pdo.notify_change()
+
+    def stop_heartbeat(self) -> None:
+        """Go silent on the heartbeat (the node otherwise keeps working) — for loss tests."""
+        with self._lock:
+            self._heartbeat_stopped = True
+            self.node.nmt.stop_heartbeat()
+
+    # -- state machine ----------------------------------------------------------------------
+    def _set_state(self, new_state: str) -> None:
+        old_state, self._state = self._state, new_state
+        if new_state == old_state:
+            return
+        logger.info("simulated drive %d: %s -> %s", self.node_id, old_state, new_state)
+        if new_state == sm.OPERATION_ENABLED:
+            self.twin.enable()
+        elif old_state == sm.OPERATION_ENABLED or new_state in (sm.FAULT, sm.QUICK_STOP_ACTIVE):
+            self.twin.disable()
+        if old_state == sm.FAULT and new_state != sm.FAULT:
+            self._error_code = 0
+            self._error_register = 0
+            self.node.emcy.reset()
+
+    def _on_controlword(self, controlword: int) -> None:
+        with self._lock:
+            new_state = sm.device_transition(self._state, controlword, self._controlword)
+            self._controlword = controlword
+            self._set_state(new_state)
+
+    def _on_nmt_state(self, nmt_state: str) -> None:
+        if nmt_state in ("STOPPED", "PRE-OPERATIONAL"):
+            with self._lock:
+                if self._state in (sm.OPERATION_ENABLED, sm.QUICK_STOP_ACTIVE, sm.SWITCHED_ON,
+                                   sm.READY_TO_SWITCH_ON):
+                    self._set_state(sm.SWITCH_ON_DISABLED)  # lost the master: gates off
+        self.pdo.notify_change()
+
+    def _on_nmt_reset(self, command: int) -> None:
+        with self._lock:
+            if self._state != sm.FAULT:
+                self._set_state(sm.SWITCH_ON_DISABLED)
+            self.twin.disable()
+            if command == 0x81:  # reset node: application parameters too
+                self.node.data_store.clear()
+                self.twin.restore_defaults()
+            else:                # reset communication: 0x1000..0x1FFF
+                for index in [i for i in self.node.data_store if 0x1000 <= i <= 0x1FFF]:
+                    del self.node.data_store[index]
+            self._heartbeat_stopped = False
+        self.pdo.reload()
+
+    # -- object writes ----------------------------------------------------------------------
+    def _validate_and_apply(self, index: int, subindex: int, od, data: bytes) -> None:
+        value = od.decode_raw(data)
+        if index == 0x6040:
+            self._on_controlword(value)
+        elif index == 0x6060:
+            if value not in sm.MODE_CODES.values() or not self._supported_modes & sm.supported_mode_bit(value):
+                raise SdoAbortedError(ABORT_VALUE_RANGE)
+        elif index in self._knobs:
+            knob = self._knobs[index]
+            try:
+                self.twin.set_injection(**{knob.knob: knob.to_si(value)})
+            except ValueError as exc:
+                logger.info("simulated drive: %s rejected: %s", knob.knob, exc)
+                raise SdoAbortedError(ABORT_VALUE_RANGE) from None
+        elif index == RESTORE_DEFAULTS_INDEX:
+            if value != RESTORE_SIGNATURE:
+                raise SdoAbortedError(ABORT_CANNOT_STORE)
+            self.twin.restore_defaults()
+        elif index == CURRENT_COMMAND_INDEX:
+            self._set_current_command_a(self._current_command.to_si(value))
+        elif index == 0x6071:
+            self._set_current_command_a(value / 1000.0 * self._rated_torque_nm / self._kt)
+        elif index == 0x60FF:
+            self._apply_twin_attribute("speed_rpm", float(value))
+        elif 0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF:
+            if subindex and not validate_mapping_entry(self.node, value):
+                raise SdoAbortedError(0x06040041)  # object cannot be mapped to the PDO
+
+    def _set_current_command_a(self, current_a: float) -> None:
+        self._apply_twin_attribute("current_command_a", current_a)
+
+    def _apply_twin_attribute(self, name: str, value: float) -> None:
+        try:
+            with self.twin.lock:
+                setattr(self.twin, name, value)
+        except ValueError as exc:
+            logger.info("simulated drive: %s=%r rejected: %s", name, value, exc)
+            raise SdoAbortedError(ABORT_VALUE_RANGE) from None
+
+    def _after_store(self, index: int, subindex: int, od, data: bytes) -> None:
+        if is_pdo_config_index(index):
+            self.pdo.reload()
+        elif index == 0x1017:
+            heartbeat_ms = od.decode_raw(data)
+            with self._lock:
+                if self._heartbeat_stopped or heartbeat_ms == 0:
+                    self.node.nmt.stop_heartbeat()
+                else:
+                    self.node.nmt.start_heartbeat(heartbeat_ms)
+        self.pdo.notify_change()
+
+    # -- object reads -----------------------------------------------------------------------
+    def _status(self) -> dict:
+        now = time.monotonic()
+        cached = self._status_cache
+        if cached is None or now - cached[0] > _STATUS_CACHE_S:
+            cached = (now, self.twin.status())
+            self._status_cache = cached
+        return cached[1]
+
+    def _per_mille_of_rated(self, torque_nm: float) -> int:
+        return max(-32768, min(32767, round(torque_nm / self._rated_torque_nm * 1000.0)))
+
+    def _read_live(self, index: int, subindex: int, od):
+        if index == 0x6041:
+            with self._lock:
+                return sm.statusword_for(self._state)
+        if index == 0x6061:
+            return self.node.stored_value(0x6060)
+        if index == 0x6064:
+            counts = int(self._status()["position_counts"]) & 0xFFFFFFFF  # INTEGER32 wraps
+            return counts - (1 << 32) if counts & 0x80000000 else counts
+        if index == 0x606C:
+            return round(self._status()["speed_rpm"])
+        if index == 0x6077:
+            return self._per_mille_of_rated(self._status()["torque_em_nm"])
+        if index in self._knobs:
+            knob = self._knobs[index]
+            return knob.to_count(getattr(self.twin.injection, knob.knob))
+        if index == RESTORE_DEFAULTS_INDEX:
+            return 1  # CiA 301 convention: "restores on command"
+        if index == CURRENT_COMMAND_INDEX:
+            return self._current_command.to_count(self.twin.current_command_a)
+        if index == 0x6071:
+            return self._per_mille_of_rated(self.twin.current_command_a * self._kt)
+        if index == 0x60FF:
+            return round(self.twin.speed_rpm)
+        if index == 0x603F:
+            return self._error_code
+        if index == 0x1001:
+            return self._error_register
+        if index == 0x1018 and subindex == 4:
+            return self.serial_number
+        return None
