@@ -1,0 +1,60 @@
+"""The registry of closed-form sources and ``predict``, the one entry point test plans call."""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+from typing import Any, Callable
+
+from hil.errors import InputError
+from hil.model.core import OperatingPoint, Prediction
+from hil.model.dc_offset import predict_dc_offset
+from hil.model.dead_time import predict_dead_time
+from hil.model.encoder import predict_encoder
+from hil.model.gain_mismatch import predict_gain_mismatch
+from hil.model.pwm_resolution import predict_pwm_resolution
+from hil.model.pwm_switching import predict_pwm_switching
+from hil.model.word_length import predict_word_length
+
+#: Source name → prediction function ``f(op, **params) -> Prediction``.
+SOURCES: dict[str, Callable[..., Prediction]] = {
+    "encoder": predict_encoder,
+    "word_length": predict_word_length,
+    "dc_offset": predict_dc_offset,
+    "gain_mismatch": predict_gain_mismatch,
+    "pwm_resolution": predict_pwm_resolution,
+    "pwm_switching": predict_pwm_switching,
+    "dead_time": predict_dead_time,
+}
+
+#: The fault-injection knobs of the contract: passed to ``predict`` they are used by the sources
+#: that need them and ignored by the others, so an injection dict can go straight through.
+INJECTION_KNOBS = frozenset({
+    "ia_offset_a", "ib_offset_a", "ia_gain_error_pu", "ib_gain_error_pu", "encoder_decimation",
+    "hall_mode", "word_length_bits", "pwm_period_counts", "pwm_frequency_hz", "dead_time_s",
+    "current_angle_rad"})
+
+
+def source_parameters(source: str) -> list[str]:
+    """Keyword parameters a source accepts (besides the operating point)."""
+    return [name for name in inspect.signature(SOURCES[source]).parameters if name != "op"]
+
+
+def predict(source: str, op: OperatingPoint, **params: Any) -> Prediction:
+    """Closed-form prediction of ``source`` at ``op``.
+
+    ``params`` use the contract's knob names; knobs another source needs are ignored, other
+    unknown names raise InputError. ``current_angle_rad`` among them replaces the one of ``op``.
+    """
+    if source not in SOURCES:
+        raise InputError(f"unknown source {source!r} (allowed: {', '.join(SOURCES)})")
+    if not isinstance(op, OperatingPoint):
+        raise InputError(f"op must be an OperatingPoint, got {type(op).__name__}")
+    if "current_angle_rad" in params:
+        op = dataclasses.replace(op, current_angle_rad=params.pop("current_angle_rad"))
+    accepted = source_parameters(source)
+    unknown = sorted(set(params) - set(accepted) - INJECTION_KNOBS)
+    if unknown:
+        raise InputError(f"{source}: unknown parameter(s) {', '.join(unknown)} "
+                         f"(allowed: {', '.join(accepted)})")
+    return SOURCES[source](op, **{k: v for k, v in params.items() if k in accepted})
