@@ -299,23 +299,26 @@ class BenchConfig:
         return problems
 
     def uncertainty_inputs(self) -> dict:
-        """Instrument figures for the torque uncertainty budget (plain dict, SI units).
+        """Type-B inputs of the torque chain, keyed as ``hil.analysis.InstrumentUncertainty``.
 
-        ``torque_accuracy_pct_fs``: accuracy class of the torque transducer, % of full scale
-        (None if not stated); ``torque_full_scale_nm``; ``torque_resolution_nm``: the DAQ's torque
-        resolution if stated in N·m, else the transducer's, else None.
+        ``transducer_accuracy_class_pct``: the torque transducer's accuracy class, % of its full
+        scale (0 if not stated: no type-B term); ``transducer_full_scale_nm``: ``[torque]
+        full_scale_nm``; ``daq_lsb_nm``: the DAQ's torque resolution if its ``resolution`` is
+        written in N·m, else the transducer's, else None.
         """
         torque = self.instrument("torque")
         daq = self.instrument("daq")
         resolution = next((entry.resolution_nm() for entry in (daq, torque)
                            if entry is not None and entry.resolution_nm() is not None), None)
-        return {
-            "torque_accuracy_pct_fs": torque.accuracy_pct_fs() if torque else None,
-            "torque_full_scale_nm": self.torque.full_scale_nm,
-            "torque_resolution_nm": resolution,
-            "torque_model": torque.model if torque else None,
-            "torque_serial_number": torque.serial_number if torque else None,
-        }
+        accuracy = torque.accuracy_pct_fs() if torque else None
+        return {"transducer_accuracy_class_pct": accuracy or 0.0,
+                "transducer_full_scale_nm": self.torque.full_scale_nm,
+                "daq_lsb_nm": resolution}
+
+    def instrument_uncertainty(self):
+        """``hil.analysis.InstrumentUncertainty`` built from :meth:`uncertainty_inputs`."""
+        from hil.analysis import InstrumentUncertainty  # analysis never imports config
+        return InstrumentUncertainty(**self.uncertainty_inputs())
 
     def to_dict(self) -> dict:
         """The bench as validated, defaults filled in, JSON-safe; ``from_dict`` accepts it."""

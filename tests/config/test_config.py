@@ -139,15 +139,20 @@ def test_calibration_problems_past_due_future_and_missing():
 
 
 def test_uncertainty_inputs_read_the_instrument_entries():
-    inputs = load_bench(REAL).uncertainty_inputs()
-    assert inputs["torque_accuracy_pct_fs"] == pytest.approx(0.1)
-    assert inputs["torque_full_scale_nm"] == pytest.approx(5.0)
-    assert inputs["torque_resolution_nm"] == pytest.approx(0.0002)  # the DAQ's, not the sensor's
+    bench = load_bench(REAL)
+    inputs = bench.uncertainty_inputs()
+    assert inputs == {"transducer_accuracy_class_pct": pytest.approx(0.1),
+                      "transducer_full_scale_nm": pytest.approx(5.0),
+                      "daq_lsb_nm": pytest.approx(0.0002)}  # the DAQ's, not the sensor's
+    built = bench.instrument_uncertainty()
+    assert built.transducer_limit_nm == pytest.approx(0.005)   # 0.1 % of 5 N*m
+    assert built.lsb_nm == pytest.approx(0.0002)
     d = real_dict()
     d["instrument"][1]["resolution"] = "16 bit"
     d["instrument"][2]["resolution"] = "1 mN*m"
-    assert BenchConfig.from_dict(d).uncertainty_inputs()["torque_resolution_nm"] == \
-        pytest.approx(0.001)
+    assert BenchConfig.from_dict(d).uncertainty_inputs()["daq_lsb_nm"] == pytest.approx(0.001)
+    del d["instrument"][2]["accuracy_class"]
+    assert BenchConfig.from_dict(d).uncertainty_inputs()["transducer_accuracy_class_pct"] == 0.0
 
 
 def test_file_errors_are_input_errors(tmp_path: Path):
