@@ -70,7 +70,8 @@ def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = N
     mean_pu = (math.sin(phi + res) - math.sin(phi)) / res
     paper = paper_pk_pk(res, phi)
     theta = angle_grid()
-    gamma = np.mod(theta, res)
+    # γ = θ − θ_d; the small guard keeps grid points that sit on a count edge in the new count
+    gamma = np.maximum(theta - np.floor(theta / res + 1e-9) * res, 0.0)
     waveform = (torque_pu(gamma, phi) - mean_pu) / mean_pu
     base_nm = op.mean_torque_nm / math.cos(phi) * mean_pu
     return Prediction(

@@ -39,6 +39,15 @@ def paper_pk_pk_pu(word_length_bits: int) -> float:
     return 2.0 * iq_error_bound_pu(word_length_bits)
 
 
+def balanced_pk_pk_pu(word_length_bits: int, current_pu: float) -> float:
+    """A tighter first-order pk-pk for balanced three-phase signals, per unit of I_max torque.
+
+    Σ|sin θ_x| ≤ 2 and Σ|I_x| ≤ 2·I/I_max for a balanced set, so eq 13's 6 terms become
+    2 + 2·I/I_max: |ΔI_q| ≤ [1 + (2/3)·(2 + 2·I/I_max)]/2^(n−1) (at most 11/3 LSB, not 5).
+    """
+    return 2.0 * lsb_pu(word_length_bits) * (1.0 + (2.0 / 3.0) * (2.0 + 2.0 * current_pu))
+
+
 def check_bits(word_length_bits: int) -> int:
     bits = check_range("word_length_bits", word_length_bits, *WORD_LENGTH_RANGE_BITS, unit=" bits")
     if bits != int(bits):
@@ -65,4 +74,5 @@ def predict_word_length(op: OperatingPoint, *, word_length_bits: int,
             "no ADC or PWM quantization (those are separate sources)"],
         extras={"paper_pk_pk_pu": paper,
                 "paper_base": f"torque at the full-scale current I_max = {i_max:g} A",
-                "iq_error_bound_pu": iq_error_bound_pu(bits)})
+                "iq_error_bound_pu": iq_error_bound_pu(bits),
+                "balanced_bound_pk_pk_pu": balanced_pk_pk_pu(bits, op.current_a / i_max) * scale})
