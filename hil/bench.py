@@ -1,0 +1,231 @@
+"""The bench: the drive, DAQ and torque transducer composed, with the limits and the safety guard.
+
+Safety (design.md §6): limits from the bench file are checked before any command is sent, and every
+measurement runs inside :meth:`Bench.guard`. On *any* exit path out of a guarded step — failure,
+exception, timeout, lost heartbeat, EMCY, a limit breach seen in the data, Ctrl-C — the bench is
+brought to a safe state: drive quick stop → switch-on-disabled, every injection restored to its
+default (verified by read-back), DAQ disarmed, dyno speed reference zero.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.errors import InstrumentError, LimitError
+from hil.capture import Capture
+from hil.config import BenchConfig
+from hil.errors import HilError
+
+logger = logging.getLogger(__name__)
+
+
+class SafeStateError(HilError):
+    """One or more steps of bringing the bench to a safe state failed (listed in ``failures``)."""
+
+    def __init__(self, failures: list[str]) -> None:
+        self.failures = failures
+        super().__init__("could not bring the bench to a safe state: " + "; ".join(failures))
+
+
+@dataclass
+class SafeStateReport:
+    """What :meth:`Bench.make_safe` did, step by step (for the record)."""
+
+    reason: str
+    steps: list[str] = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"reason": self.reason, "steps": self.steps, "failures": self.failures}
+
+
+class Bench:
+    """A connected bench. Build it with :meth:`open`; close it with :meth:`close` (or ``with``).
+
+    ``simulated`` is the :class:`hil.simbench.SimulatedBench` behind a simulated bench (None on a
+    real one); the drivers do not know the difference.
+    """
+
+    def __init__(self, config: BenchConfig, drive, daq, torque, simulated=None) -> None:
+        self.config = config
+        self.drive = drive
+        self.daq = daq
+        self.torque = torque
+        self.simulated = simulated
+        self.safe_state_reports: list[SafeStateReport] = []
+
+    # ------------------------------------------------------------------ lifecycle
+    @classmethod
+    def open(cls, config: BenchConfig, *, seed: int = 0) -> "Bench":
+        """Start the simulated instruments if ``config.simulated``, then connect the drivers.
+
+        If anything fails part-way, everything opened so far is closed again before raising.
+        """
+        simulated = None
+        opened: list = []
+        try:
+            if config.simulated:
+                from hil.simbench import SimulatedBench
+
+                simulated = SimulatedBench(config, seed=seed)
+                config = simulated.start()
+            drive = _make_drive(config)
+            drive.connect()
+            opened.append(drive)
+            daq = _make_daq(config)
+            daq.connect()
+            opened.append(daq)
+            torque = _make_torque(config)
+            torque.connect()
+            opened.append(torque)
+        except BaseException:
+            for instrument in reversed(opened):
+                with contextlib.suppress(Exception):
+                    instrument.close()
+            if simulated is not None:
+                simulated.stop()
+            raise
+        bench = cls(config, drive, daq, torque, simulated)
+        bench.make_safe("bench opened")
+        return bench
+
+    def close(self) -> None:
+        """Leave the drive safe, then close the drivers and stop any simulated instruments."""
+        try:
+            self.make_safe("bench closed", raise_on_failure=False)
+        finally:
+            for instrument in (self.torque, self.daq, self.drive):
+                with contextlib.suppress(Exception):
+                    instrument.close()
+            if self.simulated is not None:
+                self.simulated.stop()
+
+    def __enter__(self) -> "Bench":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def identities(self) -> list[dict]:
+        """Each instrument's identity as it answers it (for the record's instrument table)."""
+        rows = []
+        for role, instrument in (("drive", self.drive), ("daq", self.daq), ("torque", self.torque)):
+            try:
+                rows.append({"role": role, **instrument.identity()})
+            except InstrumentError as exc:
+                rows.append({"role": role, "error": str(exc)})
+        return rows
+
+    # ------------------------------------------------------------------ limits
+    def check_command(self, *, current_a: float, speed_rpm: float) -> None:
+        """Refuse an operating point outside the bench's limits, before anything is sent."""
+        limits = self.config.limits
+        if not 0.0 <= current_a <= limits.current_a:
+            raise LimitError("drive", "check current command",
+                             f"current_a={current_a:g} A is outside 0..{limits.current_a:g} A "
+                             f"(bench limits.current_a)")
+        if abs(speed_rpm) > limits.speed_rpm:
+            raise LimitError("daq", "check dyno speed reference",
+                             f"speed_rpm={speed_rpm:g} is outside ±{limits.speed_rpm:g} rpm "
+                             f"(bench limits.speed_rpm)")
+
+    def check_capture(self, capture: Capture) -> None:
+        """Raise LimitError if the captured data shows a current, torque or speed past a limit."""
+        limits = self.config.limits
+        for name in ("ia_a", "ib_a"):
+            if name in capture:
+                peak = float(np.max(np.abs(capture[name])))
+                if peak > limits.current_a:
+                    raise LimitError("daq", "check captured data",
+                                     f"|{name}| reached {peak:.1f} A > limits.current_a = "
+                                     f"{limits.current_a:g} A")
+        if "torque_nm" in capture:
+            peak = float(np.max(np.abs(capture["torque_nm"])))
+            if peak > limits.torque_nm:
+                raise LimitError("daq", "check captured data",
+                                 f"|torque| reached {peak:.3f} N·m > limits.torque_nm = "
+                                 f"{limits.torque_nm:g} N·m")
+
+    # ------------------------------------------------------------------ safety
+    def check_health(self) -> None:
+        """Raise if the drive reported an EMCY / fault or its heartbeat stopped."""
+        self.drive.check_health()
+
+    @contextlib.contextmanager
+    def guard(self, step: str):
+        """Run a step; on any exception (Ctrl-C included) make the bench safe, then re-raise."""
+        try:
+            yield self
+        except BaseException as exc:
+            reason = f"{step}: {type(exc).__name__}: {exc}"
+            logger.warning("safety guard: %s", reason)
+            try:
+                self.make_safe(reason, raise_on_failure=False)
+            except BaseException:  # noqa: BLE001 - never mask the original error
+                logger.exception("safety guard: making the bench safe failed")
+            raise
+
+    def make_safe(self, reason: str, *, raise_on_failure: bool = True) -> SafeStateReport:
+        """Quick stop → switch-on-disabled, restore injections (read back), disarm DAQ, dyno 0.
+
+        Every step is tried even if an earlier one fails; failures are collected in the report
+        and raised together as :class:`SafeStateError` unless ``raise_on_failure`` is False.
+        """
+        report = SafeStateReport(reason)
+        steps = (
+            ("drive quick stop", lambda: self.drive.quick_stop()),
+            ("drive disable (switch-on-disabled)", lambda: self.drive.disable()),
+            ("drive current command 0 A", lambda: self.drive.set_current_command_a(0.0)),
+            ("restore injection defaults (verified)", self.drive.restore_injection_defaults),
+            ("DAQ disarm", self.daq.disarm),
+            ("dyno speed reference 0 rpm", lambda: self.daq.set_dyno_speed_rpm(0.0)),
+        )
+        for name, action in steps:
+            try:
+                action()
+                report.steps.append(name)
+            except Exception as exc:  # noqa: BLE001 - keep going: the next step may still help
+                report.failures.append(f"{name}: {exc}")
+        self.safe_state_reports.append(report)
+        if report.failures:
+            logger.error("safe state incomplete: %s", report.failures)
+            if raise_on_failure:
+                raise SafeStateError(report.failures)
+        return report
+
+
+def _make_drive(config: BenchConfig):
+    from drivers.canopen_transport import CanBusSettings
+    from drivers.cia402 import Cia402Drive
+
+    drive = config.drive
+    return Cia402Drive(CanBusSettings(interface=drive.interface, channel=drive.channel,
+                                      bitrate=drive.bitrate),
+                       node_id=drive.node_id, eds_path=drive.eds,
+                       sdo_timeout_s=drive.sdo_timeout_s,
+                       heartbeat_timeout_s=drive.heartbeat_timeout_s, instrument_name="drive")
+
+
+def _make_daq(config: BenchConfig):
+    from drivers.modbus_daq import ModbusDaq, ModbusRtuSettings, ModbusTcpSettings
+
+    daq = config.daq
+    if daq.transport == "rtu":
+        settings = ModbusRtuSettings(port=daq.serial_port, baudrate=daq.baudrate or 115200)
+    else:
+        settings = ModbusTcpSettings(host=daq.host, port=daq.port)
+    return ModbusDaq(settings, unit_id=daq.unit_id, register_map=daq.register_map,
+                     timeout_s=daq.timeout_s, instrument_name="daq")
+
+
+def _make_torque(config: BenchConfig):
+    from drivers.torque_transducer import SerialSettings, TorqueTransducer
+
+    torque = config.torque
+    return TorqueTransducer(SerialSettings(port=torque.serial_port, baudrate=torque.baudrate),
+                            dialect=torque.dialect, timeout_s=torque.timeout_s,
+                            instrument_name="torque")

@@ -1,0 +1,188 @@
+"""One measurement point, the flow of design.md §1: inject → operate → acquire → persist →
+analyse → predict → verdict.
+
+The raw capture is written to the record *before* any analysis, and the bench is made safe (drive
+disabled, injections restored and read back, DAQ disarmed) at the end of every point, on the normal
+path as on any failure. Test plans describe points with :class:`PointPlan` and call
+:func:`measure_point`; they hold no analysis or driver code.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+
+from hil.analysis import DecisionRule, InstrumentUncertainty, RippleResult, Verdict, \
+    analyze_capture, decide
+from hil.bench import Bench
+from hil.errors import InputError
+from hil.model import OperatingPoint, Prediction, predict
+from hil.record import RunRecord, utc_now
+
+#: Electrical revolutions captured per point unless a plan says otherwise.
+DEFAULT_REVOLUTIONS = 8
+#: Angle-grid points per period of the highest analysed order (the analysis needs >= 8).
+POINTS_PER_PERIOD = 10
+
+
+@dataclass(frozen=True)
+class PointPlan:
+    """What one test point injects, where it operates, how it captures and how it is judged.
+
+    ``injection`` uses the drive's knob names (``ia_offset_a``, ``dead_time_s``, …) in SI units.
+    ``prediction_params`` are extra inputs of the closed form that are not injections (e.g. the
+    nominal current a dead-time figure is stated at). ``expectation`` states, in words, where the
+    paper's assumptions do not hold at this point and what the plan judges against instead.
+    """
+
+    source: str
+    injection: dict
+    speed_rpm: float
+    current_a: float
+    current_angle_rad: float = 0.0
+    revolutions: int = DEFAULT_REVOLUTIONS
+    max_order: int = 48
+    named_order: int | None = None
+    settle_s: float = 0.05
+    sample_rate_hz: float | None = None
+    rule: DecisionRule = field(default_factory=DecisionRule)
+    prediction_params: dict = field(default_factory=dict)
+    expectation: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.revolutions < 2:
+            raise InputError(f"revolutions={self.revolutions} must be >= 2 (type A needs scatter)")
+        if self.speed_rpm == 0:
+            raise InputError("speed_rpm=0: the angle never advances; use a slow speed (e.g. 3 rpm)"
+                             " for the paper's near-standstill encoder measurement")
+
+    def electrical_frequency_hz(self, pole_pairs: int) -> float:
+        return abs(self.speed_rpm) / 60.0 * pole_pairs
+
+    def capture_duration_s(self, pole_pairs: int) -> float:
+        """Whole electrical revolutions plus a quarter, so that jitter never loses the last one."""
+        return (self.revolutions + 0.25) / self.electrical_frequency_hz(pole_pairs)
+
+    def capture_rate_hz(self, pole_pairs: int) -> float:
+        """Sample rate: the plan's, or enough points per period of ``max_order`` (≥ 1 kHz)."""
+        if self.sample_rate_hz:
+            return float(self.sample_rate_hz)
+        needed = self.electrical_frequency_hz(pole_pairs) * self.max_order * POINTS_PER_PERIOD
+        return float(min(20_000.0, max(1_000.0, math.ceil(needed / 500.0) * 500.0)))
+
+
+@dataclass
+class PointOutcome:
+    """Everything one point produced; ``entry`` is what went into the run record."""
+
+    test_id: str
+    result: RippleResult
+    prediction: Prediction
+    verdict: Verdict
+    predicted_pk_pk_pu_of_mean: float
+    entry: dict
+
+    def summary(self) -> str:
+        return (f"{self.test_id}: measured {self.result.pk_pk_pu:.4f} pu "
+                f"(U={self.result.uncertainty.expanded_pu:.4f}, dominant order "
+                f"{self.result.dominant_order}) vs predicted {self.predicted_pk_pk_pu_of_mean:.4f} pu "
+                f"(order {self.prediction.order}) -> {self.verdict.decision}: {self.verdict.reason}")
+
+
+def instrument_uncertainty(bench: Bench) -> InstrumentUncertainty:
+    """Type-B inputs of the torque chain from the bench file's instrument entries."""
+    inputs = bench.config.uncertainty_inputs()
+    return InstrumentUncertainty(
+        transducer_accuracy_class_pct=inputs.get("transducer_accuracy_class_pct") or 0.0,
+        transducer_full_scale_nm=inputs.get("transducer_full_scale_nm") or 0.0,
+        daq_lsb_nm=inputs.get("daq_lsb_nm"))
+
+
+def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, *,
+                  nodeid: str | None = None) -> PointOutcome:
+    """Run one point on ``bench`` and record it; raises after recording if anything fails."""
+    started = utc_now()
+    entry = {"test_id": test_id, "nodeid": nodeid or test_id, "source": plan.source,
+             "started_utc": started, "injection": dict(plan.injection),
+             "operating_point": {"speed_rpm": plan.speed_rpm, "current_a": plan.current_a,
+                                 "current_angle_rad": plan.current_angle_rad,
+                                 "dc_bus_v": bench.config.motor.dc_bus_v},
+             "notes": [plan.expectation] if plan.expectation else []}
+    pole_pairs = bench.config.motor.pole_pairs
+    try:
+        bench.check_command(current_a=plan.current_a, speed_rpm=plan.speed_rpm)
+        capture = _acquire(bench, record, test_id, plan, pole_pairs)
+        result = analyze_capture(capture, max_order=plan.max_order,
+                                 named_order=plan.named_order or _order_of(plan, bench),
+                                 instruments=instrument_uncertainty(bench), pole_pairs=pole_pairs)
+        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                            current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
+        prediction = predict(plan.source, op, **plan.injection, **plan.prediction_params)
+        # Same base on both sides: the prediction in N·m over the *measured* mean torque.
+        predicted_pu = prediction.pk_pk_nm / abs(result.mean_torque_nm)
+        order = int(round(prediction.order)) if prediction.order is not None else None
+        if order is not None and order > plan.max_order:
+            raise InputError(f"{test_id}: predicted order {order} is above max_order "
+                             f"{plan.max_order}; raise the plan's max_order")
+        verdict = decide(result, predicted_pu, order, plan.rule)
+    except BaseException as exc:
+        entry.update(outcome="error", error=f"{type(exc).__name__}: {exc}")
+        _add_safely(record, entry)
+        raise
+    entry.update(
+        outcome="passed" if verdict.guarded_pass else "failed",
+        measured=result.to_dict() | {"analysis_settings": {
+            "max_order": plan.max_order, "named_order": result.named_order,
+            "pole_pairs": pole_pairs}},
+        prediction=prediction.to_dict() | {"pk_pk_pu_of_measured_mean": predicted_pu},
+        uncertainty=result.uncertainty.to_dict(),
+        verdict=verdict.to_dict(),
+    )
+    record.add_test(entry)
+    return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry)
+
+
+def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pole_pairs: int):
+    """Inject, operate, capture and persist the raw data, inside the safety guard."""
+    duration_s = plan.capture_duration_s(pole_pairs)
+    rate_hz = plan.capture_rate_hz(pole_pairs)
+    with bench.guard(f"{test_id}: acquire"):
+        bench.drive.set_injection(**plan.injection, current_angle_rad=plan.current_angle_rad)
+        bench.daq.set_dyno_speed_rpm(plan.speed_rpm)
+        bench.drive.set_current_command_a(plan.current_a)
+        bench.drive.enable()
+        bench.check_health()
+        capture = bench.daq.capture(duration_s, rate_hz, settle_s=plan.settle_s,
+                                    timeout_s=max(30.0, 10 * duration_s))
+        capture.meta.update(test_id=test_id, source=plan.source,
+                            injection=dict(plan.injection), captured_utc=utc_now(),
+                            wall_time_unix_s=time.time())
+        record.save_capture(test_id, capture)          # raw data first, before any check
+        bench.check_health()
+        bench.check_capture(capture)
+        bench.make_safe(f"{test_id}: point finished")
+    return capture
+
+
+def _order_of(plan: PointPlan, bench: Bench) -> int | None:
+    op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                        current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
+    order = predict(plan.source, op, **plan.injection, **plan.prediction_params).order
+    if order is None or order > plan.max_order:
+        return None
+    return int(round(order))
+
+
+def _add_safely(record: RunRecord, entry: dict) -> None:
+    """Record a failed point without masking the original error."""
+    try:
+        record.add_test(entry)
+    except Exception:  # noqa: BLE001 - the original exception is what the user must see
+        pass
+
+
+def plan_to_dict(plan: PointPlan) -> dict:
+    data = asdict(plan)
+    data["rule"] = asdict(plan.rule)
+    return data
