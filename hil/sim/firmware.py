@@ -1,0 +1,171 @@
+"""Controller firmware of the drive: sensing, position, FOC current loop, modulator (compiled).
+
+Executed once per PWM period at the counter valley (period start): the two phase currents are
+sampled through the ADC (with the injected offset/gain, eqs 15-16 and 21-22), the third is computed
+(eq 17), the rotor angle is read from the encoder (decimated, or Hall 60° sectors: the angle the
+paper calls θ_d, eq 4), Park (eq 11, three-phase form with a sine table), two PI regulators with
+anti-windup, inverse Park, zero-sequence injection and the compare values. The result is latched
+for the *next* period: one period of computation delay.
+
+Arithmetic is float64, or n-bit fixed point when ``word_length_bits`` > 0: every stored value is a
+signed Q(n-1) fraction of its base (currents: the ADC full scale; voltages: the dc bus) and every
+product and sum is truncated toward -inf as a two's-complement DSP does (the error model of eqs
+12-14). Gains larger than one are stored as an n-bit mantissa with a power-of-two shift.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_CURRENT_CMD, P_ENC_CPR, P_ENC_DECIM, P_HALL,
+                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_KI_TS_PU, P_KP_PU,
+                            P_MODULATION, P_PHI, P_POLE_PAIRS, P_TABLE_SIZE, P_WORD_BITS,
+                            S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B)
+
+TWO_PI = 2.0 * math.pi
+TWO_PI_3 = 2.0 * math.pi / 3.0
+
+
+@njit(cache=True)
+def qfix(x, bits):
+    """Truncate ``x`` (per unit) to a saturating signed Q(bits-1) fraction; bits 0 = float."""
+    if bits == 0:
+        return x
+    lsb = 2.0 ** (1 - bits)
+    y = math.floor(x / lsb) * lsb
+    if y > 1.0 - lsb:
+        return 1.0 - lsb
+    if y < -1.0:
+        return -1.0
+    return y
+
+
+def quantise_gain(gain: float, bits: int) -> float:
+    """A gain as the firmware stores it: n-bit mantissa (truncated) times a power of two."""
+    if bits == 0 or gain == 0.0:
+        return gain
+    exponent = math.ceil(math.log2(abs(gain))) if abs(gain) >= 1.0 else 0
+    lsb = 2.0 ** (1 - bits)
+    return math.floor(gain / 2.0 ** exponent / lsb) * lsb * 2.0 ** exponent
+
+
+@njit(cache=True)
+def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, adc_bits):
+    """Sensor (gain, offset) then ADC of ``adc_bits`` over ±full scale; returns per unit of FS."""
+    sensed = (1.0 + gain_error_pu) * current_a + offset_a
+    half = 2.0 ** (adc_bits - 1)
+    code = math.floor((sensed / full_scale_a + 1.0) * half)
+    if code < 0.0:
+        code = 0.0
+    elif code > 2.0 * half - 1.0:
+        code = 2.0 * half - 1.0
+    return (code - half) / half
+
+
+@njit(cache=True)
+def firmware_angle_fraction(theta_m, params):
+    """The firmware's electrical angle as a fraction of a revolution (θ_d of eq 4).
+
+    Encoder: counts truncated to a multiple of the decimation factor; Hall: start of the 60°
+    electrical sector. Count 0 is aligned with θe = 0.
+    """
+    pole_pairs = params[P_POLE_PAIRS]
+    if params[P_HALL] != 0.0:
+        sector = math.floor(pole_pairs * theta_m / (math.pi / 3.0))
+        return (sector % 6.0) / 6.0
+    cpr = params[P_ENC_CPR]
+    counts = math.floor(theta_m * cpr / TWO_PI)
+    decimation = params[P_ENC_DECIM]
+    used = math.floor(counts / decimation) * decimation
+    return ((used * pole_pairs) % cpr) / cpr
+
+
+@njit(cache=True)
+def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, bits):
+    """One PI step with conditional integration (anti-windup); returns (output, integrator)."""
+    error = qfix(reference - measured, bits)
+    proportional = qfix(kp * error, bits)
+    candidate = qfix(integrator + qfix(ki_ts * error, bits), bits)
+    if candidate > limit:
+        candidate = limit
+    elif candidate < -limit:
+        candidate = -limit
+    unsaturated = proportional + candidate
+    if abs(unsaturated) > limit and unsaturated * error > 0.0:
+        candidate = integrator          # saturated and the error pushes further: hold
+        unsaturated = proportional + candidate
+    output = qfix(unsaturated, bits)
+    if output > limit:
+        output = limit
+    elif output < -limit:
+        output = -limit
+    return output, candidate
+
+
+@njit(cache=True)
+def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare):
+    """Run the current loop once; return the compare values (counts) for the next period."""
+    bits = int(params[P_WORD_BITS])
+    full_scale = params[P_ADC_FS]
+    adc_bits = params[P_ADC_BITS]
+    sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_bits)
+    sensed_b = adc_read(ib_a, params[P_IB_OFFSET], params[P_IB_GAIN], full_scale, adc_bits)
+    state[S_ISENSE_A] = sensed_a * full_scale
+    state[S_ISENSE_B] = sensed_b * full_scale
+    i_a = qfix(sensed_a, bits)
+    i_b = qfix(sensed_b, bits)
+    i_c = qfix(-i_a - i_b, bits)                                   # eq (17)
+
+    table_size = params[P_TABLE_SIZE]
+    index = math.floor(firmware_angle_fraction(theta_m, params) * table_size) % table_size
+    angle = TWO_PI * index / table_size
+    s_a = qfix(math.sin(angle), bits)
+    s_b = qfix(math.sin(angle - TWO_PI_3), bits)
+    s_c = qfix(math.sin(angle + TWO_PI_3), bits)
+    c_a = qfix(math.cos(angle), bits)
+    c_b = qfix(math.cos(angle - TWO_PI_3), bits)
+    c_c = qfix(math.cos(angle + TWO_PI_3), bits)
+
+    two_thirds = qfix(2.0 / 3.0, bits)                             # eq (11)
+    i_q = qfix(two_thirds * (qfix(i_a * s_a, bits) + qfix(i_b * s_b, bits)
+                             + qfix(i_c * s_c, bits)), bits)
+    i_d = qfix(two_thirds * (qfix(i_a * c_a, bits) + qfix(i_b * c_b, bits)
+                             + qfix(i_c * c_c, bits)), bits)
+
+    command_pu = params[P_CURRENT_CMD] / full_scale               # current lags EMF by φ, eq (4)
+    i_q_ref = qfix(command_pu * math.cos(params[P_PHI]), bits)
+    i_d_ref = qfix(-command_pu * math.sin(params[P_PHI]), bits)
+
+    svpwm = params[P_MODULATION] == 0.0
+    limit = (1.0 / math.sqrt(3.0) if svpwm else 0.5) * (2.0 * max_compare / counts_top - 1.0)
+    kp = params[P_KP_PU]
+    ki_ts = params[P_KI_TS_PU]
+    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, bits)
+    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, bits)
+    magnitude = math.sqrt(v_d * v_d + v_q * v_q)
+    if magnitude > limit:
+        v_d = qfix(v_d * limit / magnitude, bits)
+        v_q = qfix(v_q * limit / magnitude, bits)
+
+    v_a = qfix(qfix(v_q * s_a, bits) + qfix(v_d * c_a, bits), bits)   # inverse Park
+    v_b = qfix(qfix(v_q * s_b, bits) + qfix(v_d * c_b, bits), bits)
+    v_c = qfix(qfix(v_q * s_c, bits) + qfix(v_d * c_c, bits), bits)
+    zero_sequence = 0.0
+    if svpwm:
+        zero_sequence = -0.5 * (max(v_a, v_b, v_c) + min(v_a, v_b, v_c))
+    return (_compare(v_a + zero_sequence, counts_top, max_compare),
+            _compare(v_b + zero_sequence, counts_top, max_compare),
+            _compare(v_c + zero_sequence, counts_top, max_compare))
+
+
+@njit(cache=True)
+def _compare(leg_voltage_pu, counts_top, max_compare):
+    """Compare value (integer counts, truncated) for a leg voltage in per unit of V_dc."""
+    compare = math.floor((0.5 + leg_voltage_pu) * counts_top)
+    if compare < 0.0:
+        return 0.0
+    if compare > max_compare:
+        return max_compare
+    return compare

@@ -1,0 +1,450 @@
+"""The engine: one compiled loop over PWM periods, exact between switching instants.
+
+Per period: the dyno sets the speed; the firmware runs at the counter valley and latches compare
+values for the *next* period; the three legs' gate states (centre-aligned, edges exactly where the
+up/down counter meets the compare value, dead time after every edge) cut the period into at most
+13 segments of constant gate state; in each the currents follow the exact solution of
+``hil.sim.electrical``. During a dead interval a leg's voltage is set by its current's sign (diode
+conduction); a zero crossing there is an event (located by bisection on the exact solution to
+~1e-14 s) after which the phase is held at zero while the floating terminal voltage stays between
+the rails. Outputs are the exact solution evaluated at the sample instants. State lives in a flat
+array so a later call continues where this one stopped.
+
+Approximations (stated): the speed is constant within a PWM period (the dyno's profile is
+piecewise linear in angle at period resolution); the transducer's first-order filter is driven by
+the shaft torque interpolated linearly within each segment (segments are < 1/3 of its time
+constant of 159 µs at 1 kHz); gates off means zero current (valid while the line-to-line EMF peak
+is below V_dc, i.e. below ~2000 rpm for Table I, else the diodes would rectify).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from hil.sim.electrical import (MAX_HARMONICS, emf_per_speed, forced_coefficients,
+                                forced_response, harmonic_table, three_phase)
+from hil.sim.firmware import adc_read, firmware_step
+from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
+                            C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
+                            C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_BITS, P_ADC_FS,
+                            P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
+                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_N_COG,
+                            P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_R, P_RAMP,
+                            P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC, S_CMP_A, S_CMP_B,
+                            S_CMP_C, S_IA, S_IB, S_IC, S_INITIALISED, S_INT_D, S_INT_Q,
+                            S_ISENSE_A, S_ISENSE_B, S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y)
+
+TWO_PI = 2.0 * math.pi
+RPM = TWO_PI / 60.0
+LOW, HIGH, DEAD = 0, 1, 2
+MODE_FREE, MODE_ONE_CLAMPED, MODE_ZERO = 0, 1, 2
+BISECTIONS = 36
+
+
+@njit(cache=True)
+def dyno_speed(params, state, time_s, period_s):
+    """Mechanical speed (rad/s) the dyno imposes over the period starting at ``time_s``."""
+    command = params[P_SPEED_CMD] * RPM
+    mode = params[P_DYNO_MODE]
+    if mode == 1.0:                                   # slew-rate limited ramp
+        step = params[P_RAMP] * RPM * period_s
+        previous = state[S_OMEGA_M]
+        omega = min(max(command, previous - step), previous + step)
+    elif mode == 2.0:                                 # dwell / move / dwell ... (position profile)
+        if command == 0.0:
+            omega = 0.0
+        else:
+            angle0 = _stepping_angle(time_s, params, abs(command))
+            angle1 = _stepping_angle(time_s + period_s, params, abs(command))
+            omega = math.copysign(1.0, command) * (angle1 - angle0) / period_s
+    else:
+        omega = command
+    state[S_OMEGA_M] = omega
+    return omega
+
+
+@njit(cache=True)
+def _stepping_angle(time_s, params, speed):
+    step = params[P_STEP_ANGLE]
+    dwell = params[P_DWELL]
+    cycle = dwell + step / speed
+    cycles = math.floor(time_s / cycle)
+    within = time_s - cycles * cycle
+    moving = min(max((within - dwell) * speed, 0.0), step)
+    return cycles * step + moving
+
+
+@njit(cache=True)
+def _leg_state(tau, t_on, t_off, dead, compare):
+    """Gate state of a leg at τ within the period (centre-aligned, dead time after each edge)."""
+    if compare <= 0.0 or tau < t_on:
+        return LOW
+    if t_off - t_on > dead:
+        if tau < t_on + dead:
+            return DEAD
+        if tau < t_off:
+            return HIGH
+        if tau < t_off + dead:
+            return DEAD
+        return LOW
+    if tau < t_off + dead:
+        return DEAD                                   # pulse shorter than the dead time
+    return LOW
+
+
+@njit(cache=True)
+def _currents(mode, tau, tau_a, x0, u, clamped, k, theta_e0, omega_e, orders, gains, shifts,
+              count, resistance, inductance):
+    """Exact phase currents at τ of a sub-segment that started at τa (see module electrical)."""
+    if mode == MODE_ZERO:
+        return 0.0, 0.0, 0.0
+    decay = math.exp(-resistance * (tau - tau_a) / inductance)
+    ea, eb, ec = forced_response(theta_e0 + omega_e * tau, orders, gains, shifts, count)
+    if mode == MODE_FREE:
+        ia = ea + x0[0] * decay + u[0] / resistance * (1.0 - decay)
+        ib = eb + x0[1] * decay + u[1] / resistance * (1.0 - decay)
+        ic = ec + x0[2] * decay + u[2] / resistance * (1.0 - decay)
+        if clamped & 1:
+            ia = 0.0
+        if clamped & 2:
+            ib = 0.0
+        if clamped & 4:
+            ic = 0.0
+        return ia, ib, ic
+    # one phase (k) held at zero: the other two carry ±i (see module electrical)
+    drift = x0[0] * decay + u[0] / resistance * (1.0 - decay)
+    if k == 0:
+        ib = 0.5 * (eb - ec) + drift
+        return 0.0, ib, -ib
+    if k == 1:
+        ic = 0.5 * (ec - ea) + drift
+        return -ic, 0.0, ic
+    ia = 0.5 * (ea - eb) + drift
+    return ia, -ia, 0.0
+
+
+@njit(cache=True)
+def _shaft_torque(theta_m, k_a, k_b, k_c, ia, ib, ic, params):
+    """(electromagnetic Σ e_x·i_x/ω_m, shaft = electromagnetic + cogging) in N·m."""
+    electromagnetic = k_a * ia + k_b * ib + k_c * ic
+    cogging = 0.0
+    for c in range(int(params[P_N_COG])):
+        cogging += params[P_COG + 3 * c + 1] * math.sin(params[P_COG + 3 * c] * theta_m
+                                                        + params[P_COG + 3 * c + 2])
+    return electromagnetic, electromagnetic + cogging
+
+
+@njit(cache=True)
+def _filter(y0, x0, slope, h, tau_f):
+    """First-order low-pass output after h seconds of the input x0 + slope·t (exact)."""
+    decay = math.exp(-h / tau_f)
+    return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
+
+
+@njit(cache=True)
+def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
+    """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
+
+    Sample j is taken at record_start_s + j·sample_dt_s (only those >= the state's time).
+    Returns the state at the start of the last period run (the one containing ``end_s``): the
+    caller keeps it and re-runs that period next time, so consecutive calls are continuous.
+    """
+    n_samples = out.shape[1]
+    resistance = params[P_R]
+    inductance = params[P_L]
+    vdc = params[P_VDC]
+    pole_pairs = params[P_POLE_PAIRS]
+    isolated = params[P_NEUTRAL] == 0.0
+    period = 1.0 / params[P_PWM_FREQ]
+    counts_top = params[P_PWM_COUNTS]
+    dead = params[P_DEAD_TIME]
+    max_compare = counts_top
+    if dead > 0.0:
+        max_compare = math.floor(counts_top * (1.0 - 2.0 * dead / period))
+    enabled = params[P_ENABLED] != 0.0
+    tau_f = params[P_TR_TAU]
+    cpr = params[P_ENC_CPR]
+
+    orders = np.zeros(MAX_HARMONICS)
+    amplitudes = np.zeros(MAX_HARMONICS)
+    phases = np.zeros(MAX_HARMONICS)
+    gains = np.zeros(MAX_HARMONICS)
+    shifts = np.zeros(MAX_HARMONICS)
+    count = harmonic_table(params, orders, amplitudes, phases)
+
+    if state[S_INITIALISED] == 0.0:
+        state[S_OMEGA_M] = params[P_SPEED_CMD] * RPM
+        state[S_CMP_A] = -1.0
+        state[S_CMP_B] = -1.0
+        state[S_CMP_C] = -1.0
+        state[S_INITIALISED] = 1.0
+
+    committed = state.copy()
+    j = 0
+    if state[S_TIME] > record_start_s:
+        j = int(math.ceil((state[S_TIME] - record_start_s) / sample_dt_s - 1e-9))
+
+    compare = np.zeros(3)
+    t_on = np.zeros(3)
+    t_off = np.zeros(3)
+    gate = np.zeros(3, np.int64)
+    volts = np.zeros(3)
+    cur = np.zeros(3)
+    x0 = np.zeros(3)
+    u = np.zeros(3)
+    v_integral = np.zeros(3)
+    edges = np.zeros(14)
+    tiny = 1e-12 * period
+
+    while state[S_TIME] < end_s:
+        committed[:] = state
+        t_period = state[S_TIME]
+        omega = dyno_speed(params, state, t_period, period)
+        omega_e = pole_pairs * omega
+        theta_m0 = state[S_THETA_M]
+        theta_e0 = pole_pairs * theta_m0
+        for x in range(3):
+            compare[x] = state[S_CMP_A + x]
+            cur[x] = state[S_IA + x]
+
+        # firmware at the valley: its compare values apply from the next period on
+        if enabled:
+            ca, cb, cc = firmware_step(cur[0], cur[1], theta_m0, params, state, counts_top,
+                                       max_compare)
+        else:
+            ca, cb, cc = -1.0, -1.0, -1.0
+            state[S_INT_D] = 0.0
+            state[S_INT_Q] = 0.0
+            fs = params[P_ADC_FS]
+            state[S_ISENSE_A] = fs * adc_read(cur[0], params[P_IA_OFFSET], params[P_IA_GAIN],
+                                              fs, params[P_ADC_BITS])
+            state[S_ISENSE_B] = fs * adc_read(cur[1], params[P_IB_OFFSET], params[P_IB_GAIN],
+                                              fs, params[P_ADC_BITS])
+        state[S_CMP_A] = ca
+        state[S_CMP_B] = cb
+        state[S_CMP_C] = cc
+
+        gates_off = compare[0] < 0.0
+        if gates_off:
+            cur[:] = 0.0
+        forced_coefficients(params, omega, orders, amplitudes, phases, count, gains, shifts)
+
+        n_edges = 0
+        edges[n_edges] = 0.0
+        n_edges += 1
+        for x in range(3):
+            t_on[x] = (counts_top - compare[x]) / counts_top * 0.5 * period
+            t_off[x] = period - t_on[x]
+            if compare[x] > 0.0:
+                for edge in (t_on[x], t_on[x] + dead, t_off[x], t_off[x] + dead):
+                    edges[n_edges] = min(edge, period)
+                    n_edges += 1
+        edges[n_edges] = period
+        n_edges += 1
+        edges[:n_edges].sort()
+
+        j_period = j
+        v_integral[:] = 0.0
+        tau = 0.0
+        k_a, k_b, k_c = emf_per_speed(theta_e0, params, orders, amplitudes, phases, count)
+        torque_em_a, torque_a = _shaft_torque(theta_m0, k_a, k_b, k_c, cur[0], cur[1], cur[2],
+                                              params)
+        y_a = state[S_TR_Y]
+
+        for e in range(n_edges - 1):
+            seg_end = edges[e + 1]
+            if seg_end - edges[e] <= tiny:
+                continue
+            middle = 0.5 * (edges[e] + seg_end)
+            for x in range(3):
+                gate[x] = LOW if gates_off else _leg_state(middle, t_on[x], t_off[x], dead,
+                                                           compare[x])
+            while seg_end - tau > tiny:
+                # ---- leg voltages; diodes decide dead legs; zero-current dead legs may clamp
+                clamped = 0
+                n_float = 0
+                for x in range(3):
+                    if gate[x] == HIGH:
+                        volts[x] = vdc
+                    elif gate[x] == LOW:
+                        volts[x] = 0.0
+                    elif cur[x] > 0.0:
+                        volts[x] = 0.0                # lower diode carries positive current
+                    elif cur[x] < 0.0:
+                        volts[x] = vdc                # upper diode carries negative current
+                    else:
+                        clamped |= 1 << x
+                        n_float += 1
+                        volts[x] = 0.5 * vdc
+                if gates_off:
+                    mode = MODE_ZERO
+                elif isolated and n_float >= 2:
+                    mode = MODE_ZERO
+                else:
+                    mode = MODE_FREE
+                    for x in range(3):
+                        if clamped & (1 << x):
+                            kx = (k_a, k_b, k_c)
+                            if isolated:
+                                m = (x + 1) % 3
+                                n = (x + 2) % 3
+                                v_float = omega * kx[x] + 0.5 * (volts[m] + volts[n]
+                                                                 - omega * (kx[m] + kx[n]))
+                            else:
+                                v_float = omega * kx[x] + 0.5 * vdc
+                            if v_float > vdc:         # diode conducts: current leaves zero
+                                volts[x] = vdc
+                                clamped &= ~(1 << x)
+                            elif v_float < 0.0:
+                                volts[x] = 0.0
+                                clamped &= ~(1 << x)
+                    if isolated and clamped != 0:
+                        mode = MODE_ONE_CLAMPED
+                k = 0
+                for x in range(3):
+                    if clamped & (1 << x):
+                        k = x
+                fa, fb, fc = forced_response(theta_e0 + omega_e * tau, orders, gains, shifts,
+                                             count)
+                forced = (fa, fb, fc)
+                if mode == MODE_FREE:
+                    if isolated:
+                        v_mean = (volts[0] + volts[1] + volts[2]) / 3.0
+                    else:
+                        v_mean = 0.5 * vdc
+                    for x in range(3):
+                        u[x] = volts[x] - v_mean
+                        x0[x] = cur[x] - forced[x]
+                elif mode == MODE_ONE_CLAMPED:
+                    m = (k + 1) % 3
+                    n = (k + 2) % 3
+                    u[0] = 0.5 * (volts[m] - volts[n])
+                    x0[0] = cur[m] - 0.5 * (forced[m] - forced[n])
+
+                # ---- end of the sub-segment: the segment end or the first zero crossing
+                tau_b = seg_end
+                ia, ib, ic = _currents(mode, tau_b, tau, x0, u, clamped, k, theta_e0, omega_e,
+                                       orders, gains, shifts, count, resistance, inductance)
+                crossing = -1
+                if mode != MODE_ZERO:
+                    for x in range(3):
+                        end_value = (ia, ib, ic)[x]
+                        if gate[x] == DEAD and cur[x] != 0.0 and cur[x] * end_value <= 0.0:
+                            low = tau
+                            high = tau_b
+                            for _ in range(BISECTIONS):
+                                mid = 0.5 * (low + high)
+                                va_, vb_, vc_ = _currents(mode, mid, tau, x0, u, clamped, k,
+                                                          theta_e0, omega_e, orders, gains,
+                                                          shifts, count, resistance, inductance)
+                                if (va_, vb_, vc_)[x] * cur[x] > 0.0:
+                                    low = mid
+                                else:
+                                    high = mid
+                            if crossing < 0 or high < tau_b:
+                                tau_b = high
+                                crossing = x
+                    if crossing >= 0:
+                        ia, ib, ic = _currents(mode, tau_b, tau, x0, u, clamped, k, theta_e0,
+                                               omega_e, orders, gains, shifts, count,
+                                               resistance, inductance)
+                kb_a, kb_b, kb_c = emf_per_speed(theta_e0 + omega_e * tau_b, params, orders,
+                                                 amplitudes, phases, count)
+                theta_mb = theta_m0 + omega * tau_b
+                torque_em_b, torque_b = _shaft_torque(theta_mb, kb_a, kb_b, kb_c, ia, ib, ic,
+                                                      params)
+                span = tau_b - tau
+                slope = (torque_b - torque_a) / span
+
+                # ---- samples inside [tau, tau_b)
+                while j < n_samples:
+                    t_sample = record_start_s + j * sample_dt_s
+                    tau_s = t_sample - t_period
+                    if tau_s >= tau_b:
+                        break
+                    sa, sb, sc = _currents(mode, tau_s, tau, x0, u, clamped, k, theta_e0,
+                                           omega_e, orders, gains, shifts, count, resistance,
+                                           inductance)
+                    theta_m = theta_m0 + omega * tau_s
+                    theta_e = pole_pairs * theta_m
+                    ks_a, ks_b, ks_c = emf_per_speed(theta_e, params, orders, amplitudes,
+                                                     phases, count)
+                    t_em, t_shaft = _shaft_torque(theta_m, ks_a, ks_b, ks_c, sa, sb, sc, params)
+                    q_a, q_b, q_c = three_phase(1, theta_e)
+                    d_a, d_b, d_c = three_phase(1, theta_e + 0.5 * math.pi)
+                    out[C_TIME, j] = t_sample
+                    out[C_THETA_M, j] = theta_m
+                    out[C_COUNTS, j] = math.floor(theta_m * cpr / TWO_PI)
+                    out[C_IA, j] = sa
+                    out[C_IB, j] = sb
+                    out[C_IC, j] = sc
+                    out[C_TORQUE_EM, j] = t_em
+                    out[C_TORQUE_SHAFT, j] = t_shaft
+                    out[C_TORQUE_SHAFT_FILTERED, j] = _filter(y_a, torque_a, slope,
+                                                              tau_s - tau, tau_f)
+                    out[C_SPEED_RPM, j] = omega / RPM
+                    out[C_IQ, j] = 2.0 / 3.0 * (sa * q_a + sb * q_b + sc * q_c)
+                    out[C_ID, j] = 2.0 / 3.0 * (sa * d_a + sb * d_b + sc * d_c)
+                    out[C_IA_SENSED, j] = state[S_ISENSE_A]
+                    out[C_IB_SENSED, j] = state[S_ISENSE_B]
+                    j += 1
+
+                # ---- line-to-neutral voltage integral (EMF taken at the sub-segment mean)
+                e_mean = (0.5 * omega * (k_a + kb_a), 0.5 * omega * (k_b + kb_b),
+                          0.5 * omega * (k_c + kb_c))
+                for x in range(3):
+                    if mode == MODE_ZERO or clamped & (1 << x):
+                        v_xn = e_mean[x]
+                    elif mode == MODE_ONE_CLAMPED:
+                        m = (k + 1) % 3
+                        n = (k + 2) % 3
+                        half_diff = 0.5 * (volts[m] - volts[n])
+                        common = 0.5 * (e_mean[m] + e_mean[n])
+                        v_xn = common + (half_diff if x == m else -half_diff)
+                    elif isolated:
+                        v_xn = volts[x] - (volts[0] + volts[1] + volts[2]) / 3.0 \
+                            + (e_mean[0] + e_mean[1] + e_mean[2]) / 3.0
+                    else:
+                        v_xn = volts[x] - 0.5 * vdc
+                    v_integral[x] += v_xn * span
+
+                # ---- move to tau_b
+                y_a = _filter(y_a, torque_a, slope, span, tau_f)
+                cur[0] = ia
+                cur[1] = ib
+                cur[2] = ic
+                if crossing >= 0:
+                    residual = cur[crossing]
+                    cur[crossing] = 0.0
+                    if mode == MODE_ONE_CLAMPED:
+                        cur[:] = 0.0                  # the pair crosses together
+                    elif isolated:
+                        cur[(crossing + 1) % 3] += 0.5 * residual
+                        cur[(crossing + 2) % 3] += 0.5 * residual
+                tau = tau_b
+                torque_a = torque_b
+                k_a = kb_a
+                k_b = kb_b
+                k_c = kb_c
+
+        for i in range(j_period, j):
+            out[C_VA, i] = v_integral[0] / period
+            out[C_VB, i] = v_integral[1] / period
+            out[C_VC, i] = v_integral[2] / period
+        state[S_IA] = cur[0]
+        state[S_IB] = cur[1]
+        state[S_IC] = cur[2]
+        state[S_TR_Y] = y_a
+        state[S_THETA_M] = theta_m0 + omega * period
+        state[S_TIME] = t_period + period
+    return committed
+
+
+@njit(cache=True, parallel=True)
+def run_batch(params, states, record_start_s, sample_dt_s, outs, end_s):
+    """``run_drive`` for many parameter sets (rows) in parallel over all cores."""
+    for b in prange(params.shape[0]):
+        run_drive(params[b], states[b], record_start_s, sample_dt_s, outs[b], end_s)

@@ -1,0 +1,138 @@
+"""``DriveTwin``: the stateful simulated drive + dyno that the simulated instruments share.
+
+Simulated time only: ``advance`` runs the engine forward and never sleeps. Each call continues
+from the electrical, firmware and mechanical state the previous one left, so consecutive captures
+join up; injections and commands changed between calls take effect from the PWM period in which
+the next call starts. Thread-safe: every public method holds ``lock``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import replace
+
+import numpy as np
+
+from hil.sim import layout as L
+from hil.sim.config import DriveConfig, check_current_command, check_speed
+from hil.sim.engine import sample_count
+from hil.sim.injection import Injection
+from hil.sim.kernel import run_drive
+from hil.sim.packing import new_state, pack_params
+from hil.sim.results import name_channels, transducer_gain_error
+
+
+class DriveTwin:
+    """Simulated drive under test on a speed-holding dyno (see COMMON.md for the contract)."""
+
+    def __init__(self, config: DriveConfig | None = None, *, seed: int = 0) -> None:
+        self.lock = threading.RLock()
+        self._config = config if config is not None else DriveConfig()
+        self._state = new_state()
+        self._rng = np.random.default_rng(seed)
+        self._gain_error_pu = transducer_gain_error(self._config, self._rng)
+        self.time_s = 0.0
+        self._latest: dict[str, float] = {}
+
+    # ---- configuration --------------------------------------------------------------------
+    @property
+    def config(self) -> DriveConfig:
+        with self.lock:
+            return self._config
+
+    @property
+    def injection(self) -> Injection:
+        with self.lock:
+            return self._config.injection
+
+    def set_injection(self, **values) -> None:
+        """Change injection knobs; ValueError (field and allowed range) leaves them unchanged."""
+        with self.lock:
+            injection = self._config.injection.with_values(**values)
+            self._config = replace(self._config, injection=injection)
+
+    def restore_defaults(self) -> None:
+        with self.lock:
+            self._config = replace(self._config, injection=Injection())
+
+    @property
+    def enabled(self) -> bool:
+        with self.lock:
+            return self._config.enabled
+
+    def enable(self) -> None:
+        with self.lock:
+            self._config = replace(self._config, enabled=True)
+
+    def disable(self) -> None:
+        """Gates off: no current (the firmware's integrators reset)."""
+        with self.lock:
+            self._config = replace(self._config, enabled=False)
+
+    @property
+    def current_command_a(self) -> float:
+        with self.lock:
+            return self._config.current_command_a
+
+    @current_command_a.setter
+    def current_command_a(self, value: float) -> None:
+        with self.lock:
+            self._config = replace(self._config, current_command_a=check_current_command(value))
+
+    @property
+    def speed_rpm(self) -> float:
+        """The dyno speed setpoint, rpm."""
+        with self.lock:
+            return self._config.speed_rpm
+
+    @speed_rpm.setter
+    def speed_rpm(self, value: float) -> None:
+        with self.lock:
+            self._config = replace(self._config, speed_rpm=check_speed(value))
+
+    # ---- simulation -----------------------------------------------------------------------
+    def advance(self, duration_s: float, sample_rate_hz: float, *,
+                settle_s: float = 0.0) -> dict[str, np.ndarray]:
+        """Run ``settle_s`` unrecorded, then ``duration_s`` sampled at ``sample_rate_hz``.
+
+        Returns the standard channels (``time_s`` in simulated seconds since construction).
+        """
+        with self.lock:
+            if not settle_s >= 0:
+                raise ValueError(f"settle_s must be >= 0, got {settle_s!r}")
+            n = sample_count(duration_s, sample_rate_hz)
+            params = pack_params(self._config)
+            dt = 1.0 / sample_rate_hz
+            if settle_s > 0:
+                self._state = run_drive(params, self._state.copy(), self.time_s + settle_s, dt,
+                                        np.zeros((L.N_CHANNELS, 0)), self.time_s + settle_s)
+                self.time_s += settle_s
+            out = np.zeros((L.N_CHANNELS, n))
+            self._state = run_drive(params, self._state.copy(), self.time_s, dt, out,
+                                    self.time_s + duration_s)
+            self.time_s += duration_s
+            channels = name_channels(out, self._config, self._gain_error_pu, self._rng)
+            if n:
+                self._latest = {name: float(channels[name][-1]) for name in
+                                ("torque_nm", "torque_em_nm", "speed_rpm", "ia_a", "ib_a",
+                                 "dc_bus_v")}
+                self._latest["position_counts"] = int(channels["encoder_counts"][-1])
+            return channels
+
+    def status(self) -> dict:
+        """Latest scalars: from the last sample taken, else from the engine state."""
+        with self.lock:
+            state = self._state
+            cpr = self._config.sensors.encoder_counts_per_rev
+            speed = state[L.S_OMEGA_M] * 60 / (2 * math.pi) if state[L.S_INITIALISED] \
+                else self._config.speed_rpm
+            latest = {
+                "torque_nm": 0.0, "torque_em_nm": 0.0, "speed_rpm": float(speed),
+                "position_counts": int(math.floor(state[L.S_THETA_M] * cpr / (2 * math.pi))),
+                "ia_a": float(state[L.S_IA]), "ib_a": float(state[L.S_IB]),
+                "dc_bus_v": self._config.motor.parameters.dc_bus_v,
+            }
+            latest.update(self._latest)
+            latest["time_s"] = self.time_s
+            return latest
