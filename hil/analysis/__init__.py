@@ -10,9 +10,10 @@ Typical use::
 """
 
 from hil.analysis.decision import DECISIONS, DecisionRule, Verdict, classify, decide
-from hil.analysis.metrics import DEFAULT_MAX_ORDER, RippleResult, analyze_capture, analyze_torque
+from hil.analysis.metrics import (DEFAULT_MAX_ORDER, PK_PK_METHODS, RippleResult, analyze_capture,
+                                 analyze_torque)
 from hil.analysis.uncertainty import BudgetRow, InstrumentUncertainty, UncertaintyBudget
 
-__all__ = ["DECISIONS", "DEFAULT_MAX_ORDER", "BudgetRow", "DecisionRule", "InstrumentUncertainty",
+__all__ = ["DECISIONS", "DEFAULT_MAX_ORDER", "PK_PK_METHODS", "BudgetRow", "DecisionRule", "InstrumentUncertainty",
            "RippleResult", "UncertaintyBudget", "Verdict", "analyze_capture", "analyze_torque",
            "classify", "decide"]

@@ -1,13 +1,22 @@
 """Ripple metrics of a torque capture: the chain angle → revolutions → orders → figures → budget.
 
-Definitions (the project's, design.md §3), all over the whole electrical revolutions used and
-band-limited to electrical orders 0..``max_order`` (the synchronous average is represented by its
-Fourier series up to ``max_order``, see :mod:`hil.analysis.spectrum`):
+Definitions (the project's, design.md §3), all over the whole electrical revolutions used; the
+spectrum figures cover electrical orders 1..``max_order`` (:mod:`hil.analysis.spectrum`):
 
 * ``mean_torque_nm``: the angle-average torque, c₀.
 * ``sync_average_nm``: the synchronous average — the mean over revolutions of the angle-binned
-  torque — at the bin centres ``angle_grid_rad``.
-* ``pk_pk_nm``: peak-to-peak of the synchronous average (extremes searched on a fine grid).
+  torque — at the bin centres ``angle_grid_rad``, as the pk-pk sees it: its Fourier series up to
+  ``max_order`` (``"band-limited"``) or the raw bin means (``"bins"``).
+* ``pk_pk_nm``: peak-to-peak of the synchronous average, by ``pk_pk_method``:
+
+  - ``"band-limited"`` (default): of its Fourier series up to ``max_order``, extremes searched on
+    a fine grid. Exact for smooth ripple and least sensitive to noise; a *step* in the torque
+    (encoder quantisation at standstill) rings by the Gibbs overshoot (≈ 9 % of the step at each
+    side) and harmonics above ``max_order`` are cut.
+  - ``"bins"``: max − min of the synchronous average's angle bins (width 2π/N, N ≥ 8·max_order).
+    No overshoot on steps; a sinusoid of order k reads low by up to ``1 − cos(πk/N)·sinc(k/N)``
+    and noise lifts it more (the budget's bias row says how much). Choose a large ``max_order``
+    (fine bins) for step-shaped ripple.
 * ``pk_pk_pu``: ``pk_pk_nm / |mean_torque_nm|`` — the per-unit torque ripple of the paper and the
   project (NaN when the mean torque is exactly zero).
 * ``pk_pk_rated_pu``: ``pk_pk_nm / rated_torque_nm`` when a rated torque is given, else None.
@@ -29,13 +38,15 @@ from hil.analysis.angle import TWO_PI, angle_from_speed, check_finite, check_tim
 from hil.analysis.resample import (interpolation_response, resample_revolutions,
                                    samples_per_revolution)
 from hil.analysis.spectrum import order_coefficients, peak_to_peak, reconstruct
-from hil.analysis.uncertainty import (InstrumentUncertainty, UncertaintyBudget, build_budget,
-                                      type_a)
+from hil.analysis.uncertainty import (InstrumentUncertainty, UncertaintyBudget,
+                                      amplitude_standard_uncertainty, build_budget, type_a)
 from hil.capture import Capture
 from hil.errors import InputError
 
 DEFAULT_MAX_ORDER = 64
 MIN_SAMPLES = 16
+#: How the pk-pk of the synchronous average is taken (module docstring).
+PK_PK_METHODS = ("band-limited", "bins")
 
 
 @dataclass(frozen=True)
@@ -53,6 +64,7 @@ class RippleResult:
     phase_rad: np.ndarray
     amplitude_u_nm: np.ndarray          # type-A standard uncertainty of each A_k
     dominant_order: int
+    pk_pk_method: str
     named_order: int | None
     named_amplitude_nm: float | None
     named_phase_rad: float | None
@@ -87,7 +99,8 @@ class RippleResult:
             "mean_torque_nm": self.mean_torque_nm, "pk_pk_nm": self.pk_pk_nm,
             "pk_pk_pu": _json_float(self.pk_pk_pu), "pk_pk_rated_pu": self.pk_pk_rated_pu,
             "rated_torque_nm": self.rated_torque_nm, "rms_ac_nm": self.rms_ac_nm,
-            "dominant_order": self.dominant_order, "named_order": self.named_order,
+            "dominant_order": self.dominant_order, "pk_pk_method": self.pk_pk_method,
+            "named_order": self.named_order,
             "named_amplitude_nm": self.named_amplitude_nm,
             "named_phase_rad": self.named_phase_rad, "revolutions": self.revolutions,
             "samples_per_rev": self.samples_per_rev, "max_order": self.max_order,
@@ -120,7 +133,8 @@ def _json_clean(value):
 
 def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAULT_MAX_ORDER,
                    named_order: int | None = None, rated_torque_nm: float | None = None,
-                   instruments: InstrumentUncertainty | None = None) -> RippleResult:
+                   instruments: InstrumentUncertainty | None = None,
+                   pk_pk_method: str = "band-limited") -> RippleResult:
     """Analyse torque samples against the electrical rotor angle (wrapped or unwrapped, rad).
 
     Raises InputError for non-finite samples, non-increasing time, mismatched lengths, an angle
@@ -140,6 +154,8 @@ def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAUL
         named_order = _check_order("named_order", named_order, max_order)
     if rated_torque_nm is not None and not (math.isfinite(rated_torque_nm) and rated_torque_nm > 0):
         raise InputError(f"rated_torque_nm must be a positive number, got {rated_torque_nm!r}")
+    if pk_pk_method not in PK_PK_METHODS:
+        raise InputError(f"pk_pk_method must be one of {PK_PK_METHODS}, got {pk_pk_method!r}")
 
     travel = travel_angle(time_s, angle_elec_rad)
     revs = resample_revolutions(travel, torque_nm, samples_per_revolution(max_order))
@@ -149,9 +165,16 @@ def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAUL
     mean = float(coefficients[0].real)
     amplitude = np.abs(coefficients[1:])
     phase = np.angle(coefficients[1:])
-    pk_pk = float(peak_to_peak(coefficients[None, :])[0])
+    if pk_pk_method == "band-limited":
+        per_rev_rows, statistic = per_rev, _band_limited_pk_pk_pu
+        sync_average = reconstruct(coefficients, revs.samples_per_rev, centred=True)
+        pk_pk = float(peak_to_peak(coefficients[None, :])[0])
+    else:
+        per_rev_rows, statistic = revs.matrix_nm, _bins_pk_pk_pu
+        sync_average = revs.matrix_nm.mean(axis=0)
+        pk_pk = float(np.ptp(sync_average))
     pk_pk_pu = pk_pk / abs(mean) if mean != 0 else math.nan
-    scatter = type_a(per_rev)
+    scatter = type_a(per_rev_rows, statistic)
     budget = build_budget(pk_pk_pu=pk_pk_pu, pk_pk_nm=pk_pk, mean_torque_nm=mean,
                           type_a_result=scatter, revolutions=revs.revolutions,
                           instruments=instruments)
@@ -161,20 +184,22 @@ def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAUL
         rated_torque_nm=rated_torque_nm,
         rms_ac_nm=float(np.sqrt(np.sum(amplitude ** 2) / 2.0)),
         orders=np.arange(1, max_order + 1), amplitude_nm=amplitude, phase_rad=phase,
-        amplitude_u_nm=scatter.amplitude_standard_nm[1:],
-        dominant_order=int(np.argmax(amplitude)) + 1, named_order=named_order,
+        amplitude_u_nm=amplitude_standard_uncertainty(per_rev)[1:],
+        dominant_order=int(np.argmax(amplitude)) + 1, pk_pk_method=pk_pk_method,
+        named_order=named_order,
         named_amplitude_nm=None if named_order is None else float(amplitude[named_order - 1]),
         named_phase_rad=None if named_order is None else float(phase[named_order - 1]),
         revolutions=revs.revolutions, samples_per_rev=revs.samples_per_rev, max_order=max_order,
         direction=travel.direction, angle_grid_rad=revs.angle_grid_rad,
-        sync_average_nm=reconstruct(coefficients, revs.samples_per_rev, centred=True),
+        sync_average_nm=sync_average,
         revolution_matrix_nm=revs.matrix_nm, uncertainty=budget)
 
 
 def analyze_capture(capture: Capture, *, max_order: int = DEFAULT_MAX_ORDER,
                     named_order: int | None = None, rated_torque_nm: float | None = None,
                     instruments: InstrumentUncertainty | None = None,
-                    pole_pairs: int | None = None) -> RippleResult:
+                    pole_pairs: int | None = None,
+                    pk_pk_method: str = "band-limited") -> RippleResult:
     """Analyse a :class:`~hil.capture.Capture` (channels ``time_s``, ``torque_nm`` and an angle).
 
     The mechanical angle comes from ``rotor_angle_mech_rad`` (wrapped or unwrapped), else from
@@ -200,7 +225,19 @@ def analyze_capture(capture: Capture, *, max_order: int = DEFAULT_MAX_ORDER,
                          f"'encoder_counts' or 'speed_rpm'; it has {sorted(capture.channels)}")
     return analyze_torque(time_s, capture["torque_nm"], pole_pairs * mech, max_order=max_order,
                           named_order=named_order, rated_torque_nm=rated_torque_nm,
-                          instruments=instruments)
+                          instruments=instruments, pk_pk_method=pk_pk_method)
+
+
+def _band_limited_pk_pk_pu(coefficients: np.ndarray) -> np.ndarray:
+    """pk-pk per unit of |mean| of the Fourier series in each row (c_0..c_K)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return peak_to_peak(coefficients) / np.abs(coefficients[:, 0].real)
+
+
+def _bins_pk_pk_pu(bins_nm: np.ndarray) -> np.ndarray:
+    """max − min per unit of |mean| of the angle bins in each row."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.ptp(bins_nm, axis=-1) / np.abs(bins_nm.mean(axis=-1))
 
 
 def _pole_pairs(capture: Capture, override: int | None) -> int:

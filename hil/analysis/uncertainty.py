@@ -3,8 +3,8 @@
 Sources (each a row of the budget table: source, value, unit, distribution, divisor, sensitivity,
 contribution in per unit of the mean torque):
 
-* **Type A — revolution-to-revolution scatter.** The order spectra of the single revolutions are
-  resampled with replacement (bootstrap, fixed seed, in contiguous blocks when there are many
+* **Type A — revolution-to-revolution scatter.** The single revolutions (their order spectra or
+  their angle bins, whichever the pk-pk is taken from) are resampled with replacement (bootstrap, fixed seed, in contiguous blocks when there are many
   revolutions) and ``p`` is recomputed for each draw; the standard deviation is the standard
   uncertainty of ``p`` of the synchronous average. Synchronous averaging over R revolutions leaves
   noise of σ/√R per bin, which still lifts the pk-pk of the average (the extremes pick up noise).
@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from typing import Callable
 
 import numpy as np
 
-from hil.analysis.spectrum import peak_to_peak
 from hil.errors import InputError
 
 COVERAGE_FACTOR = 2.0
@@ -147,40 +147,38 @@ class UncertaintyBudget:
 
 @dataclass(frozen=True)
 class TypeA:
-    """Bootstrap result: standard uncertainty and noise bias of p, per-order amplitude scatter."""
+    """Bootstrap result: standard uncertainty and noise bias of p (NaN with < 2 revolutions)."""
 
     standard_pu: float
     bias_pu: float
-    amplitude_standard_nm: np.ndarray   # u(A_k) of the synchronous average, k = 0..K
     draws: int
 
 
-def type_a(revolution_coefficients: np.ndarray) -> TypeA:
-    """Type-A figures from the per-revolution order coefficients (R × (K+1), c_0..c_K).
+def type_a(per_revolution: np.ndarray,
+           statistic: Callable[[np.ndarray], np.ndarray]) -> TypeA:
+    """Type-A figures of ``p = statistic(synchronous average)`` from its per-revolution rows.
 
-    Bootstrap draws of the synchronous average give noise realisations ``δ`` with the average's
-    own noise covariance. The standard uncertainty is the spread of ``p(x̄ + δ)``. The noise bias is
-    found by simulation-extrapolation (SIMEX): ``p`` is averaged over ``x̄ + λ·δ`` for
+    ``per_revolution`` is R × D (one row per revolution: bins or order coefficients, any linear
+    representation whose mean over rows is the synchronous average); ``statistic`` maps B × D
+    rows to B values of p. Bootstrap draws of the average give noise realisations ``δ`` with the
+    average's own noise covariance. The standard uncertainty is the spread of ``p(x̄ + δ)``. The
+    noise bias is found by simulation-extrapolation (SIMEX): ``p`` is averaged over ``x̄ + λ·δ`` for
     λ² = 0, 1, 2, 3, i.e. total noise s = √(1+λ²) times that of the measurement, a straight line
     in s is fitted and its slope is the bias at s = 1 relative to s = 0 (exact when the bias grows
     in proportion to the noise — a flat-topped ripple — and an overestimate when it grows more
-    slowly, so it errs on the safe side). With fewer than two revolutions every figure is NaN.
+    slowly, so it errs on the safe side).
     """
-    revolutions = revolution_coefficients.shape[0]
-    max_order = revolution_coefficients.shape[1] - 1
+    revolutions = per_revolution.shape[0]
     if revolutions < 2:
-        return TypeA(math.nan, math.nan, np.full(max_order + 1, math.nan), 0)
-    average = revolution_coefficients.mean(axis=0)
-    scatter = revolution_coefficients - average
-    amplitude_u = np.sqrt((scatter.real.var(axis=0, ddof=1) + scatter.imag.var(axis=0, ddof=1))
-                          / 2.0 / revolutions)
+        return TypeA(math.nan, math.nan, 0)
+    average = per_revolution.mean(axis=0)
     blocks = np.array_split(np.arange(revolutions), min(revolutions, BOOTSTRAP_MAX_BLOCKS))
-    block_sums = np.stack([revolution_coefficients[b].sum(axis=0) for b in blocks])
+    block_sums = np.stack([per_revolution[b].sum(axis=0) for b in blocks])
     block_sizes = np.array([b.size for b in blocks], dtype=np.float64)
     n_blocks = len(blocks)
-    # the scatter of block means understates that of R single revolutions by (G-1)/G
+    # the bootstrap variance of a mean of G blocks is (G-1)/G of the unbiased one
     inflation = math.sqrt(n_blocks / (n_blocks - 1))
-    measured = float(_pk_pk_pu(average[None, :])[0])
+    measured = float(statistic(average[None, :])[0])
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     sums = {scale: [] for scale in SIMEX_SCALES}
     for start in range(0, BOOTSTRAP_DRAWS, BOOTSTRAP_CHUNK):
@@ -188,18 +186,27 @@ def type_a(revolution_coefficients: np.ndarray) -> TypeA:
         counts = rng.multinomial(n_blocks, np.full(n_blocks, 1.0 / n_blocks), size=size)
         noise = ((counts @ block_sums) / (counts @ block_sizes)[:, None] - average) * inflation
         for scale in SIMEX_SCALES:
-            sums[scale].append(_pk_pk_pu(average + scale * noise))
+            sums[scale].append(statistic(average + scale * noise))
     draws = {scale: np.concatenate(values) for scale, values in sums.items()}
     standard = float(np.std(draws[1.0], ddof=1))
     noise_multiple = np.sqrt(1.0 + np.array((0.0,) + SIMEX_SCALES) ** 2)
-    mean_pk_pk = np.array([measured] + [float(np.mean(draws[scale])) for scale in SIMEX_SCALES])
-    slope = float(np.polyfit(noise_multiple, mean_pk_pk, 1)[0])
-    return TypeA(standard, slope, amplitude_u, BOOTSTRAP_DRAWS)
+    mean_p = np.array([measured] + [float(np.mean(draws[scale])) for scale in SIMEX_SCALES])
+    slope = float(np.polyfit(noise_multiple, mean_p, 1)[0])
+    return TypeA(standard, slope, BOOTSTRAP_DRAWS)
 
 
-def _pk_pk_pu(coefficients: np.ndarray) -> np.ndarray:
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return peak_to_peak(coefficients) / np.abs(coefficients[:, 0].real)
+def amplitude_standard_uncertainty(per_revolution_coefficients: np.ndarray) -> np.ndarray:
+    """Type-A standard uncertainty u(A_k) (N·m) of the synchronous average's order amplitudes.
+
+    From the scatter of the complex coefficients between revolutions (R × (K+1)), taken as
+    circular: u(A_k) = √((var Re + var Im) / 2 / R). NaN with fewer than two revolutions.
+    """
+    revolutions, width = per_revolution_coefficients.shape
+    if revolutions < 2:
+        return np.full(width, math.nan)
+    real_var = per_revolution_coefficients.real.var(axis=0, ddof=1)
+    imag_var = per_revolution_coefficients.imag.var(axis=0, ddof=1)
+    return np.sqrt((real_var + imag_var) / 2.0 / revolutions)
 
 
 def build_budget(*, pk_pk_pu: float, pk_pk_nm: float, mean_torque_nm: float, type_a_result: TypeA,

@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-from hil.analysis import DEFAULT_MAX_ORDER, InstrumentUncertainty, RippleResult, analyze_capture
+from hil.analysis import (DEFAULT_MAX_ORDER, PK_PK_METHODS, InstrumentUncertainty, RippleResult,
+                          analyze_capture)
 from hil.capture import Capture
 
 
@@ -23,6 +24,9 @@ def register(subparsers) -> None:
                         help="electrical order to report by name (e.g. 6 for dead time)")
     parser.add_argument("--max-order", type=int, default=DEFAULT_MAX_ORDER, metavar="K",
                         help=f"highest electrical order analysed (default {DEFAULT_MAX_ORDER})")
+    parser.add_argument("--pk-pk-method", choices=PK_PK_METHODS, default=PK_PK_METHODS[0],
+                        help="pk-pk of the Fourier series up to --max-order (default) or of the "
+                             "raw angle bins (for step-shaped ripple, with a large --max-order)")
     parser.add_argument("--top", type=int, default=5, metavar="N",
                         help="number of largest orders listed (default 5)")
     parser.add_argument("--rated-torque-nm", type=float, default=None, metavar="NM",
@@ -45,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
         transducer_full_scale_nm=args.transducer_full_scale_nm, daq_lsb_nm=args.daq_lsb_nm)
     result = analyze_capture(Capture.load(args.capture), max_order=args.max_order,
                              named_order=args.order, rated_torque_nm=args.rated_torque_nm,
-                             instruments=instruments, pole_pairs=args.pole_pairs)
+                             instruments=instruments, pole_pairs=args.pole_pairs,
+                             pk_pk_method=args.pk_pk_method)
     top = max(1, min(args.top, result.max_order))
     if args.json:
         data = result.to_dict()
@@ -62,7 +67,8 @@ def format_result(result: RippleResult, top: int = 5) -> str:
     u = result.uncertainty
     lines = [
         f"revolutions used     {result.revolutions} electrical "
-        f"({result.samples_per_rev} angle bins each, orders 1..{result.max_order})",
+        f"({result.samples_per_rev} angle bins each, orders 1..{result.max_order}, "
+        f"pk-pk {result.pk_pk_method})",
         f"mean torque          {result.mean_torque_nm:.6g} N*m",
         f"pk-pk (sync average) {result.pk_pk_nm:.6g} N*m = {_pu(result.pk_pk_pu)} of mean "
         f"(U = {_pu(u.expanded_pu)}, k = {u.coverage_factor:g})",
