@@ -8,11 +8,19 @@ M = V_pk/V_dc and θ the angle from the zero crossing of the phase voltage. So e
     ΔT_on = 0.5·M·[sin(θ + 2π/3) − sin θ]·T_s,      0 ≤ θ ≤ 30°
 
 (printed with sin(θ − 2π/3), which would grow from 0° to 30° instead of vanishing at 30° as the
-text says), and eq 30, Δi = ΔT_on·(V − i·R − E)/L_s with V = V_dc/3 and i·R + E ≈ 0 at the zero
-crossing of the phase voltage, gives the pk-pk current ripple. It is largest at the zero
-crossing, √3·V_pk·T_s/(12·L_s), independent of V_dc, and its envelope repeats every 60°: order 6.
+text says). Eq 30, Δi = ΔT_on·(V − i·R − E)/L_s with V = V_dc/3 and i·R + E ≈ 0 at the zero
+crossing of the phase voltage, is the excursion of the current from its average during one of the
+two −V_dc/3 intervals of a centre-aligned period (the +V_dc/3 intervals bring it back): the pk-pk
+ripple within the period is 2·Δi = M·[sin(θ + 2π/3) − sin θ]·T_s·V_dc/(3·L_s) (checked against a
+switched-circuit simulation in the tests). It is largest at the zero crossing,
+√3·V_pk·T_s/(6·L_s), independent of V_dc, and its envelope repeats every 60°: order 6.
 The paper takes the per-unit torque ripple equal to this current ripple per unit of I (current in
-phase with the EMF); the tests compare that with a switched-circuit torque sum.
+phase with the EMF). A switched-circuit torque sum shows the magnitude is right (0.6-1.5 times)
+but the torque ripple peaks midway between voltage zero crossings, where the paper's envelope is
+zero. So a second form is offered (``model="switched_torque"``, not in the paper): the torque
+ripple within a period is piecewise linear, slope (E/ω_m)·Σ_x sin(θ − o_x)·(v_xn,k − v_x*)/L_s in
+switching state k, over the centre-aligned sequence 111, 110, 100, 000, 100, 110, 111 (sorted
+legs); its pk-pk per period, per unit of the mean torque, and its order-6 envelope.
 """
 
 from __future__ import annotations
@@ -21,10 +29,13 @@ import math
 
 import numpy as np
 
+from hil.errors import InputError
 from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, angle_grid, check_range
 from hil.model.pwm_resolution import voltage_phasor
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
+MODELS = ("paper", "switched_torque")
+PHASE_OFFSETS_RAD = np.array([0.0, 2 * math.pi / 3, -2 * math.pi / 3])
 
 
 def on_time_s(angle_from_zero_crossing_rad: np.ndarray, modulation: float,
@@ -36,9 +47,10 @@ def on_time_s(angle_from_zero_crossing_rad: np.ndarray, modulation: float,
 
 def current_ripple_a(angle_from_zero_crossing_rad: np.ndarray, *, voltage_peak_v: float,
                      dc_bus_v: float, period_s: float, inductance_h: float) -> np.ndarray:
-    """Eq 30: pk-pk phase-current ripple Δi = ΔT_on·(V_dc/3)/L_s near a voltage zero crossing."""
+    """Pk-pk phase-current ripple 2·Δi, Δi = ΔT_on·(V_dc/3)/L_s (eq 30), near a zero crossing."""
     modulation = voltage_peak_v / dc_bus_v
-    return on_time_s(angle_from_zero_crossing_rad, modulation, period_s) * dc_bus_v / 3 / inductance_h
+    return 2 * on_time_s(angle_from_zero_crossing_rad, modulation, period_s) * dc_bus_v / 3 \
+        / inductance_h
 
 
 def angle_from_zero_crossing(theta: np.ndarray, voltage_angle_rad: float) -> np.ndarray:
@@ -47,9 +59,43 @@ def angle_from_zero_crossing(theta: np.ndarray, voltage_angle_rad: float) -> np.
     return np.abs(np.mod(theta + voltage_angle_rad + sixth / 2, sixth) - sixth / 2)
 
 
-def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000.0) -> Prediction:
-    """Switching-frequency current ripple (eqs 29-31) and its order-6 envelope, per unit of I."""
+def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: float) -> np.ndarray:
+    """Pk-pk torque ripple within one centre-aligned sine-PWM period at each angle θ.
+
+    Per unit of the mean torque; the fundamental's change within the period and the ripple's own
+    resistive drop are neglected (the tests check it against a switched-circuit torque sum).
+    """
+    phasor = voltage_phasor(op)
+    v_peak, delta = math.sqrt(2.0) * abs(phasor), math.atan2(phasor.imag, phasor.real)
+    shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])          # e_x / E
+    reference = v_peak * np.sin(theta[None, :] + delta - PHASE_OFFSETS_RAD[:, None])
+    duties = 0.5 + reference / op.dc_bus_v
+    order = np.argsort(-duties, axis=0)                                  # max, mid, min leg
+    d_sorted = np.take_along_axis(duties, order, axis=0)
+    # half-period states from the carrier top: 000, max high, max+mid high, 111
+    durations = period_s / 2 * np.stack([1 - d_sorted[0], d_sorted[0] - d_sorted[1],
+                                         d_sorted[1] - d_sorted[2], d_sorted[2]])
+    slopes = []
+    for highs in range(4):
+        state = np.zeros_like(duties)
+        if highs:
+            np.put_along_axis(state, order[:highs], 1.0, axis=0)
+        phase_v = op.dc_bus_v * (state - state.mean(axis=0))
+        slopes.append(np.sum(shape * (phase_v - reference), axis=0))
+    # full period from the carrier top: 000 (half), 100, 110, 111, 111, 110, 100, 000 (half)
+    sequence = [0, 1, 2, 3, 3, 2, 1, 0]
+    steps = np.stack([slopes[k] * durations[k] for k in sequence])
+    path = np.vstack([np.zeros_like(theta), np.cumsum(steps, axis=0)])
+    torque_nm = op.motor.emf_peak_v_s_per_rad / op.motor.phase_inductance_h * np.ptp(path, axis=0)
+    return torque_nm / op.mean_torque_nm
+
+
+def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000.0,
+                          model: str = "paper") -> Prediction:
+    """Switching-frequency ripple (eqs 29-31, or the switched torque form) and its envelope."""
     f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, *PWM_FREQUENCY_RANGE_HZ, unit=" Hz")
+    if model not in MODELS:
+        raise InputError(f"model={model!r} is not one of {', '.join(MODELS)}")
     period = 1.0 / f_sw
     phasor = voltage_phasor(op)
     v_peak = math.sqrt(2.0) * abs(phasor)
@@ -60,18 +106,30 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
                                 inductance_h=op.motor.phase_inductance_h) / op.current_a
     peak = float(current_ripple_a(0.0, voltage_peak_v=v_peak, dc_bus_v=op.dc_bus_v,
                                   period_s=period, inductance_h=op.motor.phase_inductance_h))
+    assumptions = [
+        "centre-aligned sine-PWM carrier; pk-pk within one PWM period = 2·Δi of eq 30",
+        "i·R + E cancels the average voltage near the phase-voltage zero crossing",
+        "the paper's equivalence: per-unit torque ripple = per-unit phase-current ripple",
+        "waveform_pu is the envelope of the switching-frequency ripple (order 6), not the "
+        "ripple itself (which is at the switching frequency)"]
+    if v_peak > op.dc_bus_v / 2:
+        assumptions.append(f"WARNING: V_pk = {v_peak:.2f} V exceeds the sine-PWM linear range "
+                           f"V_dc/2 = {op.dc_bus_v / 2:g} V: the closed form does not apply")
+    extras = {"current_ripple_pk_pk_a": peak, "voltage_peak_v": v_peak,
+              "modulation": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
+    pk_pk = peak / op.current_a
+    if model == "switched_torque":
+        envelope = switched_torque_ripple_pu(theta, op, period)
+        pk_pk = float(np.max(envelope))
+        assumptions[:4] = [
+            "centre-aligned sine-PWM carrier, ideal switches; pk-pk within one PWM period",
+            "ripple from the switching states only: fundamental slope and ripple's R drop neglected",
+            "waveform_pu is the envelope of the switching-frequency torque ripple (order 6)"]
     return Prediction(
-        source="pwm_switching", pk_pk_pu=peak / op.current_a, base=MEAN_TORQUE_BASE,
+        source="pwm_switching", pk_pk_pu=pk_pk, base=MEAN_TORQUE_BASE,
         base_nm=op.mean_torque_nm, order=6.0,
-        inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, **op.to_dict()},
-        equations="eqs 29-31", assumptions=[
-            "centre-aligned carrier; the ripple is the pk-pk within one PWM period",
-            "i·R + E cancels the average voltage near the phase-voltage zero crossing",
-            "the paper's equivalence: per-unit torque ripple = per-unit phase-current ripple",
-            "waveform_pu is the envelope of the switching-frequency ripple (order 6), not the "
-            "ripple itself (which is at the switching frequency)"],
+        inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
+                **op.to_dict()},
+        equations="eqs 29-31", assumptions=assumptions,
         angle_rad=theta, waveform_pu=envelope,
-        extras={"current_ripple_pk_pk_a": peak, "voltage_peak_v": v_peak,
-                "modulation": v_peak / op.dc_bus_v,
-                "switching_order": f_sw / (abs(op.elec_speed_rad_s) / (2 * math.pi))
-                if op.speed_rpm else None})
+        extras=extras)
