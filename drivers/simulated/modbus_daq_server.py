@@ -422,7 +422,10 @@ class _PtyBridge:
         peers = {self._server_master: self._client_master,
                  self._client_master: self._server_master}
         while True:
-            ready, _, _ = select.select([*peers, self._stop_r], [], [], 1.0)
+            try:
+                ready, _, _ = select.select([*peers, self._stop_r], [], [], 1.0)
+            except (OSError, ValueError):
+                return                     # descriptors closed under us: stopping
             if self._stop_r in ready:
                 return
             for fd in ready:

@@ -256,7 +256,10 @@ class SimulatedTransducer:
     def _run(self) -> None:
         pending = bytearray()
         while True:
-            ready, _, _ = select.select([self._master, self._stop_r], [], [], 1.0)
+            try:
+                ready, _, _ = select.select([self._master, self._stop_r], [], [], 1.0)
+            except (OSError, ValueError):
+                return                     # descriptors closed under us: stopping
             if self._stop_r in ready:
                 return
             if self._master not in ready:

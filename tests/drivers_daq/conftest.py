@@ -2,31 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from daq_fake_twin import FakeTwin  # noqa: E402
-
-SPEED_RPM = 1000.0
-CURRENT_A = 10.0
-
-
-def make_twin(seed: int = 0):
-    """The real ``hil.sim.DriveTwin`` once it exists, else the interface-compatible fake."""
-    if importlib.util.find_spec("hil.sim.twin") is not None:
-        from hil.sim import DriveTwin
-        twin = DriveTwin(seed=seed)
-    else:
-        twin = FakeTwin(seed=seed)
-    with twin.lock:
-        twin.speed_rpm = SPEED_RPM
-        twin.current_command_a = CURRENT_A
-        twin.enable()
-    return twin
+from daq_fake_twin import CURRENT_A, SPEED_RPM, make_twin  # noqa: E402,F401
 
 
 @pytest.fixture
@@ -46,3 +28,9 @@ def daq(daq_server):
     from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
     with ModbusDaq(ModbusTcpSettings(*daq_server.address), timeout_s=1.0) as client:
         yield client
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_twin_engine():
+    """Load the twin's compiled engine once (a throwaway twin), so no first capture waits."""
+    make_twin(seed=1).advance(1e-3, 1000.0)

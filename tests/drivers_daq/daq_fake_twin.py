@@ -10,6 +10,7 @@ order-1 torque term). Integration tests use the real twin when it exists (``twin
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import threading
 from dataclasses import dataclass, replace
@@ -17,6 +18,24 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hil.motor import TABLE_I
+
+
+SPEED_RPM = 1000.0
+CURRENT_A = 10.0
+
+
+def make_twin(seed: int = 0):
+    """The real ``hil.sim.DriveTwin`` once it exists, else the fake; at 1000 rpm, 10 A, enabled."""
+    if importlib.util.find_spec("hil.sim.twin") is not None:
+        from hil.sim import DriveTwin
+        twin = DriveTwin(seed=seed)
+    else:
+        twin = FakeTwin(seed=seed)
+    with twin.lock:
+        twin.speed_rpm = SPEED_RPM
+        twin.current_command_a = CURRENT_A
+        twin.enable()
+    return twin
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import CURRENT_A, SPEED_RPM, make_twin
+from daq_fake_twin import CURRENT_A, SPEED_RPM, make_twin
 
 from drivers.daq_register_map import DEFAULT_MAP_PATH, load_register_map
 from drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout
