@@ -26,6 +26,9 @@ from hil.errors import InputError
 
 logger = logging.getLogger(__name__)
 
+NOTIFIER_CYCLE_S = 0.05
+"""Receive timeout of a canopen network's notifier thread: closing waits at most this long."""
+
 
 @dataclass(frozen=True)
 class CanBusSettings:

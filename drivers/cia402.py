@@ -29,7 +29,7 @@ from drivers import canopen_402 as sm
 from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  ScaledObject, current_command_object, injection_objects,
                                  load_dictionary)
-from drivers.canopen_transport import CanBusSettings, open_bus
+from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
 from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
                             InstrumentTimeout, ProtocolError)
 from hil.errors import InputError
@@ -146,6 +146,7 @@ class Cia402Drive:
         except (can.CanError, OSError, ValueError, ImportError) as exc:
             raise self._error(InstrumentError, action, f"cannot open CAN bus: {exc}") from None
         self.network = canopen.Network(bus)
+        self.network.NOTIFIER_CYCLE = NOTIFIER_CYCLE_S  # bounds close() time
         self.network.connect()
         node = canopen.RemoteNode(self.node_id, load_dictionary(self.eds_path, self.node_id))
         node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
@@ -508,7 +509,8 @@ class Cia402Drive:
         if emcy is not None:
             raise self._error(DeviceFault, action,
                               f"EMCY 0x{emcy.code:04X} ({emcy.get_desc() or 'manufacturer'}), "
-                              f"error register 0x{emcy.register:02X}, data {bytes(emcy.data)!r}")
+                              f"error register 0x{emcy.register:02X}, data {bytes(emcy.data)!r}; "
+                              "call fault_reset()")
         if self._heartbeat_state is not None and self._heartbeat_state != NMT_OPERATIONAL:
             raise self._error(DeviceFault, action,
                               f"node {self.node_id} left NMT OPERATIONAL (heartbeat state "

@@ -29,7 +29,7 @@ import canopen
 from drivers import canopen_402 as sm
 from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  current_command_object, injection_objects, load_dictionary)
-from drivers.canopen_transport import CanBusSettings, open_bus
+from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
 from drivers.simulated.can_node import (ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode)
 from drivers.simulated.can_pdo import PdoEngine, is_pdo_config_index, validate_mapping_entry
 from canopen.sdo import SdoAbortedError
@@ -78,6 +78,7 @@ class SimulatedDrive:
         self._rated_torque_nm = od[0x6076].default / 1000.0
         self._supported_modes = od[0x6502].default
         self.network = canopen.Network(open_bus(self.settings))
+        self.network.NOTIFIER_CYCLE = NOTIFIER_CYCLE_S  # bounds close() time
         self.network.connect()
         self.node = DriveLocalNode(self.node_id, od, validate_and_apply=self._validate_and_apply,
                                    after_store=self._after_store, on_nmt_reset=self._on_nmt_reset,
@@ -229,11 +230,19 @@ class SimulatedDrive:
 
     # -- object reads -----------------------------------------------------------------------
     def _status(self) -> dict:
+        """The twin's latest scalars, cached for 1 ms. While another thread holds the twin
+        (a long ``advance`` for a capture) the last known values are used, so TPDOs keep flowing."""
         now = time.monotonic()
         cached = self._status_cache
-        if cached is None or now - cached[0] > _STATUS_CACHE_S:
+        if cached is not None and now - cached[0] <= _STATUS_CACHE_S:
+            return cached[1]
+        if not self.twin.lock.acquire(blocking=cached is None):
+            return cached[1]
+        try:
             cached = (now, self.twin.status())
-            self._status_cache = cached
+        finally:
+            self.twin.lock.release()
+        self._status_cache = cached
         return cached[1]
 
     def _per_mille_of_rated(self, torque_nm: float) -> int:

@@ -1,0 +1,121 @@
+"""The shipped EDS: CiA 301/402 objects, and the fault-injection objects against the contract."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from drivers.canopen_eds import (DEFAULT_EDS_PATH, COUNTS_PER_SI_UNIT, current_command_object,
+                                 injection_objects, load_dictionary, parse_scaled_name)
+from hil.motor import TABLE_I
+
+# The knob table of COMMON.md, written out independently of the EDS: (low, high, default).
+CONTRACT = {
+    "ia_offset_a": (-20.0, 20.0, 0.0), "ib_offset_a": (-20.0, 20.0, 0.0),
+    "ia_gain_error_pu": (-0.2, 0.2, 0.0), "ib_gain_error_pu": (-0.2, 0.2, 0.0),
+    "encoder_decimation": (1, 1800, 1), "hall_mode": (False, True, False),
+    "word_length_bits": (0, 32, 0), "pwm_period_counts": (8, 65535, 2000),
+    "pwm_frequency_hz": (2000, 50000, 20000), "dead_time_s": (0.0, 10e-6, 0.0),
+    "current_angle_rad": (-math.pi / 2, math.pi / 2, 0.0),
+}
+
+
+def _one_count(obj) -> float:
+    return 1.0 / obj.counts_per_si
+
+
+def test_every_contract_knob_is_one_eds_object_with_the_contract_range():
+    objects = injection_objects()
+    assert set(objects) == set(CONTRACT)
+    assert len({obj.index for obj in objects.values()}) == len(objects)
+    for knob, (low, high, default) in CONTRACT.items():
+        obj = objects[knob]
+        assert 0x2000 <= obj.index <= 0x2FFF
+        # Limits equal the contract to within one count of the fixed-point encoding (pi/2 in urad).
+        assert obj.low_si == pytest.approx(low, abs=_one_count(obj)), knob
+        assert obj.high_si == pytest.approx(high, abs=_one_count(obj)), knob
+        assert obj.default_si == default, knob
+        # and never allow more than the contract
+        assert obj.low_si >= low and obj.high_si <= high, knob
+
+
+def test_eds_agrees_with_the_sim_injection_ranges():
+    try:
+        from hil.sim import Injection
+    except ImportError:
+        pytest.skip("hil.sim.Injection has not landed yet")
+    ranges = Injection.ranges()
+    objects = injection_objects()
+    assert set(ranges) == set(objects)
+    for knob, spec in ranges.items():
+        low, high, default = spec[0], spec[1], spec[2]
+        obj = objects[knob]
+        assert obj.low_si == pytest.approx(low, abs=_one_count(obj)), knob
+        assert obj.high_si == pytest.approx(high, abs=_one_count(obj)), knob
+        assert obj.default_si == pytest.approx(default), knob
+
+
+def test_cia402_identity_and_profile_objects():
+    od = load_dictionary(node_id=5)
+    assert od[0x1000].default & 0xFFFF == 402
+    for index in (0x6040, 0x6041, 0x6060, 0x6061, 0x6064, 0x606C, 0x6071, 0x6077, 0x60FF, 0x6502,
+                  0x1017, 0x100A):
+        assert index in od, hex(index)
+    for sub in range(1, 5):
+        assert sub in od[0x1018]
+    for index in (0x6040, 0x6041, 0x6061, 0x6064, 0x606C, 0x6077):
+        assert od[index].pdo_mappable, hex(index)
+    # supported modes: profile velocity/torque, cyclic synchronous velocity/torque
+    assert od[0x6502].default == 0x4 | 0x8 | 0x100 | 0x200
+    # default COB-IDs carry the node id (predefined connection set)
+    assert od[0x1800][1].default == 0x185
+    assert od[0x1400][1].default == 0x205
+
+
+def test_rated_torque_is_the_table_i_torque_at_rated_current():
+    od = load_dictionary()
+    rated_current_a = od[0x6075].default / 1000.0
+    rated_torque_nm = od[0x6076].default / 1000.0
+    assert rated_torque_nm == pytest.approx(TABLE_I.torque_constant_nm_per_a * rated_current_a,
+                                            abs=0.0005)
+    assert current_command_object().high_si == 100.0
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("dead_time_s [ns]", ("dead_time_s", "ns")),
+    ("hall_mode [bool]", ("hall_mode", "bool")),
+    ("Statusword", None),
+    ("dead_time_s [fortnights]", None),
+])
+def test_parameter_name_convention(name, expected):
+    assert parse_scaled_name(name) == expected
+
+
+def test_fixed_point_encoding_round_trips_and_quantises():
+    objects = injection_objects()
+    dead = objects["dead_time_s"]
+    assert dead.to_count(2.5e-6) == 2500 and dead.to_si(2500) == 2.5e-6
+    offset = objects["ia_offset_a"]
+    assert offset.to_si(offset.to_count(0.01234)) == 0.012  # nearest mA
+    assert objects["hall_mode"].to_si(1) is True
+    assert objects["encoder_decimation"].to_si(100) == 100
+    assert set(COUNTS_PER_SI_UNIT) >= {obj.unit for obj in objects.values()}
+
+
+@pytest.mark.parametrize("knob, value, message", [
+    ("ia_offset_a", 20.5, "outside -20..20"),
+    ("dead_time_s", -1e-9, "outside 0..1e-05"),
+    ("encoder_decimation", 2.5, "must be an integer"),
+    ("encoder_decimation", 0, "outside 1..1800"),
+    ("current_angle_rad", float("nan"), "outside"),
+    ("ia_gain_error_pu", "big", "expected a number"),
+])
+def test_check_si_names_knob_and_range(knob, value, message):
+    with pytest.raises(ValueError, match=message) as info:
+        injection_objects()[knob].check_si(value)
+    assert knob in str(info.value)
+
+
+def test_eds_file_is_shipped_as_package_data():
+    assert DEFAULT_EDS_PATH.name == "ripple_drive.eds" and DEFAULT_EDS_PATH.is_file()
