@@ -13,13 +13,15 @@ import math
 import time
 from dataclasses import asdict, dataclass, field
 
-from hil.analysis import DecisionRule, InstrumentUncertainty, RippleResult, Verdict, \
-    analyze_capture, decide
+from hil.analysis import DecisionRule, RippleResult, Verdict, analyze_capture, decide
 from hil.bench import Bench
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, predict
+from hil.model.core import MEAN_TORQUE_BASE
 from hil.record import RunRecord, utc_now
 
+#: The source name of a point with nothing injected (the bench's own ripple).
+BASELINE = "baseline"
 #: Electrical revolutions captured per point unless a plan says otherwise.
 DEFAULT_REVOLUTIONS = 8
 #: Angle-grid points per period of the highest analysed order (the analysis needs >= 8).
@@ -90,15 +92,6 @@ class PointOutcome:
                 f"(order {self.prediction.order}) -> {self.verdict.decision}: {self.verdict.reason}")
 
 
-def instrument_uncertainty(bench: Bench) -> InstrumentUncertainty:
-    """Type-B inputs of the torque chain from the bench file's instrument entries."""
-    inputs = bench.config.uncertainty_inputs()
-    return InstrumentUncertainty(
-        transducer_accuracy_class_pct=inputs.get("transducer_accuracy_class_pct") or 0.0,
-        transducer_full_scale_nm=inputs.get("transducer_full_scale_nm") or 0.0,
-        daq_lsb_nm=inputs.get("daq_lsb_nm"))
-
-
 def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, *,
                   nodeid: str | None = None) -> PointOutcome:
     """Run one point on ``bench`` and record it; raises after recording if anything fails."""
@@ -115,10 +108,10 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         capture = _acquire(bench, record, test_id, plan, pole_pairs)
         result = analyze_capture(capture, max_order=plan.max_order,
                                  named_order=plan.named_order or _order_of(plan, bench),
-                                 instruments=instrument_uncertainty(bench), pole_pairs=pole_pairs)
+                                 instruments=bench.config.instrument_uncertainty(), pole_pairs=pole_pairs)
         op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                             current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
-        prediction = predict(plan.source, op, **plan.injection, **plan.prediction_params)
+        prediction = _predict(plan, op)
         # Same base on both sides: the prediction in N·m over the *measured* mean torque.
         predicted_pu = prediction.pk_pk_nm / abs(result.mean_torque_nm)
         order = int(round(prediction.order)) if prediction.order is not None else None
@@ -165,10 +158,23 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
     return capture
 
 
+def _predict(plan: PointPlan, op: OperatingPoint) -> Prediction:
+    """The closed form of ``plan.source``; for the baseline, the ideal drive's zero ripple."""
+    if plan.source == BASELINE:
+        if plan.injection:
+            raise InputError(f"the baseline injects nothing, got {plan.injection}")
+        return Prediction(source=BASELINE, pk_pk_pu=0.0, base=MEAN_TORQUE_BASE,
+                          base_nm=op.mean_torque_nm, order=None, inputs={},
+                          equations="eq 7 with γ = 0: T = (3/2)·E·I·cos φ/ω_m, constant",
+                          assumptions=["ideal sinusoidal PMSM and ideal controller: no ripple; "
+                                       "what is measured is the bench's own floor"])
+    return predict(plan.source, op, **plan.injection, **plan.prediction_params)
+
+
 def _order_of(plan: PointPlan, bench: Bench) -> int | None:
     op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                         current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
-    order = predict(plan.source, op, **plan.injection, **plan.prediction_params).order
+    order = _predict(plan, op).order
     if order is None or order > plan.max_order:
         return None
     return int(round(order))

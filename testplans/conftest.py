@@ -1,0 +1,22 @@
+"""Session set-up of the test plans: the decision rules are written to the record before the
+first point is measured (they are agreed before measuring, ISO/IEC 17025 §7.1.3)."""
+
+from dataclasses import asdict
+
+import pytest
+
+from testplans import conditions as c
+
+
+@pytest.fixture(scope="session", autouse=True)
+def agreed_decision_rules(record):
+    record.set_decision_rule({
+        "name": "ILAC-G8:2009 guarded acceptance; guard band = k·U (k = 2) of the measured pk-pk",
+        "ripple_definition": "pk-pk of the synchronous average over whole electrical revolutions "
+                             "per unit of the measured mean torque",
+        "closed_form": asdict(c.CLOSED_FORM_RULE),
+        "bound": asdict(c.BOUND_RULE),
+        "derived_estimate": asdict(c.DERIVED_ESTIMATE_RULE),
+        "baseline": asdict(c.BASELINE_RULE),
+        "baseline_ceiling_pu": c.BASELINE_CEILING_PU,
+    })

@@ -1,0 +1,13 @@
+"""Baseline: nothing injected. The bench's own ripple (PWM switching, cogging, EMF harmonics,
+sensor noise), kept in the record for comparison with every injected point."""
+
+import pytest
+
+from testplans import conditions as c
+
+pytestmark = pytest.mark.ripple_source("baseline")
+
+
+def test_baseline(measure, operating_point):
+    outcome = measure(c.point(operating_point, "baseline", {}, c.BASELINE_RULE))
+    assert outcome.verdict.guarded_pass, outcome.summary()

@@ -1,0 +1,14 @@
+"""Current-sensor gain mismatch (paper III-C, eqs 21-26): order-2 ripple, 2.31 % pk-pk for a
+1 % mismatch of opposite signs (eq 26)."""
+
+import pytest
+
+from testplans import conditions as c
+
+pytestmark = pytest.mark.ripple_source("gain_mismatch")
+
+
+@pytest.mark.parametrize("injection", c.GAIN_SWEEP, ids=c.sweep_id)
+def test_gain_mismatch(measure, operating_point, injection):
+    outcome = measure(c.point(operating_point, "gain_mismatch", injection, c.CLOSED_FORM_RULE))
+    assert outcome.verdict.guarded_pass, outcome.summary()
