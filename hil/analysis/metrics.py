@@ -93,8 +93,9 @@ class RippleResult:
                  "phase_rad": float(self.phase_rad[i]),
                  "power_share": self.order_power_share(int(self.orders[i]))} for i in ranked]
 
-    def to_dict(self, *, arrays: bool = False) -> dict:
-        """JSON-ready figures; the spectrum and big arrays only with ``arrays=True``."""
+    def to_dict(self, *, arrays: bool = False, top: int = 5) -> dict:
+        """JSON-ready figures (NaN becomes None); the spectrum and big arrays only with
+        ``arrays=True``."""
         data = {
             "mean_torque_nm": self.mean_torque_nm, "pk_pk_nm": self.pk_pk_nm,
             "pk_pk_pu": _json_float(self.pk_pk_pu), "pk_pk_rated_pu": self.pk_pk_rated_pu,
@@ -104,8 +105,8 @@ class RippleResult:
             "named_amplitude_nm": self.named_amplitude_nm,
             "named_phase_rad": self.named_phase_rad, "revolutions": self.revolutions,
             "samples_per_rev": self.samples_per_rev, "max_order": self.max_order,
-            "direction": self.direction, "top_orders": self.top_orders(),
-            "uncertainty": _json_clean(self.uncertainty.to_dict()),
+            "direction": self.direction, "top_orders": self.top_orders(top),
+            "uncertainty": self.uncertainty.to_dict(),
         }
         if arrays:
             data.update(orders=self.orders.tolist(), amplitude_nm=self.amplitude_nm.tolist(),
@@ -114,7 +115,7 @@ class RippleResult:
                         angle_grid_rad=self.angle_grid_rad.tolist(),
                         sync_average_nm=self.sync_average_nm.tolist(),
                         revolution_matrix_nm=self.revolution_matrix_nm.tolist())
-        return data
+        return _json_clean(data)
 
 
 def _json_float(value: float | None) -> float | None:

@@ -53,9 +53,8 @@ def run(args: argparse.Namespace) -> int:
                              pk_pk_method=args.pk_pk_method)
     top = max(1, min(args.top, result.max_order))
     if args.json:
-        data = result.to_dict()
+        data = result.to_dict(top=top)
         data["capture"] = str(args.capture)
-        data["top_orders"] = result.top_orders(top)
         print(json.dumps(data, allow_nan=False))
     else:
         print(format_result(result, top))

@@ -86,3 +86,12 @@ def test_missing_file_and_bad_option(tmp_path, capsys):
     path = _capture(tmp_path / "c.npz")
     assert main(["analyze", str(path), "--max-order", "0"]) == 2
     assert "max_order" in capsys.readouterr().err
+
+
+def test_json_of_a_single_revolution_has_null_uncertainty(tmp_path, capsys):
+    path = _capture(tmp_path / "one.npz", duration_s=0.06)       # 1.8 electrical revolutions
+    assert main(["analyze", str(path), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["revolutions"] == 1
+    assert data["uncertainty"]["expanded_pu"] is None
+    assert data["top_orders"][0]["amplitude_u_nm"] is None
