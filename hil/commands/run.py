@@ -1,0 +1,71 @@
+"""``hil run``: run the test plans (simulated bench by default), record, report.
+
+It is ``pytest testplans`` with the ripple-hil plugin's options filled in: a progress bar per
+sweep, a summary table per source at the end, the record folder and the PDF report's path.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from hil.errors import InputError
+
+AUTO_REPORT = "auto"
+
+
+def plan_modules() -> dict[str, Path]:
+    """Ripple source name → test-plan module file, from the installed ``testplans`` package."""
+    import testplans
+
+    folder = Path(testplans.__file__).parent
+    return {path.stem.removeprefix("test_"): path for path in sorted(folder.glob("test_*.py"))}
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser("run", help="run the test plans, record the run, write the report",
+                                   description=__doc__.splitlines()[0])
+    parser.add_argument("--bench", metavar="FILE", help="bench file (default: simulated bench)")
+    parser.add_argument("--source", action="append", metavar="NAME",
+                        help="run only this source's plan (repeatable); default: all")
+    parser.add_argument("--record-dir", metavar="DIR", default="records",
+                        help="folder in which the run record is created (default: records)")
+    parser.add_argument("-o", "--report", metavar="FILE.pdf", default=AUTO_REPORT,
+                        help="PDF report path (default: report.pdf in the record folder)")
+    parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
+    parser.add_argument("--seed", type=int, default=0, help="simulated bench seed (default 0)")
+    parser.add_argument("-x", "--exitfirst", action="store_true", help="stop at the first failure")
+    parser.add_argument("pytest_args", nargs="*", metavar="PYTEST_ARG",
+                        help="extra pytest arguments (after --)")
+    parser.set_defaults(func=run)
+
+
+def build_pytest_args(args) -> list[str]:
+    modules = plan_modules()
+    selected = args.source or list(modules)
+    unknown = [name for name in selected if name not in modules]
+    if unknown:
+        raise InputError(f"--source {', '.join(unknown)} is not a test plan; allowed: "
+                         f"{', '.join(modules)}")
+    if args.bench and not Path(args.bench).is_file():
+        raise InputError(f"--bench {args.bench!r}: no such file")
+    pytest_args = [str(modules[name]) for name in selected]
+    pytest_args += ["-q", "-p", "no:cacheprovider", "--hil-progress", "--hil-seed", str(args.seed),
+                    "--hil-record", args.record_dir, "--rootdir", str(modules[selected[0]].parent)]
+    if args.bench:
+        pytest_args += ["--bench", args.bench]
+    if not args.no_report:
+        pytest_args += ["--hil-report", args.report]
+    if args.exitfirst:
+        pytest_args.append("-x")
+    return pytest_args + list(args.pytest_args)
+
+
+def run(args) -> int:
+    import pytest
+
+    code = pytest.main(build_pytest_args(args))
+    if code == pytest.ExitCode.NO_TESTS_COLLECTED:
+        print("hil run: no test plan point was collected", file=sys.stderr)
+        return 2
+    return int(code)
