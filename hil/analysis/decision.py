@@ -14,6 +14,10 @@ Signature: the predicted order must be the dominant order of the measured spectr
 ``min_order_share`` is set, at least carry that share of the AC power. A wrong signature makes the
 decision "fail" whatever the magnitude (the measured ripple is not the predicted source's).
 ``guarded_pass`` — the binary rule for CI gating — is True only for "pass".
+
+Upper bound (``upper_bound=True``): where the closed form is a worst-case bound (word length,
+eq 14) or a ceiling (the baseline), the zone is one-sided, ``[0, p_pred + T]``: pass when
+``x + w`` is at or below the limit, conditional pass when only ``x`` is, and so on.
 """
 
 from __future__ import annotations
@@ -36,14 +40,15 @@ class DecisionRule:
     guard_band_factor: float = 1.0
     check_signature: bool = True
     min_order_share: float | None = None
+    upper_bound: bool = False
 
     def __post_init__(self) -> None:
         _require(0.0 <= self.rel_tol <= 10.0, "rel_tol", self.rel_tol, "0..10")
         _require(0.0 <= self.abs_tol_pu <= 10.0, "abs_tol_pu", self.abs_tol_pu, "0..10 pu")
         _require(0.0 <= self.guard_band_factor <= 10.0, "guard_band_factor",
                  self.guard_band_factor, "0..10")
-        _require(self.rel_tol > 0 or self.abs_tol_pu > 0, "abs_tol_pu", self.abs_tol_pu,
-                 "> 0 when rel_tol is 0 (the tolerance zone must not be empty)")
+        _require(self.rel_tol > 0 or self.abs_tol_pu > 0 or self.upper_bound, "abs_tol_pu",
+                 self.abs_tol_pu, "> 0 when rel_tol is 0 (the tolerance zone must not be empty)")
         if self.min_order_share is not None:
             _require(0.0 < self.min_order_share <= 1.0, "min_order_share", self.min_order_share,
                      "0 < share <= 1 or None")
@@ -114,7 +119,11 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
     tolerance = rule.tolerance_pu(predicted_pk_pk_pu)
     guard = rule.guard_band_factor * expanded
     lower, upper = predicted_pk_pk_pu - tolerance, predicted_pk_pk_pu + tolerance
-    magnitude = classify(value, guard, lower, upper)
+    if rule.upper_bound:
+        lower = 0.0
+        magnitude = classify(value, guard, -math.inf, upper)
+    else:
+        magnitude = classify(value, guard, lower, upper)
 
     share = signature_ok = None
     if predicted_order is not None:
@@ -136,7 +145,8 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
                    magnitude_decision=magnitude, measured_pk_pk_pu=value,
                    expanded_uncertainty_pu=expanded, predicted_pk_pk_pu=predicted_pk_pk_pu,
                    lower_limit_pu=lower, upper_limit_pu=upper, guard_band_pu=guard,
-                   acceptance_lower_pu=lower + guard, acceptance_upper_pu=upper - guard,
+                   acceptance_lower_pu=lower if rule.upper_bound else lower + guard,
+                   acceptance_upper_pu=upper - guard,
                    predicted_order=predicted_order, dominant_order=measured.dominant_order,
                    predicted_order_share=share, signature_ok=signature_ok, reason=reason,
                    rule=rule)
