@@ -53,10 +53,14 @@ def quantise_gain(gain: float, bits: int) -> float:
 
 @njit(cache=True)
 def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, adc_bits):
-    """Sensor (gain, offset) then ADC of ``adc_bits`` over ±full scale; returns per unit of FS."""
+    """Sensor (gain, offset) then ADC of ``adc_bits`` over ±full scale; returns per unit of FS.
+
+    Ideal mid-tread converter (transitions half an LSB either side of each code), so zero
+    current reads zero: the ADC adds quantisation but no offset of its own.
+    """
     sensed = (1.0 + gain_error_pu) * current_a + offset_a
     half = 2.0 ** (adc_bits - 1)
-    code = math.floor((sensed / full_scale_a + 1.0) * half)
+    code = math.floor((sensed / full_scale_a + 1.0) * half + 0.5)
     if code < 0.0:
         code = 0.0
     elif code > 2.0 * half - 1.0:
@@ -139,7 +143,7 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare):
     i_d_ref = qfix(-command_pu * math.sin(params[P_PHI]), bits)
 
     svpwm = params[P_MODULATION] == 0.0
-    limit = (1.0 / math.sqrt(3.0) if svpwm else 0.5) * (2.0 * max_compare / counts_top - 1.0)
+    limit = 1.0 / math.sqrt(3.0) if svpwm else 0.5      # linear range, per unit of V_dc
     kp = params[P_KP_PU]
     ki_ts = params[P_KI_TS_PU]
     v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, bits)
@@ -162,10 +166,16 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare):
 
 @njit(cache=True)
 def _compare(leg_voltage_pu, counts_top, max_compare):
-    """Compare value (integer counts, truncated) for a leg voltage in per unit of V_dc."""
+    """Compare value (integer counts, truncated) for a leg voltage in per unit of V_dc.
+
+    Pulses too wide to fit a dead time before the period end (above ``max_compare``) are
+    rounded to the nearer of ``max_compare`` and full-on (pulse dropping).
+    """
     compare = math.floor((0.5 + leg_voltage_pu) * counts_top)
     if compare < 0.0:
         return 0.0
     if compare > max_compare:
+        if compare >= counts_top or compare >= 0.5 * (max_compare + counts_top):
+            return counts_top
         return max_compare
     return compare

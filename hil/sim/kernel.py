@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs)
 from hil.sim.electrical import (MAX_HARMONICS, emf_per_speed, forced_coefficients,
                                 forced_response, harmonic_table, three_phase)
 from hil.sim.firmware import adc_read, firmware_step
@@ -35,7 +36,7 @@ from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC
                             P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_R, P_RAMP,
                             P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC, S_CMP_A, S_CMP_B,
                             S_CMP_C, S_IA, S_IB, S_IC, S_INITIALISED, S_INT_D, S_INT_Q,
-                            S_ISENSE_A, S_ISENSE_B, S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y)
+                            S_HIGH_END, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y)
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0
@@ -78,8 +79,16 @@ def _stepping_angle(time_s, params, speed):
 
 
 @njit(cache=True)
-def _leg_state(tau, t_on, t_off, dead, compare):
-    """Gate state of a leg at τ within the period (centre-aligned, dead time after each edge)."""
+def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
+    """Gate state of a leg at τ within the period (centre-aligned, dead time after each edge).
+
+    ``high_before``: the leg ended the previous period high (compare = counter top, no edge).
+    """
+    if high_before:
+        if compare >= counts_top:
+            return HIGH
+        if tau < dead:
+            return DEAD                               # high -> low at the period start
     if compare <= 0.0 or tau < t_on:
         return LOW
     if t_off - t_on > dead:
@@ -161,6 +170,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     period = 1.0 / params[P_PWM_FREQ]
     counts_top = params[P_PWM_COUNTS]
     dead = params[P_DEAD_TIME]
+    # a pulse must end a dead time before the period does; wider ones become full-on (no edge)
     max_compare = counts_top
     if dead > 0.0:
         max_compare = math.floor(counts_top * (1.0 - 2.0 * dead / period))
@@ -196,7 +206,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     x0 = np.zeros(3)
     u = np.zeros(3)
     v_integral = np.zeros(3)
-    edges = np.zeros(14)
+    edges = np.zeros(20)
     tiny = 1e-12 * period
 
     while state[S_TIME] < end_s:
@@ -238,6 +248,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         for x in range(3):
             t_on[x] = (counts_top - compare[x]) / counts_top * 0.5 * period
             t_off[x] = period - t_on[x]
+            if state[S_HIGH_END + x] != 0.0 and compare[x] < counts_top:
+                edges[n_edges] = dead
+                n_edges += 1
             if compare[x] > 0.0:
                 for edge in (t_on[x], t_on[x] + dead, t_off[x], t_off[x] + dead):
                     edges[n_edges] = min(edge, period)
@@ -261,7 +274,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
             middle = 0.5 * (edges[e] + seg_end)
             for x in range(3):
                 gate[x] = LOW if gates_off else _leg_state(middle, t_on[x], t_off[x], dead,
-                                                           compare[x])
+                                                           compare[x], counts_top,
+                                                           state[S_HIGH_END + x] != 0.0)
             while seg_end - tau > tiny:
                 # ---- leg voltages; diodes decide dead legs; zero-current dead legs may clamp
                 clamped = 0
@@ -434,6 +448,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
             out[C_VA, i] = v_integral[0] / period
             out[C_VB, i] = v_integral[1] / period
             out[C_VC, i] = v_integral[2] / period
+        for x in range(3):
+            state[S_HIGH_END + x] = 1.0 if compare[x] >= counts_top else 0.0
         state[S_IA] = cur[0]
         state[S_IB] = cur[1]
         state[S_IC] = cur[2]

@@ -59,7 +59,8 @@ S_TR_Y = 11              # transducer filter output, N·m
 S_ISENSE_A = 12          # last sensed currents (A, as the firmware read them)
 S_ISENSE_B = 13
 S_INITIALISED = 14
-N_STATE = 15
+S_HIGH_END = 15          # 3 flags: leg x ended the last period high (full duty, no edge)
+N_STATE = 18
 
 # ---- output channels (rows of the output array) ----
 C_TIME = 0
