@@ -1,0 +1,126 @@
+"""Independent checks: the simulated drive against hand-built CAN frames per CiA 301 / CiA 402.
+
+No canopen master here: frames are packed with ``struct`` from the standard's layouts, so the
+node is proved against the standard, not only against the library it is built on.
+"""
+
+from __future__ import annotations
+
+import struct
+import time
+
+import can
+import pytest
+
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(20)]
+
+NODE = 5
+SDO_RX, SDO_TX, HEARTBEAT, EMCY, TPDO1, RPDO1 = 0x600 + NODE, 0x580 + NODE, 0x700 + NODE, \
+    0x080 + NODE, 0x180 + NODE, 0x200 + NODE
+
+
+@pytest.fixture
+def raw(sim_drive, bus_settings):
+    with can.Bus(interface="virtual", channel=bus_settings.channel) as bus:
+        yield bus
+
+
+def send(bus, can_id, data):
+    bus.send(can.Message(arbitration_id=can_id, data=bytes(data), is_extended_id=False))
+
+
+def wait_for(bus, can_id, timeout=1.0, predicate=lambda m: True):
+    deadline = time.monotonic() + timeout
+    while (remaining := deadline - time.monotonic()) > 0:
+        msg = bus.recv(timeout=remaining)
+        if msg is not None and msg.arbitration_id == can_id and predicate(msg):
+            return msg
+    return None
+
+
+def sdo_upload(bus, index, subindex, timeout=0.5):
+    """Expedited SDO upload (ccs=2): returns the 8 response bytes or None on silence."""
+    send(bus, SDO_RX, struct.pack("<BHB4x", 0x40, index, subindex))
+    msg = wait_for(bus, SDO_TX, timeout)
+    return None if msg is None else bytes(msg.data)
+
+
+def sdo_download_u32(bus, index, subindex, value):
+    """Expedited SDO download of 4 bytes (ccs=1, e=1, s=1, n=0 → 0x23)."""
+    send(bus, SDO_RX, struct.pack("<BHBI", 0x23, index, subindex, value & 0xFFFFFFFF))
+    return bytes(wait_for(bus, SDO_TX).data)
+
+
+def test_sdo_upload_of_device_type(raw):
+    response = sdo_upload(raw, 0x1000, 0)
+    # scs=2, expedited, size indicated, 4 bytes: 0x43; device type 402 + servo drive info
+    assert response[0] == 0x43
+    assert struct.unpack_from("<HB", response, 1) == (0x1000, 0)
+    assert struct.unpack_from("<I", response, 4)[0] == 0x00020192
+
+
+def test_sdo_abort_for_missing_object_and_out_of_range_injection(raw, twin):
+    response = sdo_upload(raw, 0x2FFF, 0)
+    assert response[0] == 0x80 and struct.unpack_from("<I", response, 4)[0] == 0x06020000
+    # ia_offset_a is INTEGER32 mA, limit 20000: 25000 mA → abort "value too high"
+    response = sdo_download_u32(raw, 0x2001, 0, 25000)
+    assert response[0] == 0x80 and struct.unpack_from("<I", response, 4)[0] == 0x06090031
+    response = sdo_download_u32(raw, 0x2001, 0, -25000)
+    assert struct.unpack_from("<I", response, 4)[0] == 0x06090032
+    assert twin.injection.ia_offset_a == 0.0
+    response = sdo_download_u32(raw, 0x2001, 0, -1500)
+    assert response[0] == 0x60  # download confirmed
+    assert twin.injection.ia_offset_a == pytest.approx(-1.5)
+    # restore object: a wrong signature is refused, "load" restores
+    response = sdo_download_u32(raw, 0x2000, 0, 0x12345678)
+    assert struct.unpack_from("<I", response, 4)[0] == 0x08000020
+    assert sdo_download_u32(raw, 0x2000, 0, int.from_bytes(b"load", "little"))[0] == 0x60
+    assert twin.injection.ia_offset_a == 0.0
+
+
+def test_heartbeat_period_and_nmt_states(raw):
+    first = wait_for(raw, HEARTBEAT, 0.5)
+    second = wait_for(raw, HEARTBEAT, 0.5)
+    assert first.data[0] == 0x7F and second.data[0] == 0x7F  # PRE-OPERATIONAL
+    assert 0.06 < second.timestamp - first.timestamp < 0.2  # 0x1017 default 100 ms
+    send(raw, 0x000, [0x01, NODE])  # NMT start remote node
+    assert wait_for(raw, HEARTBEAT, 0.5, lambda m: m.data[0] == 0x05) is not None
+    send(raw, 0x000, [0x02, 0x00])  # NMT stop, all nodes
+    assert wait_for(raw, HEARTBEAT, 0.5, lambda m: m.data[0] == 0x04) is not None
+    assert sdo_upload(raw, 0x1000, 0, timeout=0.2) is None  # no SDO while STOPPED
+    send(raw, 0x000, [0x81, NODE])  # reset node: boot-up message (state byte 0)
+    assert wait_for(raw, HEARTBEAT, 0.5, lambda m: m.data[0] == 0x00) is not None
+    assert wait_for(raw, HEARTBEAT, 0.5, lambda m: m.data[0] == 0x7F) is not None
+
+
+def test_controlword_by_rpdo_and_statusword_by_tpdo(raw, twin):
+    send(raw, 0x000, [0x01, NODE])
+    for controlword, state_bits in ((0x06, 0x21), (0x07, 0x23), (0x0F, 0x27)):
+        send(raw, RPDO1, struct.pack("<H", controlword))
+        msg = wait_for(raw, TPDO1, 0.5, lambda m: struct.unpack_from("<H", m.data)[0] & 0x6F == state_bits)
+        assert msg is not None, hex(controlword)
+    assert twin.enabled
+    send(raw, RPDO1, struct.pack("<H", 0x02))  # quick stop
+    assert wait_for(raw, TPDO1, 0.5, lambda m: m.data[0] & 0x6F == 0x07) is not None
+    assert not twin.enabled
+    # leaving NMT OPERATIONAL takes the drive to SWITCH ON DISABLED, and RPDOs are then ignored
+    send(raw, 0x000, [0x80, NODE])
+    time.sleep(0.05)
+    assert sdo_upload(raw, 0x6041, 0)[4] & 0x4F == 0x40
+    send(raw, RPDO1, struct.pack("<H", 0x06))  # shutdown, would give READY TO SWITCH ON
+    time.sleep(0.05)
+    assert sdo_upload(raw, 0x6041, 0)[4] & 0x4F == 0x40
+
+
+def test_emcy_frame_on_fault_and_on_reset(raw, sim_drive):
+    sim_drive.raise_fault(code=0x3210, text="dcbus")
+    msg = wait_for(raw, EMCY)
+    code, register = struct.unpack_from("<HB", msg.data)
+    assert (code, register) == (0x3210, 0x05)  # generic + voltage bit
+    assert bytes(msg.data[3:8]) == b"dcbus"
+    assert sdo_upload(raw, 0x603F, 0)[4:6] == struct.pack("<H", 0x3210)
+    sdo_download = struct.pack("<BHBH2x", 0x2B, 0x6040, 0, 0x80)  # fault reset, 2 bytes
+    send(raw, SDO_RX, sdo_download)
+    msg = wait_for(raw, EMCY)
+    assert struct.unpack_from("<HB", msg.data) == (0x0000, 0x00)  # error reset
+    assert sim_drive.state == "SWITCH ON DISABLED"
