@@ -1,0 +1,56 @@
+"""Serial torque transducer throughput: samples per second, both dialects, over a pty.
+
+Run: ``.venv/bin/python benchmarks/transducer_bench.py`` (prints one line per figure). The
+simulated transducer is backed by the real ``hil.sim.DriveTwin`` (each reading advances it one
+sample period). Figures: polled ``read()`` and pipelined ``stream(n)``, on an unpaced pty (the
+software limit) and paced to a real line's baud rate (the line limit).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from drivers.simulated.transducer_pty import SimulatedTransducer
+from drivers.torque_transducer import SerialSettings, TorqueTransducer
+from hil.sim import DriveTwin
+
+
+def operating_twin() -> DriveTwin:
+    twin = DriveTwin(seed=0)
+    twin.speed_rpm = 1000.0
+    twin.current_command_a = 10.0
+    twin.enable()
+    twin.advance(0.02, 1000.0)          # loads the compiled engine outside the timed part
+    return twin
+
+
+def rate(label: str, action, n: int) -> None:
+    start = time.perf_counter()
+    action()
+    elapsed = time.perf_counter() - start
+    print(f"{label}: {n / elapsed:,.0f} samples/s ({n} in {elapsed:.3f} s)")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=5000)
+    args = parser.parse_args()
+    twin = operating_twin()
+    n = args.samples
+    for dialect in ("magtrol", "himmelstein"):
+        for baud in (None, 115200):
+            line = "unpaced pty" if baud is None else f"pty paced at {baud} baud"
+            count = n if baud is None else n // 10
+            with SimulatedTransducer(twin, dialect=dialect, sample_rate_hz=10000.0,
+                                     pace_baud=baud) as sim, \
+                    TorqueTransducer(SerialSettings(sim.port, baudrate=baud or 115200),
+                                     dialect=dialect, timeout_s=2.0) as tt:
+                tt.read()
+                rate(f"{dialect} {line}: polled read()",
+                     lambda: [tt.read() for _ in range(count // 5)], count // 5)
+                rate(f"{dialect} {line}: stream({count})", lambda: tt.stream(count), count)
+
+
+if __name__ == "__main__":
+    main()
