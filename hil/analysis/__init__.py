@@ -14,6 +14,6 @@ from hil.analysis.metrics import (DEFAULT_MAX_ORDER, PK_PK_METHODS, RippleResult
                                  analyze_torque)
 from hil.analysis.uncertainty import BudgetRow, InstrumentUncertainty, UncertaintyBudget
 
-__all__ = ["DECISIONS", "DEFAULT_MAX_ORDER", "PK_PK_METHODS", "BudgetRow", "DecisionRule", "InstrumentUncertainty",
-           "RippleResult", "UncertaintyBudget", "Verdict", "analyze_capture", "analyze_torque",
-           "classify", "decide"]
+__all__ = ["DECISIONS", "DEFAULT_MAX_ORDER", "PK_PK_METHODS", "BudgetRow", "DecisionRule",
+           "InstrumentUncertainty", "RippleResult", "UncertaintyBudget", "Verdict",
+           "analyze_capture", "analyze_torque", "classify", "decide"]

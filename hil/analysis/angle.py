@@ -12,7 +12,8 @@ mechanical angle, encoder counts, or only a speed) into a non-decreasing "travel
 * de-quantised: an angle from encoder counts is a staircase (at low speed many samples share a
   count). Each run of equal values is replaced by one anchor at the run's mid-time, and the angle is
   linearly interpolated between anchors, so every torque sample gets its own angle and weight
-  (stepping the rotor slowly — how the paper measured the encoder effect — still resamples on angle).
+  (stepping the rotor slowly — how the paper measured the encoder effect — still resamples on
+  angle).
   A strictly increasing angle passes through unchanged.
 """
 
@@ -79,8 +80,8 @@ def travel_angle(time_s: np.ndarray, angle_elec_rad: np.ndarray, *,
     worst = int(np.argmax(backward))
     if backward[worst] > jitter_tolerance_rad:
         raise InputError(
-            f"the rotor angle runs backwards by {np.rad2deg(backward[worst]):.3g} electrical deg at "
-            f"t = {time_s[worst]:.6g} s (allowed jitter "
+            f"the rotor angle runs backwards by {np.rad2deg(backward[worst]):.3g} electrical deg "
+            f"at t = {time_s[worst]:.6g} s (allowed jitter "
             f"{np.rad2deg(jitter_tolerance_rad):.3g} deg); the time->angle map must be monotonic")
     return TravelAngle(travel_rad=_dequantize(time_s, envelope), direction=direction)
 

@@ -251,6 +251,7 @@ def _pole_pairs(capture: Capture, override: int | None) -> int:
 
 
 def _check_order(name: str, value, upper: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= upper:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or not 1 <= value <= upper:
         raise InputError(f"{name} must be an integer in 1..{upper}, got {value!r}")
     return int(value)

@@ -59,7 +59,7 @@ class RevolutionMatrix:
 
 def resample_revolutions(travel: TravelAngle, torque_nm: np.ndarray,
                          samples_per_rev: int) -> RevolutionMatrix:
-    """Bin-average ``torque_nm`` over whole electrical revolutions of ``travel`` (module docstring)."""
+    """Bin-average ``torque_nm`` over the whole electrical revolutions of ``travel``."""
     s = travel.travel_rad
     n_bins = int(samples_per_rev)
     bin_rad = TWO_PI / n_bins

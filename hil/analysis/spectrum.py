@@ -60,7 +60,8 @@ def peak_to_peak(coefficients: np.ndarray) -> np.ndarray:
     is refined by a parabola through it and its two neighbours (error below 1e-4 of the amplitude).
     """
     max_order = coefficients.shape[-1] - 1
-    n_points = max(64, 1 << int(np.ceil(np.log2(PEAK_SEARCH_POINTS_PER_PERIOD * max(max_order, 1)))))
+    points = PEAK_SEARCH_POINTS_PER_PERIOD * max(max_order, 1)
+    n_points = max(64, 1 << int(np.ceil(np.log2(points))))
     wave = reconstruct(coefficients, n_points)
     return _refined_extreme(wave) + _refined_extreme(-wave)
 

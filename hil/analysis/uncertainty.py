@@ -4,14 +4,15 @@ Sources (each a row of the budget table: source, value, unit, distribution, divi
 contribution in per unit of the mean torque):
 
 * **Type A — revolution-to-revolution scatter.** The single revolutions (their order spectra or
-  their angle bins, whichever the pk-pk is taken from) are resampled with replacement (bootstrap, fixed seed, in contiguous blocks when there are many
-  revolutions) and ``p`` is recomputed for each draw; the standard deviation is the standard
-  uncertainty of ``p`` of the synchronous average. Synchronous averaging over R revolutions leaves
-  noise of σ/√R per bin, which still lifts the pk-pk of the average (the extremes pick up noise).
+  their angle bins, whichever the pk-pk is taken from) are resampled with replacement (bootstrap,
+  fixed seed, in contiguous blocks when there are many revolutions) and ``p`` is recomputed for
+  each draw; the standard deviation is the standard uncertainty of ``p`` of the synchronous
+  average. Synchronous averaging over R revolutions leaves noise of σ/√R per bin, which still
+  lifts the pk-pk of the average (the extremes pick up noise).
 * **Residual noise bias.** The same draws, scaled up, estimate that lift by
-  simulation-extrapolation to zero noise (see :func:`type_a`). It is not subtracted: ``p`` stays the pk-pk of the synchronous average as
-  defined, and the bias is added linearly to the expanded uncertainty (``U = k·u_c + |bias|``), so
-  the interval ``p ± U`` covers the noise-free value.
+  simulation-extrapolation to zero noise (see :func:`type_a`). It is not subtracted: ``p`` stays
+  the pk-pk of the synchronous average as defined, and the bias is added linearly to the expanded
+  uncertainty (``U = k·u_c + |bias|``), so the interval ``p ± U`` covers the noise-free value.
 * **Type B — transducer accuracy class** (± class % of full scale on any reading, rectangular).
   On the mean torque it acts like an offset: sensitivity ``p/|mean|``. On the pk-pk (a span of two
   readings, whose offsets cancel) it is taken as a sensitivity error of class % of the span.
