@@ -1,0 +1,81 @@
+"""Torque against rotor angle and the order spectrum of one recorded test, for the plots.
+
+The numbers come from the record, never from a different analysis: arrays the test stored in
+its ``measured`` entry are used as they are; otherwise the raw capture is run through
+``hil.analysis.analyze_capture`` with the settings stored in ``measured`` (the same analysis the
+test plan ran). If neither is possible the report says why instead of plotting something else.
+"""
+
+from __future__ import annotations
+
+import inspect
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hil.capture import Capture
+from hil.errors import HilError
+
+#: ``measured`` keys that are settings of analyze_capture (top level or under "settings").
+SETTING_KEYS = ("max_order", "named_order", "rated_torque_nm", "pk_pk_method", "pole_pairs")
+
+
+@dataclass
+class AngleView:
+    angle_grid_rad: np.ndarray | None = None
+    revolution_matrix_nm: np.ndarray | None = None
+    sync_average_nm: np.ndarray | None = None
+    orders: np.ndarray | None = None
+    amplitude_nm: np.ndarray | None = None
+    how: str = ""             # where the arrays came from, printed under the plots
+    problem: str | None = None
+
+
+def angle_view(entry: dict, record_dir: Path) -> AngleView:
+    measured = entry.get("measured") or {}
+    if measured.get("angle_grid_rad") is not None and measured.get("sync_average_nm") is not None:
+        return AngleView(_array(measured.get("angle_grid_rad")),
+                         _array(measured.get("revolution_matrix_nm")),
+                         _array(measured.get("sync_average_nm")),
+                         _array(measured.get("orders")), _array(measured.get("amplitude_nm")),
+                         how="arrays stored by the test in the record")
+    capture_info = entry.get("capture") or {}
+    if not capture_info.get("file"):
+        return AngleView(problem="no raw capture recorded for this test")
+    try:
+        from hil.analysis import analyze_capture
+    except ImportError as exc:
+        return AngleView(problem=f"hil.analysis.analyze_capture is not available ({exc})")
+    settings = _settings(measured, analyze_capture)
+    try:
+        capture = Capture.load(Path(record_dir) / capture_info["file"])
+        result = analyze_capture(capture, **settings)
+    except (HilError, ValueError) as exc:
+        return AngleView(problem=f"the raw capture could not be analysed again: {exc}")
+    shown = ", ".join(f"{k}={v}" for k, v in sorted(settings.items())) or "defaults"
+    return AngleView(_array(getattr(result, "angle_grid_rad", None)),
+                     _array(getattr(result, "revolution_matrix_nm", None)),
+                     _array(getattr(result, "sync_average_nm", None)),
+                     _array(getattr(result, "orders", None)),
+                     _array(getattr(result, "amplitude_nm", None)),
+                     how=f"raw capture {capture_info['file']} through "
+                         f"hil.analysis.analyze_capture({shown}), the settings in the record")
+
+
+def _settings(measured: dict, function) -> dict:
+    nested = measured.get("settings") if isinstance(measured.get("settings"), dict) else {}
+    accepted = set(inspect.signature(function).parameters)
+    out = {}
+    for key in SETTING_KEYS:
+        value = nested.get(key, measured.get(key))
+        if value is not None and key in accepted:
+            out[key] = value
+    return out
+
+
+def _array(value) -> np.ndarray | None:
+    if value is None:
+        return None
+    array = np.asarray(value, dtype=float)
+    return array if array.size else None

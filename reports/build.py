@@ -1,0 +1,366 @@
+"""``build_report(record_dir, out_pdf)``: the PDF report as a pure function of a record folder.
+
+Every figure printed comes from ``record.json`` and the raw captures it names (see
+``reports.angle_view`` for the one plot that needs the capture). The creation date is the
+record's, so the same record gives the same PDF.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from hil.capture import atomic_write_bytes
+from hil.errors import InputError
+from hil.record import RECORD_FILE, load_record, verify_captures
+from reports import figures
+from reports.angle_view import angle_view
+from reports.content import (DECISIONS, NOT_DETERMINED, RIPPLE_DEFINITION, ReportContent,
+                             SourceSection, fmt, fmt_pct, knob_display, report_content)
+from reports.document import ReportPDF
+
+BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
+                  "sensitivity_unit", "contribution_pu", "combination")
+#: Captures larger than this in total are listed with their hashes but not attached.
+MAX_ATTACHED_BYTES = 25 * 1024 * 1024
+
+STATEMENTS = {
+    "pass": "PASS: every point agrees with the prediction, outside the guard band "
+            "(conformity stated with the guard band w = U).",
+    "conditional pass": "CONDITIONAL PASS: agreement found, but at least one point lies inside "
+                        "the guard band; conformity cannot be stated with 95 % confidence.",
+    "conditional fail": "CONDITIONAL FAIL: at least one point lies outside the acceptance limit "
+                        "but within the guard band; non-conformity is likely, not certain.",
+    "fail": "FAIL: at least one point disagrees with the prediction beyond the guard band.",
+    NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped, has no verdict, or the run "
+                    "is incomplete.",
+}
+
+
+@dataclass
+class RenderedReport:
+    """A built report: the PDF bytes, what it states, and its page count."""
+
+    pdf: bytes
+    content: ReportContent
+    pages: int
+
+    def save(self, path: str | Path) -> Path:
+        """Write the PDF atomically, readable like any file the user creates."""
+        path = Path(path)
+        atomic_write_bytes(path, self.pdf)
+        umask = os.umask(0)
+        os.umask(umask)
+        path.chmod(0o666 & ~umask)  # the temp file behind the atomic write was private
+        return path
+
+
+def build_report(record_dir: str | Path, out_pdf: str | Path) -> Path:
+    """Write the PDF report of the record in ``record_dir`` to ``out_pdf`` (atomically)."""
+    return render_report(record_dir).save(out_pdf)
+
+
+def render_report(record_dir: str | Path) -> RenderedReport:
+    """The report's PDF bytes and what it states; InputError if the record is unreadable."""
+    record_dir = Path(record_dir)
+    record = load_record(record_dir)
+    content = report_content(record, record_dir, verify_captures(record_dir, record))
+    created = _record_date(record)
+    pdf = ReportPDF(content.report_id, created, content.partial)
+    _summary_page(pdf, content)
+    _method_pages(pdf, content, record_dir)
+    for section in content.sources:
+        _source_pages(pdf, section, record_dir)
+    _deviations_and_traceability(pdf, content)
+    _attach(pdf, content, record_dir, created)
+    return RenderedReport(bytes(pdf.output()), content, pdf.pages_count)
+
+
+def _record_date(record: dict) -> datetime:
+    text = record.get("finished_utc") or record.get("created_utc")
+    try:
+        return datetime.strptime(text, "%Y-%m-%dT%H:%M:%SZ").replace(tzinfo=timezone.utc)
+    except (TypeError, ValueError):
+        raise InputError(f"record: created_utc = {text!r} is not a UTC time like "
+                         f"2026-11-21T05:30:00Z") from None
+
+
+# ---------------------------------------------------------------------- page 1: summary
+
+def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
+    record = content.record
+    loaded = (record.get("bench") or {}).get("loaded") or {}
+    lab = loaded.get("lab") or {}
+    motor = loaded.get("motor") or {}
+    drive = _instrument(record, "drive")
+    pdf.add_page()
+    pdf.set_font("sans", "B", 16)
+    pdf.multi_cell(0, 8, "Controller-induced torque ripple\nTest report", new_x="LMARGIN",
+                   new_y="NEXT")
+    pdf.ln(2)
+    pdf.key_values([
+        ("Report ID", content.report_id),
+        ("Record", f"{record['record_id']} (status: {record.get('status')})"),
+        ("Run started / finished (UTC)", f"{record.get('created_utc')} / "
+                                         f"{record.get('finished_utc') or 'not finished'}"),
+        ("Laboratory", ", ".join(x for x in (lab.get("name"), lab.get("address")) if x) or "—"),
+        ("Operator", lab.get("operator") or "—"),
+        ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
+                  f"{record['bench'].get('path')}"),
+        ("Item tested: motor", f"{motor.get('model') or '—'}, s/n {motor.get('serial_number') or '—'}"
+                               f" ({motor.get('pole_count')} poles, Ke {motor.get('ke_v_s_per_rad')}"
+                               f" V·s/rad, {motor.get('dc_bus_v')} V dc bus)"),
+        ("Item tested: drive", _drive_text(drive)),
+    ])
+    if content.partial:
+        pdf.para(f"PARTIAL RECORD: the run ended with status '{record.get('status')}'. This report "
+                 f"covers the {len(record.get('tests', []))} test(s) recorded; it makes no overall "
+                 f"statement of conformity.", size=9.5, style="B")
+    pdf.heading("Statement of conformity")
+    pdf.para("Decision rule per ILAC-G8 with a guard band equal to the expanded uncertainty U "
+             "(k = 2); the rule was recorded before the first measurement (see Method).")
+    rows = []
+    for section in content.sources:
+        counts = {d: sum(p.decision == d for p in section.points)
+                  for d in (*DECISIONS, NOT_DETERMINED)}
+        rows.append([section.name, str(len(section.points)),
+                     ", ".join(f"{n} {d}" for d, n in counts.items() if n),
+                     section.statement.upper()])
+    pdf.grid(["source", "points", "decisions", "statement"], rows, widths=(38, 14, 0, 36))
+    for section in content.sources:
+        pdf.para(f"{section.name}: {STATEMENTS[section.statement]}", size=8)
+    pdf.para(f"Overall: {STATEMENTS[content.overall]}", size=10, style="B")
+
+
+def _drive_text(drive: dict | None) -> str:
+    if not drive:
+        return "—"
+    identity = drive.get("identity") or {}
+    firmware = next((identity[k] for k in ("firmware_version", "software_version", "firmware",
+                                           "sw_version") if identity.get(k)), None)
+    return (f"{drive.get('model')}, s/n {drive.get('serial_number')}, firmware "
+            f"{firmware or 'not reported'}")
+
+
+def _instrument(record: dict, role: str) -> dict | None:
+    return next((row for row in record.get("instruments", []) if row.get("role") == role), None)
+
+
+# ---------------------------------------------------------------------- method, conditions
+
+def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> None:
+    record = content.record
+    tests = record.get("tests", [])
+    pdf.add_page()
+    pdf.heading("Method")
+    plans = sorted({(t.get("nodeid") or "").split("::")[0] for t in tests} - {""})
+    pdf.key_values([
+        ("Sources tested", ", ".join(s.name for s in content.sources) or "none"),
+        ("Test plans run", ", ".join(plans) or "not recorded"),
+        ("Reference", "S. Chen, C. Namuduri, S. Mir, Controller-induced parasitic torque ripples "
+                      "in a PM synchronous motor, IEEE Trans. Ind. Appl. 38(5), 2002"),
+        ("Ripple definition", RIPPLE_DEFINITION),
+    ])
+    pdf.heading("Decision rule (agreed before measuring)", 2)
+    rule = record.get("decision_rule") or {}
+    pdf.key_values([(k, fmt(v)) for k, v in rule.items()] or [("rule", "not recorded")])
+    used = {json.dumps((t.get("verdict") or {}).get("rule"), sort_keys=True) for t in tests
+            if isinstance((t.get("verdict") or {}).get("rule"), dict)}
+    for text in sorted(used):
+        if json.loads(text) != rule:
+            pdf.para(f"Rule recorded with the verdicts of some tests: {fmt(json.loads(text))}",
+                     size=7.5)
+
+    pdf.heading("Test conditions", 2)
+    conditions = sorted({(fmt(op.get("speed_rpm")), fmt(op.get("current_a")),
+                          fmt(_degrees(op.get("current_angle_rad"))), fmt(op.get("dc_bus_v")),
+                          fmt(op.get("temperature_c")))
+                         for op in (t.get("operating_point") for t in tests) if op})
+    pdf.grid(["speed (rpm)", "current, peak (A)", "current angle φ (elec. deg)", "dc bus (V)",
+              "temperature (°C)"], [list(c) for c in conditions])
+    pdf.para("A dash means the value was not recorded (temperature is recorded only where the "
+             "bench measures it).", size=7, style="I")
+
+    pdf.heading("Instruments", 2)
+    pdf.grid(["role", "model", "serial number", "range", "accuracy class", "calibrated", "due"],
+             [[fmt(r.get(k)) for k in ("role", "model", "serial_number", "range",
+                                        "accuracy_class", "calibration_date", "calibration_due")]
+              for r in record.get("instruments", [])],
+             widths=(13, 0, 26, 25, 20, 18, 18))
+    identities = [(r.get("role"), r.get("identity")) for r in record.get("instruments", [])
+                  if r.get("identity")]
+    if identities:
+        pdf.para("Identities as queried from the instruments: " + "; ".join(
+            f"{role}: {fmt(identity)}" for role, identity in identities), size=7)
+
+    pdf.heading("Signal chain", 2)
+    pdf.grid(["test", "samples", "sample rate (Hz)", "encoder counts/rev", "revolutions",
+              "angle grid (points/rev)"], _signal_rows(tests, record_dir),
+             widths=(0, 18, 24, 26, 20, 30))
+
+    pdf.heading("Software", 2)
+    software = record.get("software") or {}
+    packages = software.get("packages") or {}
+    pdf.key_values([
+        ("ripple-hil version", fmt(software.get("version"))),
+        ("git commit", f"{fmt(software.get('git_sha'))} (uncommitted changes: "
+                       f"{fmt(software.get('git_dirty'))})"),
+        ("Python", f"{fmt(software.get('python'))} on {fmt(software.get('platform'))}"),
+        ("Packages", ", ".join(f"{k} {v}" for k, v in packages.items())),
+        ("Bench file SHA-256", fmt(record["bench"].get("sha256"))),
+    ])
+
+
+def _degrees(radians) -> float | None:
+    return math.degrees(radians) if isinstance(radians, (int, float)) else None
+
+
+def _signal_rows(tests: list[dict], record_dir: Path) -> list[list[str]]:
+    rows = []
+    for test in tests:
+        capture = test.get("capture") or {}
+        meta = _capture_meta(record_dir, capture.get("file"))
+        measured = test.get("measured") or {}
+        settings = measured.get("settings") if isinstance(measured.get("settings"), dict) else {}
+        grid = settings.get("samples_per_rev", measured.get("samples_per_rev"))
+        if grid is None and measured.get("angle_grid_rad") is not None:
+            grid = len(measured["angle_grid_rad"])
+        rows.append([test.get("test_id"), fmt(capture.get("n_samples")),
+                     fmt(capture.get("sample_rate_hz")),
+                     fmt(meta.get("encoder_counts_per_rev")),
+                     fmt(measured.get("revolutions")), fmt(grid)])
+    return rows
+
+
+def _capture_meta(record_dir: Path, relative: str | None) -> dict:
+    if not relative:
+        return {}
+    try:
+        with np.load(record_dir / relative, allow_pickle=False) as npz:
+            return json.loads(bytes(npz["__header__"]).decode()).get("meta", {})
+    except (OSError, ValueError, KeyError):
+        return {}
+
+
+# ---------------------------------------------------------------------- per source
+
+def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> None:
+    pdf.add_page()
+    pdf.heading(f"Source: {section.name}")
+    pdf.para(f"Statement: {STATEMENTS[section.statement]}", style="B")
+    pdf.svg(figures.sweep_svg(section),
+            "Measured ripple with its expanded uncertainty (k = 2), the paper's prediction and "
+            "the tolerance limits of the decision rule where recorded.")
+    pdf.heading("Points", 2)
+    label, scale = knob_display(section.swept, [p.x or 0.0 for p in section.points])
+    pdf.grid([label, "test", "measured", "U (k = 2)", "predicted", "pred. order", "outcome",
+              "verdict"],
+             [[fmt(None if p.x is None else p.x * scale), p.test_id.split("::")[-1],
+               fmt_pct(p.measured_pu), fmt_pct(p.u_pu), fmt_pct(p.predicted_pu),
+               fmt(p.predicted_order), p.outcome, p.decision] for p in section.points],
+             widths=(22, 0, 18, 16, 17, 13, 15, 24))
+    pdf.para("Ripple figures in % of the mean torque at the operating point; the full test ids "
+             "and capture hashes are in the traceability table.", size=7, style="I")
+    worst = section.worst
+    if worst is None:
+        pdf.para("No point of this source has a measured ripple; no waveform to show.")
+        return
+    pdf.heading(f"Worst point: {worst.test_id} (measured {fmt_pct(worst.measured_pu)})", 2)
+    view = angle_view(worst.entry, record_dir)
+    if view.problem:
+        pdf.para(f"Torque-against-angle plot and order spectrum not shown: {view.problem}.")
+    else:
+        if view.angle_grid_rad is not None and view.sync_average_nm is not None:
+            pdf.svg(figures.angle_svg(view.angle_grid_rad, view.revolution_matrix_nm,
+                                      view.sync_average_nm,
+                                      f"{section.name}: torque against rotor angle"))
+        if view.orders is not None and view.amplitude_nm is not None:
+            pdf.svg(figures.spectrum_svg(view.orders, view.amplitude_nm, worst.predicted_order,
+                                         f"{section.name}: order spectrum of the synchronous "
+                                         f"average"))
+        pdf.para(f"Source of the curves: {view.how}.", size=7, style="I")
+    _budget(pdf, worst.entry)
+
+
+def _budget(pdf: ReportPDF, entry: dict) -> None:
+    uncertainty = entry.get("uncertainty") or (entry.get("measured") or {}).get("uncertainty")
+    pdf.heading("Uncertainty budget (worst point)", 2)
+    rows = (uncertainty or {}).get("rows") or (uncertainty or {}).get("budget")
+    if not rows:
+        pdf.para("No uncertainty budget recorded for this point.")
+        return
+    known = [c for c in BUDGET_COLUMNS if any(c in row for row in rows)]
+    columns = known + [c for c in dict.fromkeys(k for row in rows for k in row)
+                       if c not in known]
+    pdf.grid([c.replace("_", " ") for c in columns],
+             [[fmt(row.get(c)) for c in columns] for row in rows], size=7)
+    scalars = [(k.replace("_", " "), fmt(v)) for k, v in uncertainty.items()
+               if not isinstance(v, (list, dict))]
+    if scalars:
+        pdf.key_values(scalars)
+    notes = uncertainty.get("notes") or []
+    if notes:
+        pdf.bullets([str(note) for note in notes], size=7)
+
+
+# ---------------------------------------------------------------------- end matter
+
+def _deviations_and_traceability(pdf: ReportPDF, content: ReportContent) -> None:
+    record = content.record
+    pdf.add_page()
+    pdf.heading("Deviations and disagreements with the paper's assumptions")
+    pdf.bullets(content.deviations or ["None."])
+    pdf.heading("Traceability: raw captures")
+    pdf.para("SHA-256 of each raw capture as written before analysis. The captures and "
+             "record.json are attached to this PDF where their size allows (see below).", size=7.5)
+    rows = [[f"{t.get('test_id')}\n{(t.get('capture') or {}).get('file') or 'no capture'}",
+             (t.get("capture") or {}).get("sha256") or "—"] for t in record.get("tests", [])]
+    rows += [[f"{p.get('test_id')} (captured, not analysed)\n{p.get('file')}", p.get("sha256")]
+             for p in record.get("pending_captures", [])]
+    pdf.grid(["test / capture file", "SHA-256"], rows, widths=(0, 96), size=7,
+             mono_columns=(1,))
+    if content.capture_problems:
+        pdf.para("Capture check found problems: " + "; ".join(content.capture_problems),
+                 style="B")
+    else:
+        pdf.para("Capture check: every capture named in the record is present and its SHA-256 "
+                 "matches.")
+
+
+def _attach(pdf: ReportPDF, content: ReportContent, record_dir: Path, created: datetime) -> None:
+    record_json = (record_dir / RECORD_FILE).read_bytes()
+    pdf.embed_file(bytes=record_json, basename=RECORD_FILE, modification_date=created,
+                   creation_date=created, desc="run record", compress=True,
+                   mime_type="application/json", associated_file_relationship="Source")
+    attached, skipped, total = [], [], 0
+    files = [(t.get("capture") or {}).get("file") for t in content.record.get("tests", [])]
+    files += [p.get("file") for p in content.record.get("pending_captures", [])]
+    for relative in dict.fromkeys(f for f in files if f):
+        path = (record_dir / relative).resolve()
+        if not path.is_relative_to((record_dir / "captures").resolve()) or not path.is_file():
+            continue
+        size = path.stat().st_size
+        if total + size > MAX_ATTACHED_BYTES:
+            skipped.append(relative)
+            continue
+        total += size
+        pdf.embed_file(bytes=path.read_bytes(), basename=relative.replace("/", "_"),
+                       modification_date=created, creation_date=created,
+                       desc=f"raw capture {relative}", mime_type="application/octet-stream",
+                       associated_file_relationship="Data")
+        attached.append(relative)
+    pdf.heading("Attachments", 2)
+    pdf.para("Embedded in this PDF as associated files (PDF/A-3 style; open the attachments "
+             "panel of a PDF reader):", size=7.5)
+    pdf.bullets([f"{RECORD_FILE} (the run record)"] + attached, size=7)
+    if skipped:
+        pdf.para(f"Not attached (over {MAX_ATTACHED_BYTES // 2**20} MiB in total; keep them "
+                 f"with the record folder): {', '.join(skipped)}.")
+    pdf.ln(4)
+    pdf.para(f"End of report {content.report_id}", size=9, style="B")

@@ -1,0 +1,251 @@
+"""What the report says, read from a run record (no PDF here, no analysis re-done).
+
+:func:`report_content` turns ``record.json`` into plain data: the points of each ripple source
+(swept parameter, measured and predicted ripple, U, verdict), the statement of conformity per
+source and overall, and the deviations to state. Test entries are treated as the test plans wrote
+them; a field that is missing shows as "not recorded" instead of failing the report.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hil.record import RECORD_FILE
+
+#: ILAC-G8 decisions from best to worst; a source's statement is the worst of its points.
+DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
+NOT_DETERMINED = "not determined"
+
+RIPPLE_DEFINITION = (
+    "Torque ripple (per unit) = peak-to-peak of the synchronously averaged torque over whole "
+    "electrical revolutions, divided by the mean torque at the operating point (the paper's per "
+    "unit of (3/2)·E·I/ω_m). Orders are harmonics of the electrical frequency. The expanded "
+    "uncertainty U has a coverage factor k = 2 (about 95 %).")
+
+
+@dataclass
+class Point:
+    """One test of a source sweep, as the report prints it (per-unit values of mean torque)."""
+
+    test_id: str
+    outcome: str
+    x: float | None                 # value of the swept injection knob
+    measured_pu: float | None
+    u_pu: float | None              # expanded uncertainty of measured_pu, k = 2
+    predicted_pu: float | None
+    predicted_order: float | None
+    lower_pu: float | None          # acceptance limits of the decision rule, when recorded
+    upper_pu: float | None
+    decision: str
+    entry: dict = field(repr=False, default_factory=dict)
+
+
+@dataclass
+class SourceSection:
+    name: str
+    swept: str | None               # injection knob varied across the sweep
+    points: list[Point]
+    statement: str                  # worst decision of the points, or "not determined"
+    worst: Point | None             # the point with the largest measured ripple
+
+
+@dataclass
+class ReportContent:
+    record: dict
+    report_id: str
+    partial: bool
+    sources: list[SourceSection]
+    overall: str
+    deviations: list[str]
+    capture_problems: list[str]
+
+
+def report_id(record: dict, record_json: bytes) -> str:
+    """Unique and reproducible: the record id plus the first 8 hex digits of record.json's hash."""
+    return f"RHR-{record['record_id']}-{hashlib.sha256(record_json).hexdigest()[:8]}"
+
+
+def report_content(record: dict, record_dir: Path, capture_problems: list[str]) -> ReportContent:
+    record_json = (Path(record_dir) / RECORD_FILE).read_bytes()
+    partial = record.get("status") != "complete"
+    groups: dict[str, list[dict]] = {}
+    for entry in record.get("tests", []):
+        groups.setdefault(source_of(entry), []).append(entry)
+    sources = [_section(name, entries) for name, entries in groups.items()]
+    overall = worst_decision([s.statement for s in sources]) if sources else NOT_DETERMINED
+    if partial:
+        overall = NOT_DETERMINED
+    return ReportContent(record=record, report_id=report_id(record, record_json), partial=partial,
+                         sources=sources, overall=overall,
+                         deviations=deviations(record, sources, capture_problems),
+                         capture_problems=capture_problems)
+
+
+def source_of(entry: dict) -> str:
+    """The ripple source a test belongs to: its ``source`` field, else its test-plan module."""
+    if entry.get("source"):
+        return str(entry["source"])
+    if (entry.get("prediction") or {}).get("source"):
+        return str(entry["prediction"]["source"])
+    nodeid = entry.get("nodeid") or ""
+    module = Path(nodeid.split("::")[0]).stem
+    return module.removeprefix("test_") or "unspecified"
+
+
+def worst_decision(decisions: list[str]) -> str:
+    if not decisions or any(d not in DECISIONS for d in decisions):
+        return NOT_DETERMINED
+    return max(decisions, key=DECISIONS.index)
+
+
+def _section(name: str, entries: list[dict]) -> SourceSection:
+    swept = swept_knob([e.get("injection") or {} for e in entries])
+    points = [point_from_entry(e, swept) for e in entries]
+    points.sort(key=lambda p: (p.x is None, p.x if p.x is not None else 0.0, p.test_id))
+    measured = [p for p in points if p.measured_pu is not None]
+    worst = max(measured, key=lambda p: p.measured_pu) if measured else None
+    statement = worst_decision([p.decision for p in points if p.outcome != "skipped"])
+    return SourceSection(name=name, swept=swept, points=points, statement=statement, worst=worst)
+
+
+def swept_knob(injections: list[dict]) -> str | None:
+    """The numeric injection knob whose value changes across the tests (the first if several)."""
+    keys = sorted({k for inj in injections for k, v in inj.items() if _number(v) is not None})
+    for key in keys:
+        values = {_number(inj.get(key)) for inj in injections}
+        if len(values) > 1:
+            return key
+    return keys[0] if len(keys) == 1 else None
+
+
+def point_from_entry(entry: dict, swept: str | None) -> Point:
+    """Read the report's figures out of one test entry (the analysis and model ``to_dict()``)."""
+    measured = entry.get("measured") or {}
+    prediction = entry.get("prediction") or {}
+    verdict = entry.get("verdict") or {}
+    uncertainty = entry.get("uncertainty") or measured.get("uncertainty") or {}
+    limits = verdict.get("limits") if isinstance(verdict.get("limits"), dict) else verdict
+    decision = str(verdict.get("decision", "")).lower()
+    if entry.get("outcome") in ("error", "skipped") or decision not in DECISIONS:
+        decision = NOT_DETERMINED
+    return Point(
+        test_id=str(entry.get("test_id")),
+        outcome=str(entry.get("outcome")),
+        x=_number((entry.get("injection") or {}).get(swept)) if swept else None,
+        measured_pu=_number(measured.get("pk_pk_pu")),
+        u_pu=_number(_pick(uncertainty, "expanded_pu", "U_pu", "expanded_uncertainty_pu",
+                           "expanded")),
+        predicted_pu=_number(prediction.get("pk_pk_pu")),
+        predicted_order=_number(prediction.get("order")),
+        lower_pu=_number(_pick(limits, "lower_limit_pu", "lower_pu", "lower")),
+        upper_pu=_number(_pick(limits, "upper_limit_pu", "upper_pu", "upper")),
+        decision=decision,
+        entry=entry,
+    )
+
+
+def deviations(record: dict, sources: list[SourceSection], capture_problems: list[str]) -> list[str]:
+    """Everything a reader must be told: partial run, overrides, problems, assumptions, misfits."""
+    out = []
+    status = record.get("status")
+    if status != "complete":
+        out.append(f"PARTIAL RECORD: the run's status is '{status}'; this report covers only the "
+                   f"{len(record.get('tests', []))} test(s) recorded and makes no overall "
+                   f"statement of conformity.")
+    for item in record.get("pending_captures", []):
+        out.append(f"Test '{item.get('test_id')}' was captured ({item.get('file')}, SHA-256 "
+                   f"{item.get('sha256')}) but never analysed: the run stopped during that test.")
+    out += [f"Capture check: {problem}" for problem in capture_problems]
+    for override in record.get("calibration_overrides", []):
+        out.append(f"Calibration override: {override.get('role')} s/n "
+                   f"{override.get('serial_number')} was used past its due date "
+                   f"{override.get('due')}; reason: {override.get('reason')} (by {override.get('by')}).")
+    for row in record.get("instruments", []):
+        for problem in row.get("problems", []):
+            out.append(f"Instrument {row.get('role')} s/n {row.get('serial_number')}: {problem}.")
+    if (record.get("bench") or {}).get("simulated"):
+        out.append("The instruments are simulated (hil.sim digital twin behind the real protocol "
+                   "stacks). The simulation does not regulate current ideally, as the paper's "
+                   "closed forms assume; differences between measured and predicted ripple can come "
+                   "from that assumption.")
+    assumptions: dict[str, list[str]] = {}
+    for section in sources:
+        for point in section.points:
+            for text in (point.entry.get("prediction") or {}).get("assumptions") or []:
+                users = assumptions.setdefault(str(text), [])
+                if section.name not in users:
+                    users.append(section.name)
+            if point.outcome in ("error", "skipped"):
+                reason = point.entry.get("error") or "; ".join(point.entry.get("notes") or [])
+                out.append(f"Test '{point.test_id}' ({section.name}) {point.outcome}: "
+                           f"{reason or 'no reason recorded'}.")
+            elif point.decision in ("fail", "conditional fail") and point.measured_pu is not None \
+                    and point.predicted_pu is not None:
+                out.append(f"Disagreement with the paper: '{point.test_id}' measured "
+                           f"{fmt_pct(point.measured_pu)} against the predicted "
+                           f"{fmt_pct(point.predicted_pu)} (U = {fmt_pct(point.u_pu)}); "
+                           f"decision: {point.decision}.")
+    for text, users in assumptions.items():
+        out.append(f"Paper's assumption ({', '.join(users)}): {text}")
+    return out
+
+
+def fmt_pct(value: float | None, digits: int = 2) -> str:
+    """A per-unit value as percent for print, or an em dash if missing."""
+    return "—" if value is None else f"{100.0 * value:.{digits}f} %"
+
+
+def knob_display(name: str | None, values: list[float]) -> tuple[str, float]:
+    """Axis label and scale for an injection knob at the user's edge (µs, %, degrees, kHz)."""
+    if name is None:
+        return "test point", 1.0
+    largest = max((abs(v) for v in values), default=0.0)
+    base = name.rsplit("_", 1)[0]
+    if name.endswith("_s") and 0 < largest < 1e-3:
+        return f"{base} (µs)", 1e6
+    if name.endswith("_pu"):
+        return f"{base} (%)", 100.0
+    if name.endswith("_rad"):
+        return f"{base} (electrical degrees)" if "angle" in base else f"{base} (deg)", \
+            180.0 / math.pi
+    if name.endswith("_hz") and largest >= 1000:
+        return f"{base} (kHz)", 1e-3
+    unit = {"_a": "A", "_s": "s", "_bits": "bits", "_counts": "counts"}
+    for suffix, label in unit.items():
+        if name.endswith(suffix):
+            return f"{name.removesuffix(suffix)} ({label})", 1.0
+    return name, 1.0
+
+
+def fmt(value: Any, digits: int = 4) -> str:
+    """Any recorded value for print: numbers to ``digits`` significant figures, lists joined."""
+    if value is None:
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e7:
+        return str(int(value))
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(fmt(v, digits) for v in value)
+    if isinstance(value, dict):
+        return json.dumps(value, sort_keys=True)
+    return str(value)
+
+
+def _pick(d: Any, *names: str) -> Any:
+    if not isinstance(d, dict):
+        return None
+    return next((d[name] for name in names if d.get(name) is not None), None)
+
+
+def _number(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value) if math.isfinite(value) else None
