@@ -1,0 +1,106 @@
+"""``hil budget --limit-pct P``: the loosest controller parameters that meet a pk-pk ripple limit.
+
+With source options (as in ``hil predict``, e.g. ``--encoder-decimation 100 --offset-a-pct 1``)
+it also combines those sources at the operating point and checks them against the limit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from hil.commands.predict import (SOURCE_OPTIONS, add_operating_point_options, add_source_options,
+                                  operating_point, option_unit)
+from hil.model import source_parameters
+from hil.model.budget import ALLOCATIONS, Combination, combine_sources, invert
+from hil.model.core import check_range
+
+
+def given_sources(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
+    """{source: SI params} for every source option given, each option to the sources taking it."""
+    by_source: dict[str, dict[str, Any]] = {}
+    for option in SOURCE_OPTIONS:
+        value = getattr(args, option.param, None)
+        if value is None or option.param in ("model", "pwm_frequency_hz", "nominal_current_a",
+                                             "current_loop_bandwidth_hz", "voltage_step_basis"):
+            continue
+        if option.choices is None:
+            check_range(option.flag, value, option.low, option.high, low_open=option.low_open,
+                        unit=option_unit(option))
+        by_source.setdefault(option.sources[0], {})[option.param] = option.to_si(value)
+    if getattr(args, "hall_mode", None):
+        by_source.setdefault("encoder", {})["hall_mode"] = True
+    for source, params in by_source.items():  # shared settings go to the sources that take them
+        for name in ("model", "pwm_frequency_hz", "nominal_current_a", "current_loop_bandwidth_hz",
+                     "voltage_step_basis"):
+            value = getattr(args, name, None)
+            if value is not None and name in source_parameters(source):
+                option = next(o for o in SOURCE_OPTIONS if o.param == name)
+                params[name] = option.to_si(value)
+    return by_source
+
+
+def format_combination(combination: Combination, limit_pu: float) -> list[str]:
+    lines = ["combination of the given sources (per unit of the mean torque at the operating point):"]
+    lines += [f"  {source:<15} {100 * value:8.4g} %" for source, value in
+              combination.contributions_pu.items()]
+    for name, value in (("worst-case sum", combination.worst_case_sum_pu),
+                        ("root-sum-square", combination.rss_pu)):
+        verdict = "meets" if value <= limit_pu else "EXCEEDS"
+        lines.append(f"  {name:<15} {100 * value:8.4g} %  {verdict} the {100 * limit_pu:g} % limit")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    limit_pct = check_range("--limit-pct", args.limit_pct, 0.0, 100.0, unit=" %", low_open=True)
+    op = operating_point(args)
+    spec = invert(op, limit_pct / 100.0, allocation=args.allocation,
+                  dead_time_model=args.model if args.model == "average_voltage" else "paper",
+                  nominal_current_a=args.nominal_current_a,
+                  pwm_frequency_hz=args.pwm_frequency_hz or 20000.0,
+                  current_loop_bandwidth_hz=args.current_loop_bandwidth_hz)
+    sources = given_sources(args)
+    combination = combine_sources(op, sources) if sources else None
+    if args.json:
+        data = {"operating_point": op.to_dict(), **spec.to_dict(),
+                "combination": combination.to_dict() if combination else None}
+        if combination:
+            data["combination"]["meets_worst_case"] = combination.worst_case_sum_pu <= spec.limit_pu
+            data["combination"]["meets_rss"] = combination.rss_pu <= spec.limit_pu
+        print(json.dumps(data))
+        return 0
+    limits = spec.limits
+    lines = [f"ripple limit {limit_pct:g} % pk-pk of the mean torque {op.mean_torque_nm:.4g} N·m "
+             f"at {op.speed_rpm:g} rpm, {op.current_a:g} A",
+             f"allocation {spec.allocation}: each source may use {100 * spec.share_pu:.4g} %",
+             f"  encoder         coarsest {limits['encoder']['resolution_elec_deg']:.4g}° electrical"
+             f" (decimation {limits['encoder']['encoder_decimation']} of 7200 counts; "
+             f">= {limits['encoder']['encoder_counts_per_rev_min']} counts/rev)",
+             f"  word_length     shortest {limits['word_length']['word_length_bits']} bits",
+             f"  dc_offset       largest {100 * limits['dc_offset']['offset_pu']:.4g} % of I "
+             f"({limits['dc_offset']['offset_a']:.4g} A), worst case",
+             f"  gain_mismatch   largest {100 * limits['gain_mismatch']['gain_error_pu']:.4g} %, "
+             "worst case",
+             f"  pwm_resolution  coarsest counter {limits['pwm_resolution']['pwm_period_counts_min']}"
+             " counts per half period",
+             f"  dead_time       longest {limits['dead_time']['dead_time_us']:.4g} µs "
+             f"({limits['dead_time']['model']} model)",
+             f"  check: worst-case sum {100 * spec.check.worst_case_sum_pu:.4g} %, "
+             f"root-sum-square {100 * spec.check.rss_pu:.4g} %"]
+    if combination:
+        lines += format_combination(combination, spec.limit_pu)
+    print("\n".join(lines))
+    return 0
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("budget", help="invert a ripple limit into controller limits",
+                                   description=__doc__.splitlines()[0])
+    parser.add_argument("--limit-pct", type=float, required=True,
+                        help="pk-pk ripple limit, % of the mean torque")
+    parser.add_argument("--allocation", choices=ALLOCATIONS, default="equal_sum",
+                        help="how the limit is shared among the sources (default equal_sum)")
+    add_operating_point_options(parser)
+    add_source_options(parser)
+    parser.set_defaults(func=run)
