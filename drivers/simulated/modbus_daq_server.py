@@ -75,9 +75,8 @@ class DaqDevice:
         self._worker: threading.Thread | None = None
         with twin.lock:
             self._speed_setpoint_rpm = float(twin.speed_rpm)
-        counts = getattr(getattr(twin, "config", None), "encoder_counts_per_rev", None)
-        pole_pairs = getattr(getattr(getattr(twin, "config", None), "motor", None), "pole_pairs",
-                             None)
+        counts = _twin_setting(twin, "sensors", "encoder_counts_per_rev")
+        pole_pairs = _twin_setting(twin, "motor", "parameters", "pole_pairs")
         self._constants = {
             "model": self.device["model"], "serial_number": serial_number,
             "firmware": "1.0.0", "map_version": int(self.device["map_version"]),
@@ -257,6 +256,15 @@ class DaqDevice:
             self._state, self._words, self._samples_captured, self._words_per_sample = outcome
             self._flags = flags
             self._page = 0
+
+
+def _twin_setting(twin, *path: str):
+    """``twin.config.<path>`` (e.g. the encoder's counts per revolution), None if absent; the
+    DAQ then reports the register map's default."""
+    value = getattr(twin, "config", None)
+    for name in path:
+        value = getattr(value, name, None)
+    return value
 
 
 class SimulatedDaq:

@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from daq_fake_twin import CURRENT_A, SPEED_RPM, make_twin
+from daq_twin import CURRENT_A, SPEED_RPM, make_twin
 
 from drivers.daq_register_map import DEFAULT_MAP_PATH, load_register_map
 from drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout
@@ -160,3 +160,19 @@ def test_stopping_the_server_while_a_client_is_connected_does_not_hang():
     with pytest.raises(InstrumentError):
         daq.identity()
     daq.close()
+
+
+def test_the_device_reports_the_twins_encoder_and_the_angle_uses_it():
+    from hil.sim import DriveTwin
+    from hil.sim.config import DriveConfig, SensorModel
+    twin = DriveTwin(DriveConfig(sensors=SensorModel(encoder_counts_per_rev=1000),
+                                 speed_rpm=SPEED_RPM))
+    with SimulatedDaq(twin) as server, ModbusDaq(ModbusTcpSettings(*server.address)) as daq:
+        assert daq.identity()["encoder_counts_per_rev"] == 1000
+        capture = daq.capture(2 * ELECTRICAL_PERIOD_S, RATE_HZ)
+    assert capture.meta["encoder_counts_per_rev"] == 1000
+    counts_per_s = np.polyfit(capture["time_s"], capture["encoder_counts"], 1)[0]
+    assert counts_per_s == pytest.approx(SPEED_RPM / 60 * 1000, rel=0.01)
+    speed_rpm = np.polyfit(capture["time_s"], capture["rotor_angle_mech_rad"], 1)[0] * 60 / (
+        2 * math.pi)
+    assert speed_rpm == pytest.approx(SPEED_RPM, rel=0.01)

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent.parent / "drivers_daq"))
-from daq_fake_twin import make_twin  # noqa: E402
+from daq_twin import make_twin  # noqa: E402
 
 
 @pytest.fixture
