@@ -17,8 +17,8 @@ spectrum figures cover electrical orders 1..``max_order`` (:mod:`hil.analysis.sp
     No overshoot on steps; a sinusoid of order k reads low by up to ``1 − cos(πk/N)·sinc(k/N)``
     and noise lifts it more (the budget's bias row says how much). Choose a large ``max_order``
     (fine bins) for step-shaped ripple.
-* ``pk_pk_pu``: ``pk_pk_nm / |mean_torque_nm|`` — the per-unit torque ripple of the paper and the
-  project (NaN when the mean torque is exactly zero).
+* ``pk_pk_pu``: ``pk_pk_nm / |mean_torque_nm|`` — the per-unit torque ripple of the paper
+  (e.g. eq 9) and the project (NaN when the mean torque is exactly zero).
 * ``pk_pk_rated_pu``: ``pk_pk_nm / rated_torque_nm`` when a rated torque is given, else None.
 * ``rms_ac_nm``: RMS of the AC part of the synchronous average, ``sqrt(Σ A_k²/2)``, k = 1..K.
 * ``orders``/``amplitude_nm``/``phase_rad``: the order spectrum, ``τ = c₀ + Σ A_k cos(kθ + φ_k)``
