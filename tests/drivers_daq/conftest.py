@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from daq_twin import CURRENT_A, SPEED_RPM, make_twin  # noqa: E402,F401
+from daq_twin import make_twin  # noqa: E402
 
 
 @pytest.fixture

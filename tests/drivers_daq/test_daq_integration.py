@@ -176,3 +176,12 @@ def test_the_device_reports_the_twins_encoder_and_the_angle_uses_it():
     speed_rpm = np.polyfit(capture["time_s"], capture["rotor_angle_mech_rad"], 1)[0] * 60 / (
         2 * math.pi)
     assert speed_rpm == pytest.approx(SPEED_RPM, rel=0.01)
+
+
+def test_connecting_to_a_closed_port_names_the_instrument():
+    import socket
+    with socket.socket() as probe:            # a port that was free a moment ago
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    with pytest.raises(InstrumentError, match="^daq: connect"):
+        ModbusDaq(ModbusTcpSettings("127.0.0.1", port), timeout_s=0.3).connect()

@@ -123,3 +123,9 @@ def test_pacing_to_the_baud_rate_costs_line_time(twin):
         elapsed = time.perf_counter() - start
     line_bytes = 10 * (len("OD\r\n") + len("S1000T0.4879R\r\n"))
     assert elapsed >= 0.9 * line_bytes * 10 / baud
+
+
+def test_opening_a_missing_port_names_the_instrument(tmp_path):
+    from drivers.errors import InstrumentError
+    with pytest.raises(InstrumentError, match="^torque: connect"):
+        TorqueTransducer(SerialSettings(str(tmp_path / "no-such-tty"))).connect()
