@@ -157,3 +157,19 @@ def injection_objects(eds_path: str | Path | None = None) -> dict[str, ScaledObj
 def current_command_object(eds_path: str | Path | None = None) -> ScaledObject:
     """Object 0x2100, the peak phase-current command (``current_command_a [mA]``)."""
     return _scaled_object(load_dictionary(eds_path)[CURRENT_COMMAND_INDEX])
+
+
+def object_table_markdown(eds_path: str | Path | None = None) -> str:
+    """A Markdown table of the drive's command and fault-injection objects, rendered from the EDS.
+
+    The documentation of the drive profile is generated from here, so it cannot drift from
+    what the driver and the simulated drive use.
+    """
+    rows = ["| index | knob | bus unit | SI range | default |", "|---|---|---|---|---|"]
+    objects = list(injection_objects(eds_path).values()) + [current_command_object(eds_path)]
+    for obj in objects:
+        rows.append(f"| 0x{obj.index:04X} | `{obj.knob}` | {obj.unit} | {obj.range_text()} | "
+                    f"{obj.default_si!r} |")
+    rows.append(f"| 0x{RESTORE_DEFAULTS_INDEX:04X} | restore injection defaults | write "
+                f"0x{RESTORE_SIGNATURE:08X} (\"load\") | | |")
+    return "\n".join(rows)

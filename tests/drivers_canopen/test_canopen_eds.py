@@ -119,3 +119,11 @@ def test_check_si_names_knob_and_range(knob, value, message):
 
 def test_eds_file_is_shipped_as_package_data():
     assert DEFAULT_EDS_PATH.name == "ripple_drive.eds" and DEFAULT_EDS_PATH.is_file()
+
+
+def test_object_table_is_rendered_from_the_eds():
+    from drivers.canopen_eds import object_table_markdown
+    table = object_table_markdown()
+    assert "| 0x200A | `dead_time_s` | ns | 0..1e-05 | 0.0 |" in table
+    assert "0x64616F6C" in table
+    assert len(table.splitlines()) == 2 + len(CONTRACT) + 2

@@ -124,3 +124,27 @@ def test_emcy_frame_on_fault_and_on_reset(raw, sim_drive):
     msg = wait_for(raw, EMCY)
     assert struct.unpack_from("<HB", msg.data) == (0x0000, 0x00)  # error reset
     assert sim_drive.state == "SWITCH ON DISABLED"
+
+
+def test_tpdo_event_timer_and_sync_transmission(raw):
+    send(raw, 0x000, [0x01, NODE])
+    first = wait_for(raw, TPDO1)
+    second = wait_for(raw, TPDO1)
+    assert 0.004 < second.timestamp - first.timestamp < 0.05  # event timer 0x1800:05 = 10 ms
+    send(raw, 0x000, [0x80, NODE])  # PRE-OPERATIONAL to reconfigure TPDO1 as synchronous
+    time.sleep(0.02)
+    response = sdo_upload(raw, 0x1800, 2)
+    assert response[4] == 255
+    send(raw, SDO_RX, struct.pack("<BHBB3x", 0x2F, 0x1800, 2, 2))  # every 2nd SYNC
+    assert wait_for(raw, SDO_TX).data[0] == 0x60
+    send(raw, 0x000, [0x01, NODE])
+    time.sleep(0.05)
+    while raw.recv(timeout=0) is not None:
+        pass
+    assert wait_for(raw, TPDO1, 0.1) is None  # no SYNC, no TPDO1
+    tpdo_count = 0
+    for _ in range(6):
+        send(raw, 0x080, [])
+        if wait_for(raw, TPDO1, 0.05) is not None:
+            tpdo_count += 1
+    assert tpdo_count == 3
