@@ -38,7 +38,9 @@ ENCODER_SWEEP = [
     {"encoder_decimation": 100},       # 10°: the paper's Fig. 3
     {"hall_mode": True},               # 60° Hall sectors
 ]
-WORD_LENGTH_SWEEP = [{"word_length_bits": n} for n in (8, 10, 12, 16)]
+#: 16 bits is left out: its bound (0.15 % of the mean torque at 20 A) lies inside the bench's own
+#: floor (baseline ≈ 0.1 % ± 0.1 %), so no measurement here could resolve it.
+WORD_LENGTH_SWEEP = [{"word_length_bits": n} for n in (8, 10, 12)]
 #: dc offsets as fractions of the current amplitude (paper's Δa, Δb); converted to A by the plan.
 DC_OFFSET_SWEEP_PU = [(0.01, 0.0), (0.01, 0.01), (0.01, -0.01), (0.0, 0.02), (-0.02, 0.01)]
 GAIN_SWEEP = [
@@ -47,7 +49,11 @@ GAIN_SWEEP = [
     {"ia_gain_error_pu": 0.02, "ib_gain_error_pu": -0.02},
 ]
 PWM_RESOLUTION_SWEEP = [{"pwm_period_counts": c} for c in (32, 64, 128)]
-DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (0.5e-6, 1e-6, 2e-6)]
+DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (1e-6, 2e-6, 4e-6)]
+#: The drive's current-loop bandwidth, Hz, from its firmware documentation (the simulated drive
+#: tunes its PI to 0.08·f_pwm = 1.6 kHz at 20 kHz). The dead-time disturbance is a voltage the
+#: loop rejects, so the derived estimate needs it; the paper's eq 38 ignores the loop.
+DRIVE_CURRENT_LOOP_BANDWIDTH_HZ = 1600.0
 
 
 def point(op, source: str, injection: dict, rule: DecisionRule, **overrides):
