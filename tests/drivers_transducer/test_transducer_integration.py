@@ -129,3 +129,19 @@ def test_opening_a_missing_port_names_the_instrument(tmp_path):
     from drivers.errors import InstrumentError
     with pytest.raises(InstrumentError, match="^torque: connect"):
         TorqueTransducer(SerialSettings(str(tmp_path / "no-such-tty"))).connect()
+
+
+def test_transducer_and_daq_share_one_simulated_run(twin):
+    from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
+    from drivers.simulated.modbus_daq_server import SimulatedDaq
+    with SimulatedDaq(twin) as daq_server, \
+            ModbusDaq(ModbusTcpSettings(*daq_server.address)) as daq, \
+            SimulatedTransducer(twin, dialect="himmelstein", sample_rate_hz=RATE_HZ) as sim, \
+            TorqueTransducer(SerialSettings(sim.port), dialect="himmelstein") as tt:
+        before = tt.read().time_s
+        capture = daq.capture(0.1, 10000, settle_s=0.02)
+        after = tt.read().time_s
+        # the DAQ's settle + capture advanced the same twin the transducer reads from
+        assert after - before == pytest.approx(0.02 + 0.1 + 1 / RATE_HZ, abs=2e-4)
+        assert np.mean([r.torque_nm for r in tt.stream(100)]) == pytest.approx(
+            np.mean(capture["torque_nm"]), rel=0.05)
