@@ -11,7 +11,8 @@ import json
 from typing import Any
 
 from hil.commands.predict import (SOURCE_OPTIONS, add_operating_point_options, add_source_options,
-                                  operating_point, option_unit)
+                                  in_option_names, operating_point, option_unit)
+from hil.errors import InputError
 from hil.model import source_parameters
 from hil.model.budget import ALLOCATIONS, Combination, combine_sources, invert
 from hil.model.core import check_range
@@ -61,7 +62,10 @@ def run(args: argparse.Namespace) -> int:
                   pwm_frequency_hz=args.pwm_frequency_hz or 20000.0,
                   current_loop_bandwidth_hz=args.current_loop_bandwidth_hz)
     sources = given_sources(args)
-    combination = combine_sources(op, sources) if sources else None
+    try:
+        combination = combine_sources(op, sources) if sources else None
+    except InputError as error:
+        raise in_option_names(error) from None
     if args.json:
         data = {"operating_point": op.to_dict(), **spec.to_dict(),
                 "combination": combination.to_dict() if combination else None}

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -121,7 +122,7 @@ def source_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
     params: dict[str, Any] = {}
     if getattr(args, "hall_mode", None):
         if source != "encoder":
-            raise InputError(f"--hall-mode does not apply to source {source} (only: encoder)")
+            raise InputError(f"--hall-mode does not apply to source {source} (allowed for: encoder)")
         params["hall_mode"] = True
     for option in SOURCE_OPTIONS:
         value = getattr(args, option.param, None)
@@ -129,7 +130,7 @@ def source_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
             continue
         if source not in option.sources:
             raise InputError(f"{option.flag} does not apply to source {source} "
-                             f"(only: {', '.join(option.sources)})")
+                             f"(allowed for: {', '.join(option.sources)})")
         if option.choices is None:
             check_range(option.flag, value, option.low, option.high, low_open=option.low_open,
                         unit=option_unit(option))
@@ -148,9 +149,22 @@ def format_prediction(pred: Prediction) -> str:
     return "\n".join(lines)
 
 
+def in_option_names(error: InputError) -> InputError:
+    """The same error with the model's keyword names replaced by the CLI options that set them."""
+    message = str(error)
+    for option in SOURCE_OPTIONS:
+        message = re.sub(rf"(?<![\w-]){option.param}(?=[=,]| \(|$)", option.flag, message)
+    for name in ("speed_rpm", "current_a", "dc_bus_v"):
+        message = re.sub(rf"(?<![\w-]){name}(?=[=,]| \(| !|$)", "--" + name.replace("_", "-"), message)
+    return InputError(message)
+
+
 def run(args: argparse.Namespace) -> int:
     op = operating_point(args)
-    pred = predict(args.source, op, **source_params(args, args.source))
+    try:
+        pred = predict(args.source, op, **source_params(args, args.source))
+    except InputError as error:
+        raise in_option_names(error) from None
     if args.json:
         data = pred.to_dict()
         data.pop("angle_rad")

@@ -108,7 +108,7 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
                 "torque ripple per unit = Δi_q / I_nom (the step taken as aligned with the EMF)"],
             extras={"current_step_a": step})
     if op.speed_rpm == 0.0:
-        raise InputError("speed_rpm=0 has no dead-time harmonics in the average-voltage model "
+        raise InputError("speed_rpm=0: the average-voltage form has no harmonics at standstill "
                          "(allowed: speed_rpm != 0 with model=average_voltage)")
     theta = angle_grid()
     torque = average_model_torque_pu(theta, op, t_d, f_sw, current_loop_bandwidth_hz)

@@ -57,4 +57,10 @@ def predict(source: str, op: OperatingPoint, **params: Any) -> Prediction:
     if unknown:
         raise InputError(f"{source}: unknown parameter(s) {', '.join(unknown)} "
                          f"(allowed: {', '.join(accepted)})")
+    signature = inspect.signature(SOURCES[source]).parameters
+    missing = [name for name in accepted if signature[name].default is inspect.Parameter.empty
+               and name not in params]
+    if missing:
+        raise InputError(f"{source}: missing parameter(s) {', '.join(missing)} "
+                         f"(allowed: {', '.join(accepted)})")
     return SOURCES[source](op, **{k: v for k, v in params.items() if k in accepted})
