@@ -46,6 +46,7 @@ class PointPlan:
     revolutions: int = DEFAULT_REVOLUTIONS
     max_order: int = 48
     named_order: int | None = None
+    pk_pk_method: str = "band-limited"
     settle_s: float = 0.05
     sample_rate_hz: float | None = None
     rule: DecisionRule = field(default_factory=DecisionRule)
@@ -108,7 +109,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         capture = _acquire(bench, record, test_id, plan, pole_pairs)
         result = analyze_capture(capture, max_order=plan.max_order,
                                  named_order=plan.named_order or _order_of(plan, bench),
-                                 instruments=bench.config.instrument_uncertainty(), pole_pairs=pole_pairs)
+                                 instruments=bench.config.instrument_uncertainty(),
+                                 pole_pairs=pole_pairs, pk_pk_method=plan.pk_pk_method)
         op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                             current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
         prediction = _predict(plan, op)
@@ -127,7 +129,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         outcome="passed" if verdict.guarded_pass else "failed",
         measured=result.to_dict() | {"analysis_settings": {
             "max_order": plan.max_order, "named_order": result.named_order,
-            "pole_pairs": pole_pairs}},
+            "pole_pairs": pole_pairs, "pk_pk_method": plan.pk_pk_method}},
         prediction=prediction.to_dict() | {"pk_pk_pu_of_measured_mean": predicted_pu},
         uncertainty=result.uncertainty.to_dict(),
         verdict=verdict.to_dict(),
