@@ -133,7 +133,8 @@ def test_actual_values_come_from_remapped_tpdos(drive, twin):
         if actual["position_counts"] == int(expected["position_counts"]) or time.monotonic() > deadline:
             break
         time.sleep(0.01)
-    assert actual["state"] == "OPERATION ENABLED"
+    assert actual["position_counts"] is not None, "no fresh TPDOs within 2 s after advance"
+    assert actual["state"] == "OPERATION ENABLED", (actual, expected)
     assert actual["velocity_rpm"] == pytest.approx(expected["speed_rpm"], abs=0.5)
     assert actual["position_counts"] == int(expected["position_counts"])
     assert actual["torque_nm"] == pytest.approx(expected["torque_em_nm"], abs=0.0049)
