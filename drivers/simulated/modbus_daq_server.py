@@ -11,7 +11,8 @@ A capture runs in simulated time in a worker thread: under the twin's lock it ca
 scaled int16 / uint32 words of the enabled channels. Asking for more samples than
 ``buffer_capacity_samples`` stores a full buffer and raises the overrun flag. The holding
 register pair ``dyno_speed_setpoint_rpm`` is the DAQ's analog output to the dyno: writing it sets
-``twin.speed_rpm``.
+``twin.speed_rpm`` (if a capture is running, the dyno takes the new speed when that capture's
+simulation window ends: the twin changes operating point only between ``advance`` calls).
 
 RTU: ``SimulatedDaq.rtu(twin)`` opens two pseudo-terminals in raw mode; the pymodbus serial server
 listens on one, a bridge thread copies bytes between the two master ends (pacing them to the baud
@@ -43,6 +44,8 @@ from drivers.daq_register_map import RegisterMap, load_register_map
 log = logging.getLogger(__name__)
 
 FAIL_KINDS = ("exception", "timeout", "disconnect")
+#: How long a speed-setpoint write waits for the twin (a transducer reading holds it briefly).
+SPEED_APPLY_WAIT_S = 0.05
 _INPUT_FC = 4
 _HOLDING_FCS = (3, 6, 16, 22, 23)
 
@@ -75,6 +78,7 @@ class DaqDevice:
         self._worker: threading.Thread | None = None
         with twin.lock:
             self._speed_setpoint_rpm = float(twin.speed_rpm)
+        self._speed_pending = False
         counts = _twin_setting(twin, "sensors", "encoder_counts_per_rev")
         pole_pairs = _twin_setting(twin, "motor", "parameters", "pole_pairs")
         self._constants = {
@@ -165,16 +169,16 @@ class DaqDevice:
             self._control(int(value))
         elif name == "dyno_speed_setpoint_rpm":
             reg = self.map[name]
-            if self._state == states["capturing"]:
-                raise _Refusal(ExcCodes.DEVICE_BUSY)
             if not math.isfinite(value) or not reg.minimum <= value <= reg.maximum:
                 raise _Refusal(ExcCodes.ILLEGAL_VALUE)
-            with self.twin.lock:
-                try:
-                    self.twin.speed_rpm = float(value)
-                except ValueError:
-                    raise _Refusal(ExcCodes.ILLEGAL_VALUE) from None
             self._speed_setpoint_rpm = float(value)
+            self._speed_pending = True
+            if self.twin.lock.acquire(timeout=SPEED_APPLY_WAIT_S):
+                try:
+                    self._apply_speed_setpoint()
+                finally:
+                    self.twin.lock.release()
+            # else a capture holds the twin: its worker applies the setpoint when it ends
         elif name == "buffer_page":
             if self._state == states["capturing"]:
                 raise _Refusal(ExcCodes.DEVICE_BUSY)
@@ -185,6 +189,15 @@ class DaqDevice:
             if not self._config_value_ok(name, int(value)):
                 raise _Refusal(ExcCodes.ILLEGAL_VALUE)
             self._config[name] = int(value)
+
+    def _apply_speed_setpoint(self) -> None:
+        """Hand a pending speed setpoint to the dyno (call with the twin's lock held)."""
+        if self._speed_pending:
+            self._speed_pending = False
+            try:
+                self.twin.speed_rpm = self._speed_setpoint_rpm
+            except ValueError:
+                raise _Refusal(ExcCodes.ILLEGAL_VALUE) from None
 
     def _config_value_ok(self, name: str, value: int) -> bool:
         if name == "sample_rate_hz":
@@ -238,6 +251,12 @@ class DaqDevice:
                 if config["settle_ms"]:
                     self.twin.advance(config["settle_ms"] / 1000.0, rate)
                 data = self.twin.advance(n / rate, rate)
+                with self._lock:
+                    try:
+                        self._apply_speed_setpoint()    # written while this capture ran
+                    except _Refusal:
+                        log.error("dyno speed setpoint %s rpm refused by the twin",
+                                  self._speed_setpoint_rpm)
             columns = []
             for channel in channels:
                 raw, clipped = channel.to_raw(np.asarray(data[channel.name])[:n])

@@ -97,8 +97,12 @@ def test_device_is_busy_while_the_twin_runs_the_capture(daq, twin):
             daq.write_registers(buffer_page=0)
         with pytest.raises(InstrumentTimeout, match="wait for capture"):
             daq.wait_done(0.05)
+        daq.set_dyno_speed_rpm(1500.0)      # the analog output is not blocked by a capture
+        assert twin.speed_rpm == SPEED_RPM  # the dyno takes it when the window is simulated
     daq.wait_done(10.0)
     assert len(daq.read_buffer()) == 200
+    assert twin.speed_rpm == 1500.0
+    assert daq.dyno_speed_rpm() == 1500.0
     daq.disarm()
 
 
