@@ -158,9 +158,14 @@ class DaqDevice:
         touched = [reg for reg in self.map.registers.values() if reg.table == "holding"
                    and reg.address < address + len(values) and address < reg.address + reg.words]
         with self._lock:
-            for reg in touched:
-                offset = reg.address - start_address
-                self._apply(reg.name, reg.decode(image[offset:offset + reg.words]))
+            saved = dict(self._config), self._page
+            try:
+                for reg in touched:
+                    offset = reg.address - start_address
+                    self._apply(reg.name, reg.decode(image[offset:offset + reg.words]))
+            except _Refusal:
+                self._config, self._page = saved    # a refused write changes no setting
+                raise
 
     def _apply(self, name: str, value) -> None:
         states = self.map.states

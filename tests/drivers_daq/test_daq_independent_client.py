@@ -98,3 +98,19 @@ def test_capture_by_another_client_decodes_identically_in_the_driver(other_clien
         else:
             assert np.array_equal(capture[channel.name], raw * channel.scale + channel.offset)
     assert column == words_per_sample
+
+
+def test_a_refused_block_write_changes_no_setting(other_client):
+    before = [read(other_client, name) for name in ("sample_rate_hz", "samples", "channel_mask")]
+    words = MAP["sample_rate_hz"].encode(5000) + MAP["samples"].encode(77) + [0]   # mask 0
+    assert not other_client.write_multiple_registers(MAP["sample_rate_hz"].address, words)
+    assert other_client.last_except == EXC_ILLEGAL_VALUE
+    assert [read(other_client, name) for name in ("sample_rate_hz", "samples",
+                                                   "channel_mask")] == before
+    write(other_client, "control", MAP.control_codes["arm"])     # the device agrees:
+    write(other_client, "control", MAP.control_codes["trigger"])
+    deadline = time.monotonic() + 10
+    while read(other_client, "state") != MAP.states["done"]:
+        assert time.monotonic() < deadline
+        time.sleep(0.005)
+    assert read(other_client, "samples_captured") == before[1] != 77
