@@ -64,7 +64,8 @@ def angle_view(entry: dict, record_dir: Path) -> AngleView:
 
 
 def _settings(measured: dict, function) -> dict:
-    nested = measured.get("settings") if isinstance(measured.get("settings"), dict) else {}
+    nested = next((measured[key] for key in ("analysis_settings", "settings")
+                   if isinstance(measured.get(key), dict)), {})
     accepted = set(inspect.signature(function).parameters)
     out = {}
     for key in SETTING_KEYS:

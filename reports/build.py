@@ -22,11 +22,13 @@ from hil.record import RECORD_FILE, load_record, verify_captures
 from reports import figures
 from reports.angle_view import angle_view
 from reports.content import (DECISIONS, NOT_DETERMINED, RIPPLE_DEFINITION, ReportContent,
-                             SourceSection, fmt, fmt_pct, knob_display, report_content)
+                             SourceSection, fmt, fmt_pct, report_content)
 from reports.document import ReportPDF
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
+BUDGET_WIDTHS = {"value": 16, "unit": 11, "distribution": 24, "divisor": 12, "sensitivity": 15,
+                 "sensitivity_unit": 16, "contribution_pu": 18, "combination": 16}
 #: Captures larger than this in total are listed with their hashes but not attached.
 MAX_ATTACHED_BYTES = 25 * 1024 * 1024
 
@@ -170,12 +172,15 @@ def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> N
     pdf.heading("Decision rule (agreed before measuring)", 2)
     rule = record.get("decision_rule") or {}
     pdf.key_values([(k, fmt(v)) for k, v in rule.items()] or [("rule", "not recorded")])
-    used = {json.dumps((t.get("verdict") or {}).get("rule"), sort_keys=True) for t in tests
-            if isinstance((t.get("verdict") or {}).get("rule"), dict)}
-    for text in sorted(used):
-        if json.loads(text) != rule:
-            pdf.para(f"Rule recorded with the verdicts of some tests: {fmt(json.loads(text))}",
-                     size=7.5)
+    used: dict[str, list[str]] = {}
+    for test in tests:
+        applied = (test.get("verdict") or {}).get("rule")
+        if isinstance(applied, dict):
+            used.setdefault(fmt(applied), []).append(test.get("test_id"))
+    if used:
+        pdf.para("Rules applied by the verdicts (as recorded with each verdict):", size=7.5)
+        pdf.bullets([f"{text} ({len(ids)} test{'s' if len(ids) > 1 else ''})"
+                     for text, ids in sorted(used.items())], size=7)
 
     pdf.heading("Test conditions", 2)
     conditions = sorted({(fmt(op.get("speed_rpm")), fmt(op.get("current_a")),
@@ -227,7 +232,8 @@ def _signal_rows(tests: list[dict], record_dir: Path) -> list[list[str]]:
         capture = test.get("capture") or {}
         meta = _capture_meta(record_dir, capture.get("file"))
         measured = test.get("measured") or {}
-        settings = measured.get("settings") if isinstance(measured.get("settings"), dict) else {}
+        settings = next((measured[key] for key in ("analysis_settings", "settings")
+                         if isinstance(measured.get(key), dict)), {})
         grid = settings.get("samples_per_rev", measured.get("samples_per_rev"))
         if grid is None and measured.get("angle_grid_rad") is not None:
             grid = len(measured["angle_grid_rad"])
@@ -258,20 +264,20 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
             "Measured ripple with its expanded uncertainty (k = 2), the paper's prediction and "
             "the tolerance limits of the decision rule where recorded.")
     pdf.heading("Points", 2)
-    label, scale = knob_display(section.swept, [p.x or 0.0 for p in section.points])
-    pdf.grid([label, "test", "measured", "U (k = 2)", "predicted", "pred. order", "outcome",
+    pdf.grid(["injected", "test", "measured", "U (k = 2)", "predicted", "pred. order", "outcome",
               "verdict"],
-             [[fmt(None if p.x is None else p.x * scale), p.test_id.split("::")[-1],
+             [[p.label, p.test_id.split("::")[-1],
                fmt_pct(p.measured_pu), fmt_pct(p.u_pu), fmt_pct(p.predicted_pu),
                fmt(p.predicted_order), p.outcome, p.decision] for p in section.points],
-             widths=(22, 0, 18, 16, 17, 13, 15, 24))
+             widths=(34, 0, 17, 15, 17, 12, 15, 22))
     pdf.para("Ripple figures in % of the mean torque at the operating point; the full test ids "
              "and capture hashes are in the traceability table.", size=7, style="I")
     worst = section.worst
     if worst is None:
         pdf.para("No point of this source has a measured ripple; no waveform to show.")
         return
-    pdf.heading(f"Worst point: {worst.test_id} (measured {fmt_pct(worst.measured_pu)})", 2)
+    pdf.heading(f"Worst point: {worst.test_id} (measured {fmt_pct(worst.measured_pu)})", 2,
+                keep_with_mm=90)
     view = angle_view(worst.entry, record_dir)
     if view.problem:
         pdf.para(f"Torque-against-angle plot and order spectrum not shown: {view.problem}.")
@@ -298,8 +304,9 @@ def _budget(pdf: ReportPDF, entry: dict) -> None:
     known = [c for c in BUDGET_COLUMNS if any(c in row for row in rows)]
     columns = known + [c for c in dict.fromkeys(k for row in rows for k in row)
                        if c not in known]
+    widths = tuple(BUDGET_WIDTHS.get(c, 0) for c in columns)
     pdf.grid([c.replace("_", " ") for c in columns],
-             [[fmt(row.get(c)) for c in columns] for row in rows], size=7)
+             [[fmt(row.get(c)) for c in columns] for row in rows], widths=widths, size=7)
     scalars = [(k.replace("_", " "), fmt(v)) for k, v in uncertainty.items()
                if not isinstance(v, (list, dict))]
     if scalars:

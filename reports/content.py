@@ -9,7 +9,6 @@ them; a field that is missing shows as "not recorded" instead of failing the rep
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,7 +33,8 @@ class Point:
 
     test_id: str
     outcome: str
-    x: float | None                 # value of the swept injection knob
+    x: float | None                 # value of the swept knob, when exactly one knob varies
+    label: str                      # the varied knobs' values at the user's edge
     measured_pu: float | None
     u_pu: float | None              # expanded uncertainty of measured_pu, k = 2
     predicted_pu: float | None
@@ -48,7 +48,7 @@ class Point:
 @dataclass
 class SourceSection:
     name: str
-    swept: str | None               # injection knob varied across the sweep
+    swept: list[str]                # injection knobs varied across the sweep
     points: list[Point]
     statement: str                  # worst decision of the points, or "not determined"
     worst: Point | None             # the point with the largest measured ripple
@@ -104,46 +104,57 @@ def worst_decision(decisions: list[str]) -> str:
 
 
 def _section(name: str, entries: list[dict]) -> SourceSection:
-    swept = swept_knob([e.get("injection") or {} for e in entries])
-    points = [point_from_entry(e, swept) for e in entries]
-    points.sort(key=lambda p: (p.x is None, p.x if p.x is not None else 0.0, p.test_id))
+    injections = [e.get("injection") or {} for e in entries]
+    swept = swept_knobs(injections)
+    displays = {k: knob_display(k, [_number(i.get(k)) or 0.0 for i in injections]) for k in swept}
+    points = [point_from_entry(e, swept, displays) for e in entries]
+    points.sort(key=lambda p: (p.x is None, p.x if p.x is not None else 0.0, p.label,
+                               p.test_id))
     measured = [p for p in points if p.measured_pu is not None]
     worst = max(measured, key=lambda p: p.measured_pu) if measured else None
     statement = worst_decision([p.decision for p in points if p.outcome != "skipped"])
     return SourceSection(name=name, swept=swept, points=points, statement=statement, worst=worst)
 
 
-def swept_knob(injections: list[dict]) -> str | None:
-    """The numeric injection knob whose value changes across the tests (the first if several)."""
+def swept_knobs(injections: list[dict]) -> list[str]:
+    """The numeric injection knobs whose values change across the tests (or the only one)."""
     keys = sorted({k for inj in injections for k, v in inj.items() if _number(v) is not None})
-    for key in keys:
-        values = {_number(inj.get(key)) for inj in injections}
-        if len(values) > 1:
-            return key
-    return keys[0] if len(keys) == 1 else None
+    varied = [k for k in keys if len({_number(inj.get(k)) for inj in injections}) > 1]
+    return varied or (keys if len(keys) == 1 else [])
 
 
-def point_from_entry(entry: dict, swept: str | None) -> Point:
-    """Read the report's figures out of one test entry (the analysis and model ``to_dict()``)."""
+def point_from_entry(entry: dict, swept: list[str],
+                     displays: dict[str, tuple[str, float]] | None = None) -> Point:
+    """Read the report's figures out of one test entry (the analysis and model ``to_dict()``).
+
+    Measured, U and predicted are the values the verdict compared when it recorded them (the
+    prediction per unit of the measured mean), else the analysis' and model's own figures.
+    """
     measured = entry.get("measured") or {}
     prediction = entry.get("prediction") or {}
     verdict = entry.get("verdict") or {}
     uncertainty = entry.get("uncertainty") or measured.get("uncertainty") or {}
-    limits = verdict.get("limits") if isinstance(verdict.get("limits"), dict) else verdict
     decision = str(verdict.get("decision", "")).lower()
+    injection = entry.get("injection") or {}
+    displays = displays or {k: knob_display(k, [_number(injection.get(k)) or 0.0]) for k in swept}
+    label = ", ".join(f"{displays[k][0]} = {fmt(_scaled(injection.get(k), displays[k][1]))}"
+                      for k in swept) or "—"
     if entry.get("outcome") in ("error", "skipped") or decision not in DECISIONS:
         decision = NOT_DETERMINED
     return Point(
         test_id=str(entry.get("test_id")),
         outcome=str(entry.get("outcome")),
-        x=_number((entry.get("injection") or {}).get(swept)) if swept else None,
-        measured_pu=_number(measured.get("pk_pk_pu")),
-        u_pu=_number(_pick(uncertainty, "expanded_pu", "U_pu", "expanded_uncertainty_pu",
-                           "expanded")),
-        predicted_pu=_number(prediction.get("pk_pk_pu")),
+        x=_number(injection.get(swept[0])) if len(swept) == 1 else None,
+        label=label,
+        measured_pu=_first_number(verdict.get("measured_pk_pk_pu"), measured.get("pk_pk_pu")),
+        u_pu=_first_number(verdict.get("expanded_uncertainty_pu"),
+                           uncertainty.get("expanded_pu")),
+        predicted_pu=_first_number(verdict.get("predicted_pk_pk_pu"),
+                                   prediction.get("pk_pk_pu_of_measured_mean"),
+                                   prediction.get("pk_pk_pu")),
         predicted_order=_number(prediction.get("order")),
-        lower_pu=_number(_pick(limits, "lower_limit_pu", "lower_pu", "lower")),
-        upper_pu=_number(_pick(limits, "upper_limit_pu", "upper_pu", "upper")),
+        lower_pu=_number(verdict.get("lower_limit_pu")),
+        upper_pu=_number(verdict.get("upper_limit_pu")),
         decision=decision,
         entry=entry,
     )
@@ -235,14 +246,17 @@ def fmt(value: Any, digits: int = 4) -> str:
     if isinstance(value, (list, tuple)):
         return ", ".join(fmt(v, digits) for v in value)
     if isinstance(value, dict):
-        return json.dumps(value, sort_keys=True)
+        return "; ".join(f"{k} {fmt(v, digits)}" for k, v in value.items())
     return str(value)
 
 
-def _pick(d: Any, *names: str) -> Any:
-    if not isinstance(d, dict):
-        return None
-    return next((d[name] for name in names if d.get(name) is not None), None)
+def _scaled(value: Any, scale: float) -> float | None:
+    number = _number(value)
+    return None if number is None else number * scale
+
+
+def _first_number(*values: Any) -> float | None:
+    return next((n for n in map(_number, values) if n is not None), None)
 
 
 def _number(value: Any) -> float | None:

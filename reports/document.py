@@ -65,9 +65,10 @@ class ReportPDF(FPDF):
         self.set_text_color(0)
 
     # ------------------------------------------------------------------ building blocks
-    def heading(self, text: str, level: int = 1) -> None:
+    def heading(self, text: str, level: int = 1, keep_with_mm: float = 30) -> None:
+        """A heading, moved to a new page unless ``keep_with_mm`` of what follows fits."""
         size = {1: 13, 2: 11, 3: 9.5}[level]
-        if self.get_y() > self.h - 45:
+        if self.get_y() > self.h - self.b_margin - 15 - keep_with_mm:
             self.add_page()
         self.ln(2 if level > 1 else 3)
         self.set_font("sans", "B", size)

@@ -22,40 +22,43 @@ MAX_REVOLUTION_LINES = 40
 
 def sweep_svg(section: SourceSection) -> bytes | None:
     """Measured (±U, k = 2) and predicted ripple against the swept knob, with the tolerance
-    limits of the decision rule drawn as red bars at each point."""
+    limits of the decision rule drawn as red bars at each point. When several knobs vary
+    together the axis lists the points (no line joins them)."""
     points = [p for p in section.points if p.measured_pu is not None or p.predicted_pu is not None]
     if not points:
         return None
-    have_x = section.swept is not None and all(p.x is not None for p in points)
-    label, scale = knob_display(section.swept if have_x else None, [p.x or 0.0 for p in points])
-    xs = np.array([p.x * scale if have_x else i for i, p in enumerate(points)], dtype=float)
+    numeric = len(section.swept) == 1 and all(p.x is not None for p in points)
+    label, scale = knob_display(section.swept[0] if numeric else None,
+                                [p.x or 0.0 for p in points])
+    xs = np.array([p.x * scale if numeric else i for i, p in enumerate(points)], dtype=float)
+    joined = "--" if numeric else ""
     with plt.rc_context(_STYLE):
-        fig, ax = plt.subplots(figsize=(WIDTH_IN, 2.9))
+        fig, ax = plt.subplots(figsize=(WIDTH_IN, 3.1 if numeric else 3.4))
         for attr, name in (("upper_pu", "tolerance limits"), ("lower_pu", None)):
             limit = [(x, getattr(p, attr)) for x, p in zip(xs, points)
                      if getattr(p, attr) is not None]
             if limit:
                 ax.plot([x for x, _ in limit], [100 * v for _, v in limit], "_", color="tab:red",
                         markersize=14, markeredgewidth=1.6, label=name)
-                ax.plot([x for x, _ in limit], [100 * v for _, v in limit], ":",
-                        color="tab:red", linewidth=0.7)
         predicted = [(x, p) for x, p in zip(xs, points) if p.predicted_pu is not None]
         if predicted:
-            ax.plot([x for x, _ in predicted], [100 * p.predicted_pu for _, p in predicted], "s--",
-                    color="tab:orange", markersize=4, label="predicted (paper)")
+            ax.plot([x for x, _ in predicted], [100 * p.predicted_pu for _, p in predicted],
+                    f"s{joined}", color="tab:orange", markersize=7, markerfacecolor="none",
+                    markeredgewidth=1.3, zorder=5, label="predicted (paper)")
         measured = [(x, p) for x, p in zip(xs, points) if p.measured_pu is not None]
         if measured:
             ax.errorbar([x for x, _ in measured], [100 * p.measured_pu for _, p in measured],
                         yerr=[100 * (p.u_pu or 0.0) for _, p in measured], fmt="o", capsize=3,
                         color="tab:blue", label="measured ± U (k = 2)")
-        ax.set_xlabel(label)
-        if not have_x:
-            ax.set_xticks(xs, [p.test_id.split("::")[-1][-24:] for p in points], rotation=20,
-                          ha="right")
+        if numeric:
+            ax.set_xlabel(label)
+        else:
+            ax.set_xticks(xs, [p.label.replace(", ", "\n") for p in points], fontsize=6)
+            ax.set_xlabel("test point (injected values)")
         ax.set_ylabel("torque ripple pk-pk (% of mean)")
         ax.set_ylim(bottom=0)
-        ax.set_title(f"{section.name}: ripple against {label}")
-        ax.legend(loc="upper left", fontsize=7)
+        ax.set_title(f"{section.name}: measured and predicted ripple")
+        ax.legend(loc="best", fontsize=7)
         return _svg(fig)
 
 

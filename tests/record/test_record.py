@@ -22,7 +22,7 @@ from hil.record import (FORMAT, RunRecord, load_record, safe_test_name, to_jsona
 IDENTITIES = [{"role": "drive", "identity": {"vendor_id": 0x1234, "product_code": np.uint32(7),
                                              "serial_number": "SIM-DRIVE-1",
                                              "firmware": "1.2.3"}},
-              {"role": "daq", "model": "sim DAQ", "serial_number": "SIM-DAQ-1"}]
+              {"role": "daq", "model": "sim DAQ", "serial_number": "SIM-DAQ-0001"}]
 
 
 def small_capture(n: int = 200, rate_hz: float = 10_000.0) -> Capture:
@@ -55,7 +55,7 @@ def test_create_writes_the_schema_before_any_test(record: RunRecord):
     roles = {row["role"]: row for row in data["instruments"]}
     assert roles["drive"]["identity"]["product_code"] == 7
     assert roles["drive"]["problems"] == []
-    assert roles["daq"]["identity"] == {"model": "sim DAQ", "serial_number": "SIM-DAQ-1"}
+    assert roles["daq"]["identity"] == {"model": "sim DAQ", "serial_number": "SIM-DAQ-0001"}
     assert roles["torque"]["accuracy_class"] == "0.1 % FS" and roles["torque"]["identity"] == {}
     assert data["decision_rule"]["guard_band_pu"] == 0.1
 
@@ -70,7 +70,7 @@ def test_serial_number_mismatch_is_flagged(tmp_path: Path):
                            [{"role": "torque", "serial_number": "OTHER-1"},
                             {"role": "thermometer", "model": "PT100"}])
     rows = {row["role"]: row for row in rec.data["instruments"]}
-    assert "differs from the bench file's 'SIM-TQ-1'" in rows["torque"]["problems"][0]
+    assert "differs from the bench file's 'SIM-TQ-0001'" in rows["torque"]["problems"][0]
     assert rows["thermometer"]["problems"] == ["not described in the bench file "
                                                "(no calibration data)"]
 

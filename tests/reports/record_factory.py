@@ -83,7 +83,7 @@ def write_record(root: Path, *, partial: bool = False, name: str = "run") -> Pat
         {"role": "drive", "identity": {"vendor_id": 0x00000A1B, "product_code": 402,
                                        "serial_number": "SIM-DRIVE-1",
                                        "firmware_version": "ripple-fw 1.4.2"}},
-        {"role": "torque", "identity": {"model": "sim transducer", "serial_number": "SIM-TQ-1"}}],
+        {"role": "torque", "identity": {"model": "sim transducer", "serial_number": "SIM-TQ-0001"}}],
         decision_rule=RULE.__dict__ | {"name": "ILAC-G8, guard band w = U (k = 2)"}, name=name)
     op = OperatingPoint(speed_rpm=SPEED_RPM, current_a=CURRENT_A)
     points = POINTS[:2] if partial else POINTS

@@ -17,7 +17,7 @@ from hil.cli import main
 from hil.record import load_record
 from record_factory import EXPECTED_DECISIONS, POINTS, write_record
 from reports import build_report, render_report
-from reports.content import knob_display, swept_knob, worst_decision
+from reports.content import knob_display, swept_knobs, worst_decision
 
 
 @pytest.fixture(scope="module")
@@ -92,7 +92,7 @@ def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
     assert "every capture named in the record is present and its SHA-256 matches" in text
     assert "SDO abort 0x06090030" in text                # the errored test's reason
     assert "ideal current regulation" in text.lower()     # the paper's assumption, stated
-    assert "Uncertainty budget" in text and "contribution pu" in text
+    assert "Uncertainty budget" in text and "contributionpu" in squeezed
 
 
 def test_same_record_gives_the_same_pdf(full_record, full_pdf, tmp_path):
@@ -170,10 +170,13 @@ def test_cli_writes_the_report(full_record, tmp_path, capsys):
 
 
 def test_content_helpers():
-    assert swept_knob([{"ia_offset_a": 0.1, "ib_offset_a": 0.0},
-                       {"ia_offset_a": 0.2, "ib_offset_a": 0.0}]) == "ia_offset_a"
-    assert swept_knob([{"dead_time_s": 2e-6}]) == "dead_time_s"
-    assert swept_knob([{}]) is None
+    assert swept_knobs([{"ia_offset_a": 0.1, "ib_offset_a": 0.0},
+                        {"ia_offset_a": 0.2, "ib_offset_a": 0.0}]) == ["ia_offset_a"]
+    assert swept_knobs([{"ia_offset_a": 0.1, "ib_offset_a": 0.0},
+                        {"ia_offset_a": 0.0, "ib_offset_a": 0.1}]) == ["ia_offset_a",
+                                                                       "ib_offset_a"]
+    assert swept_knobs([{"dead_time_s": 2e-6}]) == ["dead_time_s"]
+    assert swept_knobs([{}]) == []
     assert worst_decision(["pass", "conditional fail", "conditional pass"]) == "conditional fail"
     assert worst_decision(["pass", "not determined"]) == "not determined"
     assert knob_display("dead_time_s", [1e-6, 2e-6]) == ("dead_time (µs)", 1e6)
