@@ -241,6 +241,24 @@ class Cia402Drive:
             self._heartbeat_state = nmt_state
             self._heartbeat_update.notify_all()
 
+    def _heartbeat_resumes(self) -> bool:
+        """After a silence, wait one more timeout for a heartbeat before calling it lost.
+
+        This process's own receive thread may have been starved (GIL, loaded machine), in which
+        case queued heartbeats arrive at once; a producer that is really silent stays silent.
+        """
+        with self._heartbeat_update:
+            seen = self._last_heartbeat
+            deadline = time.monotonic() + self.heartbeat_timeout_s
+            while self._last_heartbeat == seen:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return False
+                self._heartbeat_update.wait(remaining)
+        logger.warning("%s: heartbeat late (consumer timeout %s s)", self.instrument_name,
+                       self.heartbeat_timeout_s)
+        return True
+
     def _wait_heartbeat_state(self, nmt_state: int, deadline: float, action: str) -> None:
         with self._heartbeat_update:
             while self._heartbeat_state != nmt_state:
@@ -502,7 +520,7 @@ class Cia402Drive:
             if self._connected_at is None or now - self._connected_at > self.heartbeat_timeout_s:
                 raise self._error(HeartbeatLost, action,
                                   f"no heartbeat from node {self.node_id} since connect")
-        elif now - last > self.heartbeat_timeout_s:
+        elif now - last > self.heartbeat_timeout_s and not self._heartbeat_resumes():
             raise self._error(HeartbeatLost, action, f"last heartbeat from node {self.node_id} "
                               f"{now - last:.3f} s ago (timeout {self.heartbeat_timeout_s} s)")
         emcy = self._emcy

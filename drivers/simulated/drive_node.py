@@ -133,6 +133,14 @@ class SimulatedDrive:
             self._heartbeat_stopped = True
             self.node.nmt.stop_heartbeat()
 
+    def resume_heartbeat(self) -> None:
+        """Start producing the heartbeat again at the period in 0x1017."""
+        with self._lock:
+            self._heartbeat_stopped = False
+            period_ms = self.node.stored_value(0x1017)
+            if period_ms:
+                self.node.nmt.start_heartbeat(period_ms)
+
     # -- state machine ----------------------------------------------------------------------
     def _set_state(self, new_state: str) -> None:
         old_state, self._state = self._state, new_state

@@ -7,6 +7,7 @@ interface; injections are checked where they must land: ``twin.injection``.
 from __future__ import annotations
 
 import math
+import threading
 import time
 
 import can
@@ -166,6 +167,17 @@ def test_heartbeat_loss_is_detected(drive, sim_drive):
         drive.check_health()
     with pytest.raises(HeartbeatLost):
         drive.enable()
+
+
+def test_a_late_heartbeat_is_not_a_lost_one(drive, sim_drive):
+    sim_drive.stop_heartbeat()
+    time.sleep(drive.heartbeat_timeout_s + 0.05)
+    timer = threading.Timer(0.1, sim_drive.resume_heartbeat)
+    timer.start()
+    try:
+        drive.check_health()  # waits one more timeout before declaring the loss
+    finally:
+        timer.join()
 
 
 def test_sdo_is_not_answered_while_nmt_stopped(drive, sim_drive):
