@@ -24,18 +24,30 @@ from hil.sim.layout import P_HARM, P_L, P_N_HARM, P_NEUTRAL, P_POLE_PAIRS, P_PSI
 
 SIN_120 = math.sqrt(3.0) / 2.0
 MAX_HARMONICS = 5          # fundamental + up to 4 harmonics
+BASIS_COLUMNS = 6
 
 
 @njit(cache=True)
-def three_phase(order, argument):
-    """sin(argument − order·x·2π/3) for phases x = a, b, c (balanced set of harmonic ``order``)."""
-    s = math.sin(argument)
-    c = math.cos(argument)
+def sincos_small(x):
+    """(sin x, cos x); Taylor series to x^12 for |x| <= 0.5 (error < 1e-13), libm beyond."""
+    if abs(x) > 0.5:
+        return math.sin(x), math.cos(x)
+    x2 = x * x
+    s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (
+        1.0 - x2 / 110.0 * (1.0 - x2 / 156.0))))))
+    c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (
+        1.0 - x2 / 90.0 * (1.0 - x2 / 132.0)))))
+    return s, c
+
+
+@njit(cache=True)
+def spread(order, s, c):
+    """sin(α − order·x·2π/3) for phases x = a, b, c, from s = sin α and c = cos α."""
     shift = order % 3
     if shift == 0:
         return s, s, s
-    lag = -0.5 * s - SIN_120 * c        # sin(argument − 2π/3)
-    lead = -0.5 * s + SIN_120 * c       # sin(argument + 2π/3)
+    lag = -0.5 * s - SIN_120 * c        # sin(α − 2π/3)
+    lead = -0.5 * s + SIN_120 * c       # sin(α + 2π/3)
     if shift == 1:
         return s, lag, lead
     return s, lead, lag
@@ -56,50 +68,72 @@ def harmonic_table(params, orders, amplitudes, phases):
     return count
 
 
+# columns of the per-period basis: forced-response gain (A) and the sin/cos of its angle at the
+# period start; EMF amplitude per mechanical rad/s (V·s/rad) and the sin/cos of its angle
+B_GAIN, B_FSIN, B_FCOS, B_EMF, B_ESIN, B_ECOS = 0, 1, 2, 3, 4, 5
+
+
 @njit(cache=True)
-def forced_coefficients(params, omega_m, orders, amplitudes, phases, count, gains, shifts):
-    """Per-harmonic amplitude (A) and phase shift of the forced response i_e at speed ω_m."""
+def impedance_angles(params, omega_m, orders, amplitudes, count, lag):
+    """Per harmonic: forced-response gain (A) and sin/cos of the impedance angle ∠(R + j·h·ωe·L)
+    into ``lag[k] = (gain, sin, cos)``; they change only with the speed."""
     resistance = params[P_R]
     inductance = params[P_L]
     omega_e = params[P_POLE_PAIRS] * omega_m
     isolated = params[P_NEUTRAL] == 0.0
     for k in range(count):
-        order = orders[k]
-        if isolated and int(order) % 3 == 0:
-            gains[k] = 0.0                      # zero sequence: no current path
-            shifts[k] = 0.0
+        if isolated and int(orders[k]) % 3 == 0:
+            lag[k, 0] = 0.0                     # zero sequence: no current path
             continue
-        reactance = order * omega_e * inductance
-        gains[k] = -params[P_PSI] * amplitudes[k] * omega_m / math.hypot(resistance, reactance)
-        shifts[k] = phases[k] - math.atan2(reactance, resistance)
+        reactance = orders[k] * omega_e * inductance
+        magnitude = math.hypot(resistance, reactance)
+        lag[k, 0] = -params[P_PSI] * amplitudes[k] * omega_m / magnitude
+        lag[k, 1] = reactance / magnitude
+        lag[k, 2] = resistance / magnitude
 
 
 @njit(cache=True)
-def forced_response(theta_e, orders, gains, shifts, count):
-    """The EMF-driven currents i_e (A) of phases a, b, c at electrical angle θe."""
-    ra = 0.0
-    rb = 0.0
-    rc = 0.0
+def period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis):
+    """Per harmonic: EMF amplitude and forced-response gain with their angles at θe0."""
     for k in range(count):
-        if gains[k] == 0.0:
-            continue
-        sa, sb, sc = three_phase(int(orders[k]), orders[k] * theta_e + shifts[k])
-        ra += gains[k] * sa
-        rb += gains[k] * sb
-        rc += gains[k] * sc
-    return ra, rb, rc
+        s = math.sin(orders[k] * theta_e0 + phases[k])
+        c = math.cos(orders[k] * theta_e0 + phases[k])
+        basis[k, B_EMF] = params[P_PSI] * amplitudes[k]
+        basis[k, B_ESIN] = s
+        basis[k, B_ECOS] = c
+        basis[k, B_GAIN] = lag[k, 0]
+        basis[k, B_FSIN] = s * lag[k, 2] - c * lag[k, 1]     # sin(angle − ∠Z)
+        basis[k, B_FCOS] = c * lag[k, 2] + s * lag[k, 1]
 
 
 @njit(cache=True)
-def emf_per_speed(theta_e, params, orders, amplitudes, phases, count):
-    """Back EMF per mechanical rad/s of phases a, b, c (V·s/rad): e_x = ω_m·k_x(θe)."""
+def evaluate(tau, omega_e, orders, count, basis):
+    """At τ into the period: forced currents i_e (A) and EMF per speed k_x (V·s/rad), a/b/c.
+
+    e_x = ω_m·k_x; the electromagnetic torque is Σ k_x·i_x (= Σ e_x·i_x/ω_m, also at ω = 0).
+    """
+    fa = 0.0
+    fb = 0.0
+    fc = 0.0
     ka = 0.0
     kb = 0.0
     kc = 0.0
-    psi = params[P_PSI]
     for k in range(count):
-        sa, sb, sc = three_phase(int(orders[k]), orders[k] * theta_e + phases[k])
-        ka += psi * amplitudes[k] * sa
-        kb += psi * amplitudes[k] * sb
-        kc += psi * amplitudes[k] * sc
-    return ka, kb, kc
+        order = int(orders[k])
+        s_d, c_d = sincos_small(orders[k] * omega_e * tau)
+        s = basis[k, B_ESIN] * c_d + basis[k, B_ECOS] * s_d
+        c = basis[k, B_ECOS] * c_d - basis[k, B_ESIN] * s_d
+        xa, xb, xc = spread(order, s, c)
+        emf = basis[k, B_EMF]
+        ka += emf * xa
+        kb += emf * xb
+        kc += emf * xc
+        gain = basis[k, B_GAIN]
+        if gain != 0.0:
+            s = basis[k, B_FSIN] * c_d + basis[k, B_FCOS] * s_d
+            c = basis[k, B_FCOS] * c_d - basis[k, B_FSIN] * s_d
+            xa, xb, xc = spread(order, s, c)
+            fa += gain * xa
+            fb += gain * xb
+            fc += gain * xc
+    return fa, fb, fc, ka, kb, kc

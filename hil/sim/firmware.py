@@ -19,27 +19,32 @@ import math
 
 from numba import njit
 
-from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_CURRENT_CMD, P_ENC_CPR, P_ENC_DECIM, P_HALL,
+from hil.sim.layout import (P_ADC_FS, P_CURRENT_CMD, P_ENC_CPR, P_ENC_DECIM, P_HALL,
                             P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_KI_TS_PU, P_KP_PU,
-                            P_MODULATION, P_PHI, P_POLE_PAIRS, P_TABLE_SIZE, P_WORD_BITS,
+                            P_MODULATION, P_PHI, P_POLE_PAIRS, P_TABLE_SIZE,
                             S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B)
 
 TWO_PI = 2.0 * math.pi
-TWO_PI_3 = 2.0 * math.pi / 3.0
+SIN_120 = math.sqrt(3.0) / 2.0
 
 
 @njit(cache=True)
-def qfix(x, bits):
-    """Truncate ``x`` (per unit) to a saturating signed Q(bits-1) fraction; bits 0 = float."""
-    if bits == 0:
+def qfix(x, lsb):
+    """Truncate ``x`` (per unit) to a saturating signed fraction of resolution ``lsb``
+    (2^(1-n) for an n-bit word, see ``word_lsb``); lsb 0 = floating point, unchanged."""
+    if lsb == 0.0:
         return x
-    lsb = 2.0 ** (1 - bits)
     y = math.floor(x / lsb) * lsb
     if y > 1.0 - lsb:
         return 1.0 - lsb
     if y < -1.0:
         return -1.0
     return y
+
+
+def word_lsb(bits: int) -> float:
+    """Resolution of a signed Q(n-1) fraction of an n-bit word; 0 for floating point (n = 0)."""
+    return 0.0 if bits == 0 else 2.0 ** (1 - bits)
 
 
 def quantise_gain(gain: float, bits: int) -> float:
@@ -52,14 +57,13 @@ def quantise_gain(gain: float, bits: int) -> float:
 
 
 @njit(cache=True)
-def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, adc_bits):
-    """Sensor (gain, offset) then ADC of ``adc_bits`` over ±full scale; returns per unit of FS.
+def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
+    """Sensor (gain, offset) then an ADC of 2·``half`` codes over ±full scale; per unit of FS.
 
     Ideal mid-tread converter (transitions half an LSB either side of each code), so zero
     current reads zero: the ADC adds quantisation but no offset of its own.
     """
     sensed = (1.0 + gain_error_pu) * current_a + offset_a
-    half = 2.0 ** (adc_bits - 1)
     code = math.floor((sensed / full_scale_a + 1.0) * half + 0.5)
     if code < 0.0:
         code = 0.0
@@ -87,11 +91,11 @@ def firmware_angle_fraction(theta_m, params):
 
 
 @njit(cache=True)
-def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, bits):
+def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb):
     """One PI step with conditional integration (anti-windup); returns (output, integrator)."""
-    error = qfix(reference - measured, bits)
-    proportional = qfix(kp * error, bits)
-    candidate = qfix(integrator + qfix(ki_ts * error, bits), bits)
+    error = qfix(reference - measured, lsb)
+    proportional = qfix(kp * error, lsb)
+    candidate = qfix(integrator + qfix(ki_ts * error, lsb), lsb)
     if candidate > limit:
         candidate = limit
     elif candidate < -limit:
@@ -100,7 +104,7 @@ def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, bits):
     if abs(unsaturated) > limit and unsaturated * error > 0.0:
         candidate = integrator          # saturated and the error pushes further: hold
         unsaturated = proportional + candidate
-    output = qfix(unsaturated, bits)
+    output = qfix(unsaturated, lsb)
     if output > limit:
         output = limit
     elif output < -limit:
@@ -109,53 +113,56 @@ def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, bits):
 
 
 @njit(cache=True)
-def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare):
-    """Run the current loop once; return the compare values (counts) for the next period."""
-    bits = int(params[P_WORD_BITS])
+def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, lsb, adc_half):
+    """Run the current loop once; return the compare values (counts) for the next period.
+
+    ``lsb``: word resolution (``word_lsb``); ``adc_half``: 2^(ADC bits − 1).
+    """
     full_scale = params[P_ADC_FS]
-    adc_bits = params[P_ADC_BITS]
-    sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_bits)
-    sensed_b = adc_read(ib_a, params[P_IB_OFFSET], params[P_IB_GAIN], full_scale, adc_bits)
+    sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_half)
+    sensed_b = adc_read(ib_a, params[P_IB_OFFSET], params[P_IB_GAIN], full_scale, adc_half)
     state[S_ISENSE_A] = sensed_a * full_scale
     state[S_ISENSE_B] = sensed_b * full_scale
-    i_a = qfix(sensed_a, bits)
-    i_b = qfix(sensed_b, bits)
-    i_c = qfix(-i_a - i_b, bits)                                   # eq (17)
+    i_a = qfix(sensed_a, lsb)
+    i_b = qfix(sensed_b, lsb)
+    i_c = qfix(-i_a - i_b, lsb)                                   # eq (17)
 
     table_size = params[P_TABLE_SIZE]
     index = math.floor(firmware_angle_fraction(theta_m, params) * table_size) % table_size
     angle = TWO_PI * index / table_size
-    s_a = qfix(math.sin(angle), bits)
-    s_b = qfix(math.sin(angle - TWO_PI_3), bits)
-    s_c = qfix(math.sin(angle + TWO_PI_3), bits)
-    c_a = qfix(math.cos(angle), bits)
-    c_b = qfix(math.cos(angle - TWO_PI_3), bits)
-    c_c = qfix(math.cos(angle + TWO_PI_3), bits)
+    s_a = qfix(math.sin(angle), lsb)                              # table entries
+    c_a = qfix(math.cos(angle), lsb)
+    half = qfix(0.5, lsb)                                         # other phases by identities
+    root3_2 = qfix(SIN_120, lsb)
+    s_b = qfix(-qfix(half * s_a, lsb) - qfix(root3_2 * c_a, lsb), lsb)   # sin(θ − 2π/3)
+    s_c = qfix(-qfix(half * s_a, lsb) + qfix(root3_2 * c_a, lsb), lsb)   # sin(θ + 2π/3)
+    c_b = qfix(-qfix(half * c_a, lsb) + qfix(root3_2 * s_a, lsb), lsb)   # cos(θ − 2π/3)
+    c_c = qfix(-qfix(half * c_a, lsb) - qfix(root3_2 * s_a, lsb), lsb)   # cos(θ + 2π/3)
 
-    two_thirds = qfix(2.0 / 3.0, bits)                             # eq (11)
-    i_q = qfix(two_thirds * (qfix(i_a * s_a, bits) + qfix(i_b * s_b, bits)
-                             + qfix(i_c * s_c, bits)), bits)
-    i_d = qfix(two_thirds * (qfix(i_a * c_a, bits) + qfix(i_b * c_b, bits)
-                             + qfix(i_c * c_c, bits)), bits)
+    two_thirds = qfix(2.0 / 3.0, lsb)                             # eq (11)
+    i_q = qfix(two_thirds * (qfix(i_a * s_a, lsb) + qfix(i_b * s_b, lsb)
+                             + qfix(i_c * s_c, lsb)), lsb)
+    i_d = qfix(two_thirds * (qfix(i_a * c_a, lsb) + qfix(i_b * c_b, lsb)
+                             + qfix(i_c * c_c, lsb)), lsb)
 
     command_pu = params[P_CURRENT_CMD] / full_scale               # current lags EMF by φ, eq (4)
-    i_q_ref = qfix(command_pu * math.cos(params[P_PHI]), bits)
-    i_d_ref = qfix(-command_pu * math.sin(params[P_PHI]), bits)
+    i_q_ref = qfix(command_pu * math.cos(params[P_PHI]), lsb)
+    i_d_ref = qfix(-command_pu * math.sin(params[P_PHI]), lsb)
 
     svpwm = params[P_MODULATION] == 0.0
     limit = 1.0 / math.sqrt(3.0) if svpwm else 0.5      # linear range, per unit of V_dc
     kp = params[P_KP_PU]
     ki_ts = params[P_KI_TS_PU]
-    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, bits)
-    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, bits)
+    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, lsb)
+    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, lsb)
     magnitude = math.sqrt(v_d * v_d + v_q * v_q)
     if magnitude > limit:
-        v_d = qfix(v_d * limit / magnitude, bits)
-        v_q = qfix(v_q * limit / magnitude, bits)
+        v_d = qfix(v_d * limit / magnitude, lsb)
+        v_q = qfix(v_q * limit / magnitude, lsb)
 
-    v_a = qfix(qfix(v_q * s_a, bits) + qfix(v_d * c_a, bits), bits)   # inverse Park
-    v_b = qfix(qfix(v_q * s_b, bits) + qfix(v_d * c_b, bits), bits)
-    v_c = qfix(qfix(v_q * s_c, bits) + qfix(v_d * c_c, bits), bits)
+    v_a = qfix(qfix(v_q * s_a, lsb) + qfix(v_d * c_a, lsb), lsb)   # inverse Park
+    v_b = qfix(qfix(v_q * s_b, lsb) + qfix(v_d * c_b, lsb), lsb)
+    v_c = qfix(qfix(v_q * s_c, lsb) + qfix(v_d * c_c, lsb), lsb)
     zero_sequence = 0.0
     if svpwm:
         zero_sequence = -0.5 * (max(v_a, v_b, v_c) + min(v_a, v_b, v_c))

@@ -25,8 +25,8 @@ import numpy as np
 from numba import njit, prange
 
 from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs)
-from hil.sim.electrical import (MAX_HARMONICS, emf_per_speed, forced_coefficients,
-                                forced_response, harmonic_table, three_phase)
+from hil.sim.electrical import (B_ECOS, B_ESIN, BASIS_COLUMNS, MAX_HARMONICS, evaluate, harmonic_table,
+                                impedance_angles, period_basis, sincos_small, spread)
 from hil.sim.firmware import adc_read, firmware_step
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
@@ -34,9 +34,10 @@ from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC
                             P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
                             P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_N_COG,
                             P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_R, P_RAMP,
-                            P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC, S_CMP_A, S_CMP_B,
-                            S_CMP_C, S_IA, S_IB, S_IC, S_INITIALISED, S_INT_D, S_INT_Q,
-                            S_HIGH_END, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y)
+                            P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC, P_WORD_BITS, S_CMP_A,
+                            S_CMP_B, S_CMP_C, S_HIGH_END, S_IA, S_IB, S_IC, S_INITIALISED,
+                            S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M, S_THETA_M,
+                            S_TIME, S_TR_Y)
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0
@@ -79,6 +80,18 @@ def _stepping_angle(time_s, params, speed):
 
 
 @njit(cache=True)
+def _sort(values, count):
+    """In-place insertion sort of values[:count] (a handful of switching instants)."""
+    for i in range(1, count):
+        v = values[i]
+        j = i - 1
+        while j >= 0 and values[j] > v:
+            values[j + 1] = values[j]
+            j -= 1
+        values[j + 1] = v
+
+
+@njit(cache=True)
 def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
     """Gate state of a leg at τ within the period (centre-aligned, dead time after each edge).
 
@@ -105,17 +118,15 @@ def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
 
 
 @njit(cache=True)
-def _currents(mode, tau, tau_a, x0, u, clamped, k, theta_e0, omega_e, orders, gains, shifts,
-              count, resistance, inductance):
-    """Exact phase currents at τ of a sub-segment that started at τa (see module electrical)."""
+def _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance):
+    """Exact phase currents of a sub-segment, given the forced response i_e at that instant and
+    decay = exp(−R·(τ − τa)/L) since the sub-segment start τa (see module electrical)."""
     if mode == MODE_ZERO:
         return 0.0, 0.0, 0.0
-    decay = math.exp(-resistance * (tau - tau_a) / inductance)
-    ea, eb, ec = forced_response(theta_e0 + omega_e * tau, orders, gains, shifts, count)
     if mode == MODE_FREE:
-        ia = ea + x0[0] * decay + u[0] / resistance * (1.0 - decay)
-        ib = eb + x0[1] * decay + u[1] / resistance * (1.0 - decay)
-        ic = ec + x0[2] * decay + u[2] / resistance * (1.0 - decay)
+        ia = fa + x0[0] * decay + u[0] / resistance * (1.0 - decay)
+        ib = fb + x0[1] * decay + u[1] / resistance * (1.0 - decay)
+        ic = fc + x0[2] * decay + u[2] / resistance * (1.0 - decay)
         if clamped & 1:
             ia = 0.0
         if clamped & 2:
@@ -126,13 +137,22 @@ def _currents(mode, tau, tau_a, x0, u, clamped, k, theta_e0, omega_e, orders, ga
     # one phase (k) held at zero: the other two carry ±i (see module electrical)
     drift = x0[0] * decay + u[0] / resistance * (1.0 - decay)
     if k == 0:
-        ib = 0.5 * (eb - ec) + drift
+        ib = 0.5 * (fb - fc) + drift
         return 0.0, ib, -ib
     if k == 1:
-        ic = 0.5 * (ec - ea) + drift
+        ic = 0.5 * (fc - fa) + drift
         return -ic, 0.0, ic
-    ia = 0.5 * (ea - eb) + drift
+    ia = 0.5 * (fa - fb) + drift
     return ia, -ia, 0.0
+
+
+@njit(cache=True)
+def _currents_at(tau, tau_a, mode, clamped, k, x0, u, omega_e, orders, count, basis,
+                 resistance, inductance):
+    """``_currents`` at an arbitrary τ of the sub-segment (evaluates the forced response)."""
+    fa, fb, fc, _, _, _ = evaluate(tau, omega_e, orders, count, basis)
+    decay = math.exp(-resistance * (tau - tau_a) / inductance)
+    return _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance)
 
 
 @njit(cache=True)
@@ -177,12 +197,16 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     enabled = params[P_ENABLED] != 0.0
     tau_f = params[P_TR_TAU]
     cpr = params[P_ENC_CPR]
+    bits = int(params[P_WORD_BITS])
+    lsb = 0.0 if bits == 0 else 2.0 ** (1 - bits)
+    adc_half = 2.0 ** (params[P_ADC_BITS] - 1)
 
     orders = np.zeros(MAX_HARMONICS)
     amplitudes = np.zeros(MAX_HARMONICS)
     phases = np.zeros(MAX_HARMONICS)
-    gains = np.zeros(MAX_HARMONICS)
-    shifts = np.zeros(MAX_HARMONICS)
+    basis = np.zeros((MAX_HARMONICS, BASIS_COLUMNS))
+    lag = np.zeros((MAX_HARMONICS, 3))
+    lag_speed = math.nan
     count = harmonic_table(params, orders, amplitudes, phases)
 
     if state[S_INITIALISED] == 0.0:
@@ -223,16 +247,16 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         # firmware at the valley: its compare values apply from the next period on
         if enabled:
             ca, cb, cc = firmware_step(cur[0], cur[1], theta_m0, params, state, counts_top,
-                                       max_compare)
+                                       max_compare, lsb, adc_half)
         else:
             ca, cb, cc = -1.0, -1.0, -1.0
             state[S_INT_D] = 0.0
             state[S_INT_Q] = 0.0
             fs = params[P_ADC_FS]
             state[S_ISENSE_A] = fs * adc_read(cur[0], params[P_IA_OFFSET], params[P_IA_GAIN],
-                                              fs, params[P_ADC_BITS])
+                                              fs, adc_half)
             state[S_ISENSE_B] = fs * adc_read(cur[1], params[P_IB_OFFSET], params[P_IB_GAIN],
-                                              fs, params[P_ADC_BITS])
+                                              fs, adc_half)
         state[S_CMP_A] = ca
         state[S_CMP_B] = cb
         state[S_CMP_C] = cc
@@ -240,7 +264,12 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         gates_off = compare[0] < 0.0
         if gates_off:
             cur[:] = 0.0
-        forced_coefficients(params, omega, orders, amplitudes, phases, count, gains, shifts)
+        if omega != lag_speed:
+            impedance_angles(params, omega, orders, amplitudes, count, lag)
+            lag_speed = omega
+        period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis)
+        sin_e0 = basis[0, B_ESIN]                     # fundamental EMF angle is θe itself
+        cos_e0 = basis[0, B_ECOS]
 
         n_edges = 0
         edges[n_edges] = 0.0
@@ -257,12 +286,12 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     n_edges += 1
         edges[n_edges] = period
         n_edges += 1
-        edges[:n_edges].sort()
+        _sort(edges, n_edges)
 
         j_period = j
         v_integral[:] = 0.0
         tau = 0.0
-        k_a, k_b, k_c = emf_per_speed(theta_e0, params, orders, amplitudes, phases, count)
+        f_a, f_b, f_c, k_a, k_b, k_c = evaluate(0.0, omega_e, orders, count, basis)
         torque_em_a, torque_a = _shaft_torque(theta_m0, k_a, k_b, k_c, cur[0], cur[1], cur[2],
                                               params)
         y_a = state[S_TR_Y]
@@ -321,9 +350,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                 for x in range(3):
                     if clamped & (1 << x):
                         k = x
-                fa, fb, fc = forced_response(theta_e0 + omega_e * tau, orders, gains, shifts,
-                                             count)
-                forced = (fa, fb, fc)
+                forced = (f_a, f_b, f_c)
                 if mode == MODE_FREE:
                     if isolated:
                         v_mean = (volts[0] + volts[1] + volts[2]) / 3.0
@@ -340,8 +367,10 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
 
                 # ---- end of the sub-segment: the segment end or the first zero crossing
                 tau_b = seg_end
-                ia, ib, ic = _currents(mode, tau_b, tau, x0, u, clamped, k, theta_e0, omega_e,
-                                       orders, gains, shifts, count, resistance, inductance)
+                fb_a, fb_b, fb_c, kb_a, kb_b, kb_c = evaluate(tau_b, omega_e, orders, count, basis)
+                ia, ib, ic = _currents(mode, clamped, k, x0, u, fb_a, fb_b, fb_c,
+                                       math.exp(-resistance * (tau_b - tau) / inductance),
+                                       resistance)
                 crossing = -1
                 if mode != MODE_ZERO:
                     for x in range(3):
@@ -351,9 +380,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                             high = tau_b
                             for _ in range(BISECTIONS):
                                 mid = 0.5 * (low + high)
-                                va_, vb_, vc_ = _currents(mode, mid, tau, x0, u, clamped, k,
-                                                          theta_e0, omega_e, orders, gains,
-                                                          shifts, count, resistance, inductance)
+                                va_, vb_, vc_ = _currents_at(mid, tau, mode, clamped, k, x0, u,
+                                                             omega_e, orders, count, basis,
+                                                             resistance, inductance)
                                 if (va_, vb_, vc_)[x] * cur[x] > 0.0:
                                     low = mid
                                 else:
@@ -362,11 +391,11 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                                 tau_b = high
                                 crossing = x
                     if crossing >= 0:
-                        ia, ib, ic = _currents(mode, tau_b, tau, x0, u, clamped, k, theta_e0,
-                                               omega_e, orders, gains, shifts, count,
-                                               resistance, inductance)
-                kb_a, kb_b, kb_c = emf_per_speed(theta_e0 + omega_e * tau_b, params, orders,
-                                                 amplitudes, phases, count)
+                        fb_a, fb_b, fb_c, kb_a, kb_b, kb_c = evaluate(tau_b, omega_e, orders,
+                                                                      count, basis)
+                        ia, ib, ic = _currents(mode, clamped, k, x0, u, fb_a, fb_b, fb_c,
+                                               math.exp(-resistance * (tau_b - tau) / inductance),
+                                               resistance)
                 theta_mb = theta_m0 + omega * tau_b
                 torque_em_b, torque_b = _shaft_torque(theta_mb, kb_a, kb_b, kb_c, ia, ib, ic,
                                                       params)
@@ -379,16 +408,18 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     tau_s = t_sample - t_period
                     if tau_s >= tau_b:
                         break
-                    sa, sb, sc = _currents(mode, tau_s, tau, x0, u, clamped, k, theta_e0,
-                                           omega_e, orders, gains, shifts, count, resistance,
-                                           inductance)
+                    fs_a, fs_b, fs_c, ks_a, ks_b, ks_c = evaluate(tau_s, omega_e, orders, count,
+                                                                  basis)
+                    sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c,
+                                           math.exp(-resistance * (tau_s - tau) / inductance),
+                                           resistance)
                     theta_m = theta_m0 + omega * tau_s
-                    theta_e = pole_pairs * theta_m
-                    ks_a, ks_b, ks_c = emf_per_speed(theta_e, params, orders, amplitudes,
-                                                     phases, count)
                     t_em, t_shaft = _shaft_torque(theta_m, ks_a, ks_b, ks_c, sa, sb, sc, params)
-                    q_a, q_b, q_c = three_phase(1, theta_e)
-                    d_a, d_b, d_c = three_phase(1, theta_e + 0.5 * math.pi)
+                    s_d, c_d = sincos_small(omega_e * tau_s)
+                    sin_e = sin_e0 * c_d + cos_e0 * s_d
+                    cos_e = cos_e0 * c_d - sin_e0 * s_d
+                    q_a, q_b, q_c = spread(1, sin_e, cos_e)       # sin(θe − x·2π/3)
+                    d_a, d_b, d_c = spread(1, cos_e, -sin_e)      # cos(θe − x·2π/3)
                     out[C_TIME, j] = t_sample
                     out[C_THETA_M, j] = theta_m
                     out[C_COUNTS, j] = math.floor(theta_m * cpr / TWO_PI)
@@ -440,6 +471,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                         cur[(crossing + 2) % 3] += 0.5 * residual
                 tau = tau_b
                 torque_a = torque_b
+                f_a = fb_a
+                f_b = fb_b
+                f_c = fb_c
                 k_a = kb_a
                 k_b = kb_b
                 k_c = kb_c
