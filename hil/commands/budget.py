@@ -18,13 +18,17 @@ from hil.model.budget import ALLOCATIONS, Combination, combine_sources, invert
 from hil.model.core import check_range
 
 
+#: Options that configure a model rather than inject a fault; they go to every source taking them.
+SHARED_SETTINGS = ("model", "pwm_frequency_hz", "nominal_current_a", "current_loop_bandwidth_hz",
+                   "current_loop_delay_s", "voltage_step_basis")
+
+
 def given_sources(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
     """{source: SI params} for every source option given, each option to the sources taking it."""
     by_source: dict[str, dict[str, Any]] = {}
     for option in SOURCE_OPTIONS:
         value = getattr(args, option.param, None)
-        if value is None or option.param in ("model", "pwm_frequency_hz", "nominal_current_a",
-                                             "current_loop_bandwidth_hz", "voltage_step_basis"):
+        if value is None or option.param in SHARED_SETTINGS:
             continue
         if option.choices is None:
             check_range(option.flag, value, option.low, option.high, low_open=option.low_open,
@@ -33,8 +37,7 @@ def given_sources(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
     if getattr(args, "hall_mode", None):
         by_source.setdefault("encoder", {})["hall_mode"] = True
     for source, params in by_source.items():  # shared settings go to the sources that take them
-        for name in ("model", "pwm_frequency_hz", "nominal_current_a", "current_loop_bandwidth_hz",
-                     "voltage_step_basis"):
+        for name in SHARED_SETTINGS:
             value = getattr(args, name, None)
             if value is not None and name in source_parameters(source):
                 option = next(o for o in SOURCE_OPTIONS if o.param == name)
@@ -56,13 +59,14 @@ def format_combination(combination: Combination, limit_pu: float) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     limit_pct = check_range("--limit-pct", args.limit_pct, 0.0, 100.0, unit=" %", low_open=True)
     op = operating_point(args)
-    spec = invert(op, limit_pct / 100.0, allocation=args.allocation,
-                  dead_time_model=args.model if args.model == "average_voltage" else "paper",
-                  nominal_current_a=args.nominal_current_a,
-                  pwm_frequency_hz=args.pwm_frequency_hz or 20000.0,
-                  current_loop_bandwidth_hz=args.current_loop_bandwidth_hz)
-    sources = given_sources(args)
     try:
+        spec = invert(op, limit_pct / 100.0, allocation=args.allocation,
+                      dead_time_model=args.model if args.model == "average_voltage" else "paper",
+                      nominal_current_a=args.nominal_current_a,
+                      pwm_frequency_hz=args.pwm_frequency_hz or 20000.0,
+                      current_loop_bandwidth_hz=args.current_loop_bandwidth_hz,
+                      current_loop_delay_s=(args.current_loop_delay_s or 0.0) * 1e-6)
+        sources = given_sources(args)
         combination = combine_sources(op, sources) if sources else None
     except InputError as error:
         raise in_option_names(error) from None

@@ -95,7 +95,8 @@ def _largest(func, low: float, high: float, share: float) -> tuple[float, bool]:
 def invert(op: OperatingPoint, limit_pu: float, *, allocation: str = "equal_sum",
            dead_time_model: str = "paper", nominal_current_a: float | None = None,
            pwm_frequency_hz: float = 20000.0,
-           current_loop_bandwidth_hz: float | None = None) -> Specification:
+           current_loop_bandwidth_hz: float | None = None,
+           current_loop_delay_s: float = 0.0) -> Specification:
     """Invert a pk-pk limit (per unit of the mean torque) into per-source parameter limits."""
     limit = check_range("limit_pu", limit_pu, 0.0, 1.0, unit=" per unit", low_open=True)
     if allocation not in ALLOCATIONS:
@@ -140,7 +141,8 @@ def invert(op: OperatingPoint, limit_pu: float, *, allocation: str = "equal_sum"
 
     dt_params = {"model": dead_time_model, "nominal_current_a": nominal_current_a,
                  "pwm_frequency_hz": pwm_frequency_hz,
-                 "current_loop_bandwidth_hz": current_loop_bandwidth_hz}
+                 "current_loop_bandwidth_hz": current_loop_bandwidth_hz,
+                 "current_loop_delay_s": current_loop_delay_s}
     dead, capped = _largest(lambda t: _rebased(op, "dead_time", dead_time_s=t, **dt_params),
                             1e-15, DEAD_TIME_RANGE_S[1], share)
     limits["dead_time"] = {"dead_time_s": dead, "dead_time_us": dead * 1e6, "capped_at_range": capped,

@@ -14,8 +14,11 @@ against its current, Δv_x = −ε·sign(i_x). Without the common mode this is a
 harmonics n = 6k ± 1 of amplitude 4ε/(π·n). Each drives the motor impedance R + j·n·ω_e·L_s; with a
 synchronous-frame PI current loop (Kp = ω_c·L_s, Ki = ω_c·R, no decoupling) the disturbance is
 rejected by S = 1/(1 + C·P) evaluated at the rotor-frame frequency ((n − 1)·ω_e for the positive
-sequence n = 6k + 1, −(n + 1)·ω_e for the negative sequence n = 6k − 1). The harmonic currents in
-the torque sum Σ e_x·i_x/ω_m give order-6 ripple; the series is summed to n = 601.
+sequence n = 6k + 1, −(n + 1)·ω_e for the negative sequence n = 6k − 1). An optional loop delay τ
+(``current_loop_delay_s``; e.g. 1.5 PWM periods: one of computation, half of PWM hold) enters as
+C(s)·e^{−(s + jω_e)·τ} — the voltage is applied τ later at the angle it was computed for (no angle
+compensation). The harmonic currents in the torque sum Σ e_x·i_x/ω_m give order-6 ripple; the
+series is summed to n = 601.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ def paper_current_step_a(dead_time_s: float, dc_bus_v: float, inductance_h: floa
 
 
 def loop_rejection(rotor_frequency_rad_s: float, op: OperatingPoint,
-                   bandwidth_rad_s: float | None) -> complex:
+                   bandwidth_rad_s: float | None, delay_s: float = 0.0) -> complex:
     """Disturbance voltage → current of the motor in the rotor frame, with the PI loop if any."""
     motor = op.motor
     s = 1j * rotor_frequency_rad_s
@@ -52,12 +55,14 @@ def loop_rejection(rotor_frequency_rad_s: float, op: OperatingPoint,
     if rotor_frequency_rad_s == 0.0:
         return 0j  # the integrator rejects a constant disturbance completely
     controller = bandwidth_rad_s * (motor.phase_resistance_ohm + motor.phase_inductance_h * s) / s
+    controller *= np.exp(-(s + 1j * op.elec_speed_rad_s) * delay_s)
     return plant / (1.0 + controller * plant)
 
 
 def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: float,
                             pwm_frequency_hz: float,
-                            current_loop_bandwidth_hz: float | None) -> np.ndarray:
+                            current_loop_bandwidth_hz: float | None,
+                            current_loop_delay_s: float = 0.0) -> np.ndarray:
     """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model."""
     omega = op.elec_speed_rad_s
     eps = dead_time_s * pwm_frequency_hz * op.dc_bus_v
@@ -68,9 +73,9 @@ def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: 
         if n % 3 == 0:
             continue
         if n % 6 == 1:
-            gain = loop_rejection((n - 1) * omega, op, bandwidth)
+            gain = loop_rejection((n - 1) * omega, op, bandwidth, current_loop_delay_s)
         else:
-            gain = np.conj(loop_rejection(-(n + 1) * omega, op, bandwidth))
+            gain = np.conj(loop_rejection(-(n + 1) * omega, op, bandwidth, current_loop_delay_s))
         # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
         amplitude = 1j * eps * 4.0 / (math.pi * n) * gain
         delta_i += np.real(amplitude * np.exp(1j * n * (psi[None, :] - PHASE_OFFSETS_RAD[:, None])))
@@ -82,7 +87,8 @@ def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: 
 def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
                       nominal_current_a: float | None = None, model: str = "paper",
                       pwm_frequency_hz: float = 20000.0,
-                      current_loop_bandwidth_hz: float | None = None) -> Prediction:
+                      current_loop_bandwidth_hz: float | None = None,
+                      current_loop_delay_s: float = 0.0) -> Prediction:
     """Order-6 dead-time ripple: the paper's eq 38 or the average-voltage-error model."""
     t_d = check_range("dead_time_s", dead_time_s, *DEAD_TIME_RANGE_S, unit=" s")
     if model not in MODELS:
@@ -93,10 +99,11 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
     if current_loop_bandwidth_hz is not None:
         check_range("current_loop_bandwidth_hz", current_loop_bandwidth_hz, 0.0, 0.5 * f_sw,
                     unit=" Hz")
+    delay = check_range("current_loop_delay_s", current_loop_delay_s, 0.0, 1e-3, unit=" s")
     step = paper_current_step_a(t_d, op.dc_bus_v, op.motor.phase_inductance_h)
     inputs = {"dead_time_s": t_d, "nominal_current_a": nominal, "model": model,
               "pwm_frequency_hz": f_sw, "current_loop_bandwidth_hz": current_loop_bandwidth_hz,
-              **op.to_dict()}
+              "current_loop_delay_s": delay, **op.to_dict()}
     paper_pu = step / nominal
     if model == "paper":
         return Prediction(
@@ -111,7 +118,7 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
         raise InputError("speed_rpm=0: the average-voltage form has no harmonics at standstill "
                          "(allowed: speed_rpm != 0 with model=average_voltage)")
     theta = angle_grid()
-    torque = average_model_torque_pu(theta, op, t_d, f_sw, current_loop_bandwidth_hz)
+    torque = average_model_torque_pu(theta, op, t_d, f_sw, current_loop_bandwidth_hz, delay)
     mean = float(np.mean(torque))
     waveform = (torque - mean) / mean
     return Prediction(
@@ -121,7 +128,8 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
         assumptions=[
             "current direction taken from the ideal sinusoidal currents",
             "average (per-PWM-period) voltage error, no zero-current clamping",
-            "synchronous-frame PI, Kp = ω_c·L_s, Ki = ω_c·R, no decoupling, no delay"
+            f"synchronous-frame PI, Kp = ω_c·L_s, Ki = ω_c·R, no decoupling, delay {delay:.3g} s, "
+            "continuous-time (no sampling)"
             if current_loop_bandwidth_hz else "no current loop (voltage-fed, open loop)"],
         angle_rad=theta, waveform_pu=waveform,
         extras={"paper_pk_pk_pu": paper_pu, "current_step_a": step,
