@@ -20,7 +20,7 @@ from hil.model.core import check_range
 
 #: Options that configure a model rather than inject a fault; they go to every source taking them.
 SHARED_SETTINGS = ("model", "pwm_frequency_hz", "nominal_current_a", "current_loop_bandwidth_hz",
-                   "current_loop_delay_s", "voltage_step_basis")
+                   "current_loop_delay_s", "voltage_step_basis", "modulation")
 
 
 def given_sources(args: argparse.Namespace) -> dict[str, dict[str, Any]]:

@@ -35,6 +35,7 @@ from hil.model.pwm_resolution import voltage_phasor
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
 MODELS = ("paper", "switched_torque")
+MODULATIONS = ("svpwm", "sine")
 PHASE_OFFSETS_RAD = np.array([0.0, 2 * math.pi / 3, -2 * math.pi / 3])
 
 
@@ -59,9 +60,12 @@ def angle_from_zero_crossing(theta: np.ndarray, voltage_angle_rad: float) -> np.
     return np.abs(np.mod(theta + voltage_angle_rad + sixth / 2, sixth) - sixth / 2)
 
 
-def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: float) -> np.ndarray:
-    """Pk-pk torque ripple within one centre-aligned sine-PWM period at each angle θ.
+def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: float,
+                              modulation: str = "svpwm") -> np.ndarray:
+    """Pk-pk torque ripple within one centre-aligned PWM period at each angle θ.
 
+    ``modulation`` "svpwm" adds the min-max zero sequence −(max + min)/2 to the leg references
+    (centred space vectors, as the simulated drive does); "sine" uses the phase references.
     Per unit of the mean torque; the fundamental's change within the period and the ripple's own
     resistive drop are neglected (the tests check it against a switched-circuit torque sum).
     """
@@ -69,7 +73,9 @@ def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: f
     v_peak, delta = math.sqrt(2.0) * abs(phasor), math.atan2(phasor.imag, phasor.real)
     shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])          # e_x / E
     reference = v_peak * np.sin(theta[None, :] + delta - PHASE_OFFSETS_RAD[:, None])
-    duties = 0.5 + reference / op.dc_bus_v
+    legs = reference - 0.5 * (reference.max(axis=0) + reference.min(axis=0)) \
+        if modulation == "svpwm" else reference
+    duties = 0.5 + legs / op.dc_bus_v
     order = np.argsort(-duties, axis=0)                                  # max, mid, min leg
     d_sorted = np.take_along_axis(duties, order, axis=0)
     # half-period states from the carrier top: 000, max high, max+mid high, 111
@@ -91,11 +97,13 @@ def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: f
 
 
 def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000.0,
-                          model: str = "paper") -> Prediction:
+                          model: str = "paper", modulation: str = "svpwm") -> Prediction:
     """Switching-frequency ripple (eqs 29-31, or the switched torque form) and its envelope."""
     f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, *PWM_FREQUENCY_RANGE_HZ, unit=" Hz")
     if model not in MODELS:
         raise InputError(f"model={model!r} is not one of {', '.join(MODELS)}")
+    if modulation not in MODULATIONS:
+        raise InputError(f"modulation={modulation!r} is not one of {', '.join(MODULATIONS)}")
     period = 1.0 / f_sw
     phasor = voltage_phasor(op)
     v_peak = math.sqrt(2.0) * abs(phasor)
@@ -112,23 +120,25 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
         "the paper's equivalence: per-unit torque ripple = per-unit phase-current ripple",
         "waveform_pu is the envelope of the switching-frequency ripple (order 6), not the "
         "ripple itself (which is at the switching frequency)"]
-    if v_peak > op.dc_bus_v / 2:
-        assumptions.append(f"WARNING: V_pk = {v_peak:.2f} V exceeds the sine-PWM linear range "
-                           f"V_dc/2 = {op.dc_bus_v / 2:g} V: the closed form does not apply")
+    linear_limit = op.dc_bus_v / (math.sqrt(3.0) if modulation == "svpwm" else 2.0)
+    if v_peak > linear_limit:
+        assumptions.append(f"WARNING: V_pk = {v_peak:.2f} V exceeds the {modulation} linear range "
+                           f"{linear_limit:.3g} V: the closed form does not apply")
     extras = {"current_ripple_pk_pk_a": peak, "voltage_peak_v": v_peak,
               "modulation": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
     pk_pk = peak / op.current_a
     if model == "switched_torque":
-        envelope = switched_torque_ripple_pu(theta, op, period)
+        envelope = switched_torque_ripple_pu(theta, op, period, modulation)
         pk_pk = float(np.max(envelope))
         assumptions[:4] = [
-            "centre-aligned sine-PWM carrier, ideal switches; pk-pk within one PWM period",
+            f"centre-aligned {modulation} carrier, ideal switches; pk-pk within one PWM period",
             "ripple from the switching states only: fundamental slope and ripple's R drop neglected",
             "waveform_pu is the envelope of the switching-frequency torque ripple (order 6)"]
     return Prediction(
         source="pwm_switching", pk_pk_pu=pk_pk, base=MEAN_TORQUE_BASE,
         base_nm=op.mean_torque_nm, order=6.0,
         inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
+                "modulation": modulation,
                 **op.to_dict()},
         equations="eqs 29-31", assumptions=assumptions,
         angle_rad=theta, waveform_pu=envelope,

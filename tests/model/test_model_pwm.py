@@ -50,12 +50,15 @@ def test_pwm_counts_and_bits_relation():
     assert dc_bus.inputs["voltage_step_rel"] == pytest.approx(12.0 / (math.sqrt(2) * 2048 * v_rms))
 
 
-def switched_period(op, theta0_rad, period_s, steps=20000):
-    """Phase currents over one centre-aligned sine-PWM period starting at angle θ0 (ideal switches)."""
+def switched_period(op, theta0_rad, period_s, steps=20000, modulation="sine"):
+    """Phase currents over one centre-aligned PWM period starting at angle θ0 (ideal switches)."""
     motor = op.motor
     phasor = voltage_phasor(op)
     v_peak, delta = math.sqrt(2) * abs(phasor), cmath.phase(phasor)
-    duties = 0.5 + v_peak * np.sin(theta0_rad + delta - OFFSETS) / op.dc_bus_v
+    reference = v_peak * np.sin(theta0_rad + delta - OFFSETS)
+    if modulation == "svpwm":
+        reference = reference - 0.5 * (reference.max() + reference.min())
+    duties = 0.5 + reference / op.dc_bus_v
     dt = period_s / steps
     t = (np.arange(steps) + 0.5) * dt
     carrier = 1 - np.abs(2 * t / period_s - 1)  # 1 → 0 → 1: legs high while duty > carrier
@@ -105,14 +108,16 @@ def test_pwm_switching_torque_versus_the_papers_current_equivalence():
     assert 0.5 < ratios[0] < 2.0  # same magnitude at the zero crossing, as the paper claims
 
 
+@pytest.mark.parametrize("modulation", ["svpwm", "sine"])
 @pytest.mark.parametrize("speed_rpm,current_a,f_sw", [(1000, 20.0, 20000), (300, 10.0, 10000),
                                                       (1200, 30.0, 40000)])
-def test_switched_torque_form_matches_torque_sum(speed_rpm, current_a, f_sw):
+def test_switched_torque_form_matches_torque_sum(speed_rpm, current_a, f_sw, modulation):
     op = OperatingPoint(speed_rpm=speed_rpm, current_a=current_a)
-    pred = predict("pwm_switching", op, pwm_frequency_hz=f_sw, model="switched_torque")
+    pred = predict("pwm_switching", op, pwm_frequency_hz=f_sw, model="switched_torque",
+                   modulation=modulation)
     for index in range(0, 1200, 97):  # a third of a revolution, every 9.7°
         theta0 = pred.angle_rad[index]
-        theta, currents = switched_period(op, theta0, 1 / f_sw, steps=8000)
+        theta, currents = switched_period(op, theta0, 1 / f_sw, steps=8000, modulation=modulation)
         measured = detrended_ptp(torque_nm(theta, currents)) / op.mean_torque_nm
         assert pred.waveform_pu[index] == pytest.approx(measured, rel=0.03)
     assert pred.pk_pk_pu == pytest.approx(np.max(pred.waveform_pu))
