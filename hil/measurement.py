@@ -47,6 +47,7 @@ class PointPlan:
     max_order: int = 48
     named_order: int | None = None
     pk_pk_method: str = "band-limited"
+    analysis: str = "torque"
     settle_s: float = 0.05
     sample_rate_hz: float | None = None
     rule: DecisionRule = field(default_factory=DecisionRule)
@@ -56,6 +57,8 @@ class PointPlan:
     def __post_init__(self) -> None:
         if self.revolutions < 2:
             raise InputError(f"revolutions={self.revolutions} must be >= 2 (type A needs scatter)")
+        if self.analysis not in ANALYSES:
+            raise InputError(f"analysis={self.analysis!r}; allowed: {', '.join(ANALYSES)}")
         if self.speed_rpm == 0:
             raise InputError("speed_rpm=0: the angle never advances; use a slow speed (e.g. 3 rpm)"
                              " for the paper's near-standstill encoder measurement")
@@ -107,10 +110,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     try:
         bench.check_command(current_a=plan.current_a, speed_rpm=plan.speed_rpm)
         capture = _acquire(bench, record, test_id, plan, pole_pairs)
-        result = analyze_capture(capture, max_order=plan.max_order,
-                                 named_order=plan.named_order or _order_of(plan, bench),
-                                 instruments=bench.config.instrument_uncertainty(),
-                                 pole_pairs=pole_pairs, pk_pk_method=plan.pk_pk_method)
+        result = ANALYSES[plan.analysis](capture, plan, bench)
         op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                             current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
         prediction = _predict(plan, op)
@@ -129,13 +129,39 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         outcome="passed" if verdict.guarded_pass else "failed",
         measured=result.to_dict() | {"analysis_settings": {
             "max_order": plan.max_order, "named_order": result.named_order,
-            "pole_pairs": pole_pairs, "pk_pk_method": plan.pk_pk_method}},
+            "pole_pairs": pole_pairs, "pk_pk_method": plan.pk_pk_method,
+            "analysis": plan.analysis}},
         prediction=prediction.to_dict() | {"pk_pk_pu_of_measured_mean": predicted_pu},
         uncertainty=result.uncertainty.to_dict(),
         verdict=verdict.to_dict(),
     )
     record.add_test(entry)
     return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry)
+
+
+def _analyse_torque(capture, plan: PointPlan, bench: Bench) -> RippleResult:
+    """Transducer torque against rotor angle, synchronously averaged (hil.analysis)."""
+    return analyze_capture(capture, max_order=plan.max_order,
+                           named_order=plan.named_order or _order_of(plan, bench),
+                           instruments=bench.config.instrument_uncertainty(),
+                           pole_pairs=bench.config.motor.pole_pairs,
+                           pk_pk_method=plan.pk_pk_method)
+
+
+def _analyse_switching(capture, plan: PointPlan, bench: Bench) -> RippleResult:
+    """Ripple within each PWM period, from the phase currents sampled fast (hil.analysis.switching)."""
+    from hil.analysis.switching import analyze_switching
+
+    return analyze_switching(capture, pwm_frequency_hz=plan.injection.get("pwm_frequency_hz",
+                                                                          DEFAULT_PWM_FREQUENCY_HZ),
+                             motor=bench.config.motor, max_order=plan.max_order,
+                             instruments=bench.config.instrument_uncertainty())
+
+
+#: How a point's capture is analysed: transducer torque vs angle, or switching ripple.
+ANALYSES = {"torque": _analyse_torque, "switching": _analyse_switching}
+#: The drive's PWM frequency when a plan does not inject one (the EDS default), Hz.
+DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
 
 
 def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pole_pairs: int):
