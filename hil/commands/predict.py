@@ -161,7 +161,8 @@ def in_option_names(error: InputError) -> InputError:
     for option in SOURCE_OPTIONS:
         message = re.sub(rf"(?<![\w-]){option.param}(?=[=,]| \(|$)", option.flag, message)
     for name in ("speed_rpm", "current_a", "dc_bus_v"):
-        message = re.sub(rf"(?<![\w-]){name}(?=[=,]| \(| !|$)", "--" + name.replace("_", "-"), message)
+        flag = "--" + name.replace("_", "-")
+        message = re.sub(rf"(?<![\w-]){name}(?=[=,]| \(| !|$)", flag, message)
     return InputError(message)
 
 

@@ -62,7 +62,8 @@ def combine(op: OperatingPoint, predictions: list[Prediction]) -> Combination:
 
 def combine_sources(op: OperatingPoint, params_by_source: dict[str, dict[str, Any]]) -> Combination:
     """``combine`` for {source: params} — one prediction per source."""
-    return combine(op, [predict(source, op, **params) for source, params in params_by_source.items()])
+    return combine(op, [predict(source, op, **params)
+                        for source, params in params_by_source.items()])
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,8 @@ def invert(op: OperatingPoint, limit_pu: float, *, allocation: str = "equal_sum"
     if allocation not in ALLOCATIONS:
         raise InputError(f"allocation={allocation!r} is not one of {', '.join(ALLOCATIONS)}")
     count = len(DESIGN_SOURCES)
-    share = {"alone": limit, "equal_sum": limit / count, "equal_rss": limit / math.sqrt(count)}[allocation]
+    share = {"alone": limit, "equal_sum": limit / count,
+             "equal_rss": limit / math.sqrt(count)}[allocation]
     limits: dict[str, dict[str, Any]] = {}
     design: dict[str, dict[str, Any]] = {}
 
@@ -145,8 +147,8 @@ def invert(op: OperatingPoint, limit_pu: float, *, allocation: str = "equal_sum"
                  "current_loop_delay_s": current_loop_delay_s}
     dead, capped = _largest(lambda t: _rebased(op, "dead_time", dead_time_s=t, **dt_params),
                             1e-15, DEAD_TIME_RANGE_S[1], share)
-    limits["dead_time"] = {"dead_time_s": dead, "dead_time_us": dead * 1e6, "capped_at_range": capped,
-                           **{k: v for k, v in dt_params.items()}}
+    limits["dead_time"] = {"dead_time_s": dead, "dead_time_us": dead * 1e6,
+                           "capped_at_range": capped, **dt_params}
     design["dead_time"] = {"dead_time_s": dead, **dt_params}
     return Specification(limit, allocation, share, limits, combine_sources(op, design))
 

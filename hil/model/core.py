@@ -32,11 +32,13 @@ def check_range(name: str, value: Any, low: float, high: float, *, unit: str = "
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}={value!r} is not a number (allowed {low:g}..{high:g}{unit})") from None
+        raise InputError(f"{name}={value!r} is not a number "
+                         f"(allowed {low:g}..{high:g}{unit})") from None
     bad_low = number <= low if low_open else number < low
     if not math.isfinite(number) or bad_low or number > high:
         bracket = "(" if low_open else "["
-        raise InputError(f"{name}={value!r} is out of range (allowed {bracket}{low:g}, {high:g}]{unit})")
+        raise InputError(f"{name}={value!r} is out of range "
+                         f"(allowed {bracket}{low:g}, {high:g}]{unit})")
     return number
 
 
@@ -85,7 +87,8 @@ class OperatingPoint:
     @property
     def mean_torque_nm(self) -> float:
         """(3/2)·E·I·cos φ/ω_m = (3/2)·sqrt(2)·Ke·I·cos φ: the torque of ideal currents (eq 7, γ=0)."""
-        return self.motor.torque_constant_nm_per_a * self.current_a * math.cos(self.current_angle_rad)
+        return (self.motor.torque_constant_nm_per_a * self.current_a
+                * math.cos(self.current_angle_rad))
 
     def to_dict(self) -> dict[str, float]:
         return {"speed_rpm": self.speed_rpm, "current_a": self.current_a,

@@ -17,13 +17,17 @@ import math
 import numpy as np
 
 from hil.errors import InputError
-from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, angle_grid, check_range
+from hil.model.core import OperatingPoint, Prediction, angle_grid, check_range
 
 #: The drive's encoder (contract): 7200 counts per mechanical revolution.
 DRIVE_COUNTS_PER_REV = 7200
 HALL_RESOLUTION_ELEC_RAD = math.pi / 3.0
 #: The current angle that reproduces the paper's "4.5 % at 10°" (Fig. 3).
 PAPER_FIG3_CURRENT_ANGLE_RAD = math.radians(10.0)
+
+
+STAIRCASE_MEAN_BASE = ("mean torque (3/2)·E·I/ω_m·mean(cos(γ+φ)) of the staircase at the "
+                       "operating point")
 
 
 def encoder_resolution_elec_rad(*, pole_pairs: int, resolution_elec_rad: float | None = None,
@@ -35,8 +39,9 @@ def encoder_resolution_elec_rad(*, pole_pairs: int, resolution_elec_rad: float |
     if resolution_elec_rad is not None:
         return check_range("resolution_elec_rad", resolution_elec_rad, 0.0, math.pi, unit=" rad",
                            low_open=True)
-    counts = check_range("encoder_counts_per_rev", encoder_counts_per_rev or DRIVE_COUNTS_PER_REV,
-                         1, 10**9)
+    if encoder_counts_per_rev is None:
+        encoder_counts_per_rev = DRIVE_COUNTS_PER_REV
+    counts = check_range("encoder_counts_per_rev", encoder_counts_per_rev, 1, 10**9)
     decimation = check_range("encoder_decimation", encoder_decimation, 1, 1800)
     if decimation != int(decimation):
         raise InputError(f"encoder_decimation={encoder_decimation!r} must be an integer 1..1800")
@@ -75,8 +80,7 @@ def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = N
     waveform = (torque_pu(gamma, phi) - mean_pu) / mean_pu
     base_nm = op.mean_torque_nm / math.cos(phi) * mean_pu
     return Prediction(
-        source="encoder", pk_pk_pu=paper / mean_pu, base=MEAN_TORQUE_BASE.replace(
-            "(3/2)·E·I·cos φ/ω_m", "(3/2)·E·I/ω_m·mean(cos(γ+φ))"),
+        source="encoder", pk_pk_pu=paper / mean_pu, base=STAIRCASE_MEAN_BASE,
         base_nm=base_nm, order=2.0 * math.pi / res, inputs={
             "resolution_elec_rad": res, "resolution_elec_deg": math.degrees(res),
             "hall_mode": bool(hall_mode), "encoder_counts_per_rev": encoder_counts_per_rev,

@@ -20,9 +20,11 @@ import math
 
 import numpy as np
 
-from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, angle_grid, check_range
+from hil.model.core import OperatingPoint, Prediction, angle_grid, check_range
 
 GAIN_ERROR_RANGE_PU = 0.2
+SHIFTED_MEAN_BASE = ("mean torque (E·I/ω_m)·[(3/2)·cos φ + (√3/2)·(k1·sin(φ + π/3) + "
+                     "k2·sin(φ + 2π/3))] at the operating point (eq 24)")
 SQRT3 = math.sqrt(3.0)
 
 
@@ -67,7 +69,7 @@ def predict_gain_mismatch(op: OperatingPoint, *, ia_gain_error_pu: float = 0.0,
     base_nm = op.mean_torque_nm * mean / (1.5 * math.cos(phi))
     return Prediction(
         source="gain_mismatch", pk_pk_pu=2.0 * abs(amplitude) / mean,
-        base=MEAN_TORQUE_BASE.replace("(3/2)·E·I·cos φ/ω_m", "(E·I/ω_m)·[(3/2)cos φ + (√3/2)(k1·sin(φ+π/3) + k2·sin(φ+2π/3))]"),
+        base=SHIFTED_MEAN_BASE,
         base_nm=base_nm, order=2.0,
         inputs={"ia_gain_error_pu": ga, "ib_gain_error_pu": gb, "k1": k1, "k2": k2,
                 **op.to_dict()},

@@ -64,7 +64,8 @@ def voltage_step_rel(op: OperatingPoint, *, pwm_bits: int | None = None,
                      voltage_step_basis: str | None = None) -> tuple[float, str]:
     """(ΔV/V, basis used) from a register width or a counter top value."""
     if (pwm_bits is None) == (pwm_period_counts is None):
-        raise InputError("give exactly one of pwm_bits (allowed 4..17) or pwm_period_counts (allowed 8..65535)")
+        raise InputError("give exactly one of pwm_bits (allowed 4..17) or pwm_period_counts "
+                         "(allowed 8..65535)")
     basis = voltage_step_basis or ("paper" if pwm_bits is not None else "dc_bus")
     if basis not in BASES:
         raise InputError(f"voltage_step_basis={basis!r} is not one of {', '.join(BASES)}")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+from hil.errors import InputError
 from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, check_range
 
 #: Q-format full scale of the current: the ADC range of the contract, ±100 A.
@@ -51,7 +52,8 @@ def balanced_pk_pk_pu(word_length_bits: int, current_pu: float) -> float:
 def check_bits(word_length_bits: int) -> int:
     bits = check_range("word_length_bits", word_length_bits, *WORD_LENGTH_RANGE_BITS, unit=" bits")
     if bits != int(bits):
-        check_range("word_length_bits", float("nan"), *WORD_LENGTH_RANGE_BITS, unit=" bits (integer)")
+        raise InputError(f"word_length_bits={word_length_bits!r} is not an integer "
+                         f"(allowed {WORD_LENGTH_RANGE_BITS[0]}..{WORD_LENGTH_RANGE_BITS[1]} bits)")
     return int(bits)
 
 

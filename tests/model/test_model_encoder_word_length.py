@@ -7,7 +7,7 @@ import pytest
 
 from hil.model import OperatingPoint, predict
 from hil.model.encoder import PAPER_FIG3_CURRENT_ANGLE_RAD
-from model_torque_sum import OFFSETS, balanced, pk_pk_over_mean, torque_nm
+from model_torque_sum import balanced, pk_pk_over_mean, torque_nm
 
 FINE = np.linspace(0, 2 * math.pi, 72000, endpoint=False)
 
