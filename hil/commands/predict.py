@@ -174,8 +174,9 @@ def run(args: argparse.Namespace) -> int:
         raise in_option_names(error) from None
     if args.json:
         data = pred.to_dict()
-        data.pop("angle_rad")
-        data.pop("waveform_pu")
+        if not args.waveform:
+            data.pop("angle_rad")
+            data.pop("waveform_pu")
         print(json.dumps(data))
     else:
         print(format_prediction(pred))
@@ -189,4 +190,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"one of: {', '.join(SOURCES)}")
     add_operating_point_options(parser)
     add_source_options(parser)
+    parser.add_argument("--waveform", action="store_true",
+                        help="with --json: include angle_rad and waveform_pu (3600 points)")
     parser.set_defaults(func=run)

@@ -112,3 +112,19 @@ def test_budget_json(capsys):
 def test_budget_human(capsys):
     code, out, _ = run_cli(capsys, "budget", "--limit-pct", "2", "--allocation", "alone")
     assert code == 0 and "shortest 13 bits" in out and "worst-case sum" in out
+
+
+def test_predict_json_waveform_on_request(capsys):
+    code, out, _ = run_cli(capsys, "predict", "dc_offset", "--offset-a-pct", "1", "--json",
+                           "--waveform")
+    data = json.loads(out)
+    assert code == 0 and len(data["angle_rad"]) == len(data["waveform_pu"]) == 3600
+    assert max(data["waveform_pu"]) - min(data["waveform_pu"]) == pytest.approx(data["pk_pk_pu"])
+
+
+def test_model_does_not_import_the_simulation_or_drivers():
+    code = ("import sys, hil.model, hil.model.budget; "
+            "bad = [m for m in sys.modules if m.startswith(('hil.sim', 'drivers'))]; "
+            "print(bad); sys.exit(1 if bad else 0)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stdout + done.stderr
