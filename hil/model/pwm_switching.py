@@ -19,8 +19,9 @@ phase with the EMF). A switched-circuit torque sum shows the magnitude is right 
 but the torque ripple peaks midway between voltage zero crossings, where the paper's envelope is
 zero. So a second form is offered (``model="switched_torque"``, not in the paper): the torque
 ripple within a period is piecewise linear, slope (E/ω_m)·Σ_x sin(θ − o_x)·(v_xn,k − v_x*)/L_s in
-switching state k, over the centre-aligned sequence 111, 110, 100, 000, 100, 110, 111 (sorted
-legs); its pk-pk per period, per unit of the mean torque, and its order-6 envelope.
+switching state k, over the centre-aligned sequence 000, 100, 110, 111, 110, 100, 000 (sorted
+legs; ``modulation`` svpwm or sine sets the zero-vector split); its pk-pk per period, per unit of
+the mean torque, and its order-6 envelope.
 """
 
 from __future__ import annotations
@@ -39,18 +40,18 @@ MODULATIONS = ("svpwm", "sine")
 PHASE_OFFSETS_RAD = np.array([0.0, 2 * math.pi / 3, -2 * math.pi / 3])
 
 
-def on_time_s(angle_from_zero_crossing_rad: np.ndarray, modulation: float,
+def on_time_s(angle_from_zero_crossing_rad: np.ndarray, modulation_index: float,
               period_s: float) -> np.ndarray:
-    """Eq 31 (corrected sign): duration of the −V_dc/3 state per half period."""
+    """Eq 31 (corrected sign): duration of the −V_dc/3 state per half period, M = V_pk/V_dc."""
     theta = np.asarray(angle_from_zero_crossing_rad)
-    return 0.5 * modulation * (np.sin(theta + 2 * math.pi / 3) - np.sin(theta)) * period_s
+    return 0.5 * modulation_index * (np.sin(theta + 2 * math.pi / 3) - np.sin(theta)) * period_s
 
 
 def current_ripple_a(angle_from_zero_crossing_rad: np.ndarray, *, voltage_peak_v: float,
                      dc_bus_v: float, period_s: float, inductance_h: float) -> np.ndarray:
     """Pk-pk phase-current ripple 2·Δi, Δi = ΔT_on·(V_dc/3)/L_s (eq 30), near a zero crossing."""
-    modulation = voltage_peak_v / dc_bus_v
-    return 2 * on_time_s(angle_from_zero_crossing_rad, modulation, period_s) * dc_bus_v / 3 \
+    modulation_index = voltage_peak_v / dc_bus_v
+    return 2 * on_time_s(angle_from_zero_crossing_rad, modulation_index, period_s) * dc_bus_v / 3 \
         / inductance_h
 
 
@@ -115,7 +116,7 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
     peak = float(current_ripple_a(0.0, voltage_peak_v=v_peak, dc_bus_v=op.dc_bus_v,
                                   period_s=period, inductance_h=op.motor.phase_inductance_h))
     assumptions = [
-        "centre-aligned sine-PWM carrier; pk-pk within one PWM period = 2·Δi of eq 30",
+        "centre-aligned carrier; pk-pk within one PWM period = 2·Δi of eq 30",
         "i·R + E cancels the average voltage near the phase-voltage zero crossing",
         "the paper's equivalence: per-unit torque ripple = per-unit phase-current ripple",
         "waveform_pu is the envelope of the switching-frequency ripple (order 6), not the "
@@ -125,9 +126,11 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
         assumptions.append(f"WARNING: V_pk = {v_peak:.2f} V exceeds the {modulation} linear range "
                            f"{linear_limit:.3g} V: the closed form does not apply")
     extras = {"current_ripple_pk_pk_a": peak, "voltage_peak_v": v_peak,
-              "modulation": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
+              "modulation_index": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
     pk_pk = peak / op.current_a
+    equations = "eqs 29-31"
     if model == "switched_torque":
+        equations = "switching-state torque slopes (not in the paper; eqs 29-31 for the paper's)"
         envelope = switched_torque_ripple_pu(theta, op, period, modulation)
         pk_pk = float(np.max(envelope))
         assumptions[:4] = [
@@ -138,8 +141,7 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
         source="pwm_switching", pk_pk_pu=pk_pk, base=MEAN_TORQUE_BASE,
         base_nm=op.mean_torque_nm, order=6.0,
         inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
-                "modulation": modulation,
-                **op.to_dict()},
-        equations="eqs 29-31", assumptions=assumptions,
+                "modulation": modulation, **op.to_dict()},
+        equations=equations, assumptions=assumptions,
         angle_rad=theta, waveform_pu=envelope,
         extras=extras)
