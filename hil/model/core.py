@@ -23,6 +23,9 @@ CURRENT_RANGE_A = (0.0, 100.0)
 #: Dyno speed range of the contract, rpm.
 SPEED_RANGE_RPM = (-3000.0, 3000.0)
 
+#: Phase offsets o_x of phases a, b, c: e_x = E·sin(θ − o_x) (eqs 1-3).
+PHASE_OFFSETS_RAD = np.array([0.0, 2 * math.pi / 3, -2 * math.pi / 3])
+
 MEAN_TORQUE_BASE = "mean torque (3/2)·E·I·cos φ/ω_m at the operating point"
 
 
@@ -142,9 +145,3 @@ def angle_grid(points: int = 3600) -> np.ndarray:
     """Electrical angles θ over one revolution, [0, 2π), for waveforms."""
     return np.linspace(0.0, 2.0 * math.pi, points, endpoint=False)
 
-
-def ripple_of(torque: np.ndarray) -> tuple[float, float, np.ndarray]:
-    """(mean, pk-pk per unit of the mean, ripple waveform per unit of the mean) of a torque array."""
-    mean = float(np.mean(torque))
-    waveform = (torque - mean) / mean
-    return mean, float(np.ptp(waveform)), waveform

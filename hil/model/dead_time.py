@@ -28,14 +28,14 @@ import math
 import numpy as np
 
 from hil.errors import InputError
-from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, angle_grid, check_range
+from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
+                            angle_grid, check_range)
 
 DEAD_TIME_RANGE_S = (0.0, 10e-6)
 #: Nominal current that reproduces the paper's "2 µs → 2 %" with Table I (see module docstring).
 PAPER_NOMINAL_CURRENT_A = (2.0 / 3.0) * 12.0 * 2e-6 / 38.5e-6 / 0.02
 MODELS = ("paper", "average_voltage")
 HIGHEST_HARMONIC = 601
-PHASE_OFFSETS_RAD = np.array([0.0, 2 * math.pi / 3, -2 * math.pi / 3])
 
 
 def paper_current_step_a(dead_time_s: float, dc_bus_v: float, inductance_h: float) -> float:

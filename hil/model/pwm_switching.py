@@ -31,13 +31,13 @@ import math
 import numpy as np
 
 from hil.errors import InputError
-from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, angle_grid, check_range
+from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
+                            angle_grid, check_range)
 from hil.model.pwm_resolution import voltage_phasor
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
 MODELS = ("paper", "switched_torque")
 MODULATIONS = ("svpwm", "sine")
-PHASE_OFFSETS_RAD = np.array([0.0, 2 * math.pi / 3, -2 * math.pi / 3])
 
 
 def on_time_s(angle_from_zero_crossing_rad: np.ndarray, modulation_index: float,
