@@ -23,6 +23,7 @@ import time
 
 import can
 import canopen
+from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers import canopen_402 as sm
@@ -113,23 +114,27 @@ class Cia402Drive:
     def sdo_read(self, index: int, subindex: int = 0, *, action: str | None = None):
         """Upload one object by SDO; typed errors on abort or timeout."""
         action = action or f"SDO read 0x{index:04X}:{subindex:02X}"
-        node = self._require_node(action)
+        variable = self._sdo_variable(index, subindex, action)
         with self._lock:
-            variable = node.sdo[index] if subindex == 0 and not _is_compound(node, index) \
-                else node.sdo[index][subindex]
             return self._sdo(action, lambda: variable.raw)
 
     def sdo_write(self, index: int, subindex: int, value, *, action: str | None = None) -> None:
         """Download one object by SDO; typed errors on abort or timeout."""
         action = action or f"SDO write 0x{index:04X}:{subindex:02X}={value!r}"
-        node = self._require_node(action)
-        with self._lock:
-            variable = node.sdo[index] if subindex == 0 and not _is_compound(node, index) \
-                else node.sdo[index][subindex]
+        variable = self._sdo_variable(index, subindex, action)
 
-            def write():
-                variable.raw = value
+        def write():
+            variable.raw = value
+        with self._lock:
             self._sdo(action, write)
+
+    def _sdo_variable(self, index: int, subindex: int, action: str):
+        node = self._require_node(action)
+        try:
+            entry = node.sdo[index]
+            return entry if isinstance(entry, SdoVariable) else entry[subindex]
+        except KeyError:
+            raise InputError(f"object 0x{index:04X}:{subindex:02X} is not in the drive's EDS") from None
 
     def _write_verified(self, index: int, value: int, action: str) -> None:
         self.sdo_write(index, 0, value, action=action)
@@ -150,6 +155,7 @@ class Cia402Drive:
         self.network.connect()
         node = canopen.RemoteNode(self.node_id, load_dictionary(self.eds_path, self.node_id))
         node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
+        node.sdo.MAX_RETRIES = 1  # canopen counts attempts: 1 = no retry; 0 would retry forever
         self.network.add_node(node)
         node.nmt.add_heartbeat_callback(self._on_heartbeat)
         node.emcy.add_callback(self._on_emcy)
@@ -165,6 +171,8 @@ class Cia402Drive:
             producer_ms = max(1, int(self.heartbeat_timeout_s * 1000 / 4))
             self._write_verified(0x1017, producer_ms, f"{action}: set producer heartbeat time")
             self._configure_pdos(action)
+            with self._heartbeat_update:
+                self._heartbeat_state = None  # wait for a heartbeat sent after the command
             node.nmt.send_command(0x01)  # OPERATIONAL
             self._wait_heartbeat_state(NMT_OPERATIONAL, time.monotonic() + 3 * self.heartbeat_timeout_s,
                                        f"{action}: heartbeat showing OPERATIONAL")
@@ -537,6 +545,3 @@ class Cia402Drive:
         if state_word is not None and sm.state_from_statusword(state_word) == sm.FAULT:
             raise self._error(DeviceFault, action, "drive statusword shows FAULT")
 
-
-def _is_compound(node, index: int) -> bool:
-    return not isinstance(node.object_dictionary[index], canopen.objectdictionary.ODVariable)
