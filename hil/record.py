@@ -384,7 +384,6 @@ def verify_captures(folder: str | Path, data: dict | None = None) -> list[str]:
     problems = []
     named = [(test["test_id"], test.get("capture")) for test in data["tests"]]
     named += [(item.get("test_id"), item) for item in data.get("pending_captures", [])]
-    captures_root = (folder / CAPTURE_DIR).resolve()
     for test_id, capture in named:
         if not capture:
             continue
@@ -392,8 +391,8 @@ def verify_captures(folder: str | Path, data: dict | None = None) -> list[str]:
         if not isinstance(relative, str):
             problems.append(f"test {test_id!r}: capture has no file name")
             continue
-        target = (folder / relative).resolve()
-        if not target.is_relative_to(captures_root):
+        target = capture_path(folder, relative)
+        if target is None:
             problems.append(f"test {test_id!r}: capture path {relative!r} is outside "
                             f"{CAPTURE_DIR}/")
             continue
@@ -405,6 +404,15 @@ def verify_captures(folder: str | Path, data: dict | None = None) -> list[str]:
             problems.append(f"test {test_id!r}: capture {relative} has SHA-256 {digest}, the "
                             f"record says {capture.get('sha256')}")
     return problems
+
+
+def capture_path(folder: str | Path, relative: str | None) -> Path | None:
+    """The file a record's capture entry names, or None if it points outside ``captures/``."""
+    if not isinstance(relative, str) or not relative:
+        return None
+    root = (Path(folder) / CAPTURE_DIR).resolve()
+    target = (Path(folder) / relative).resolve()
+    return target if target.is_relative_to(root) and target != root else None
 
 
 def _record_folder(path: str | Path) -> Path:

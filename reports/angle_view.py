@@ -16,6 +16,7 @@ import numpy as np
 
 from hil.capture import Capture
 from hil.errors import HilError
+from hil.record import capture_path
 
 #: ``measured`` keys that are settings of analyze_capture (top level or under "settings").
 SETTING_KEYS = ("max_order", "named_order", "rated_torque_nm", "pk_pk_method", "pole_pairs")
@@ -41,15 +42,16 @@ def angle_view(entry: dict, record_dir: Path) -> AngleView:
                          _array(measured.get("orders")), _array(measured.get("amplitude_nm")),
                          how="arrays stored by the test in the record")
     capture_info = entry.get("capture") or {}
-    if not capture_info.get("file"):
-        return AngleView(problem="no raw capture recorded for this test")
+    path = capture_path(record_dir, capture_info.get("file"))
+    if path is None:
+        return AngleView(problem="no raw capture inside the record for this test")
     try:
         from hil.analysis import analyze_capture
     except ImportError as exc:
         return AngleView(problem=f"hil.analysis.analyze_capture is not available ({exc})")
     settings = _settings(measured, analyze_capture)
     try:
-        capture = Capture.load(Path(record_dir) / capture_info["file"])
+        capture = Capture.load(path)
         result = analyze_capture(capture, **settings)
     except (HilError, ValueError) as exc:
         return AngleView(problem=f"the raw capture could not be analysed again: {exc}")

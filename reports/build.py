@@ -18,7 +18,7 @@ import numpy as np
 
 from hil.capture import atomic_write_bytes
 from hil.errors import InputError
-from hil.record import RECORD_FILE, load_record, verify_captures
+from hil.record import RECORD_FILE, capture_path, load_record, verify_captures
 from reports import figures
 from reports.angle_view import angle_view
 from reports.content import (DECISIONS, NOT_DETERMINED, RIPPLE_DEFINITION, ReportContent,
@@ -111,6 +111,10 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
         ("Record", f"{record['record_id']} (status: {record.get('status')})"),
         ("Run started / finished (UTC)", f"{record.get('created_utc')} / "
                                          f"{record.get('finished_utc') or 'not finished'}"),
+        ("Report date", f"{_record_date(record).date().isoformat()} (the record's last date; "
+                        f"the same record gives the same report)"),
+        ("Tests", ", ".join(f"{n} {o}" for o, n in _outcome_counts(record).items() if n)
+                  or "none recorded"),
         ("Laboratory", ", ".join(x for x in (lab.get("name"), lab.get("address")) if x) or "—"),
         ("Operator", lab.get("operator") or "—"),
         ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
@@ -138,6 +142,13 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
     for section in content.sources:
         pdf.para(f"{section.name}: {STATEMENTS[section.statement]}", size=8)
     pdf.para(f"Overall: {STATEMENTS[content.overall]}", size=10, style="B")
+
+
+def _outcome_counts(record: dict) -> dict[str, int]:
+    counts = {outcome: 0 for outcome in ("passed", "failed", "error", "skipped")}
+    for test in record.get("tests", []):
+        counts[test.get("outcome")] = counts.get(test.get("outcome"), 0) + 1
+    return counts
 
 
 def _drive_text(drive: dict | None) -> str:
@@ -245,10 +256,11 @@ def _signal_rows(tests: list[dict], record_dir: Path) -> list[list[str]]:
 
 
 def _capture_meta(record_dir: Path, relative: str | None) -> dict:
-    if not relative:
+    path = capture_path(record_dir, relative)
+    if path is None:
         return {}
     try:
-        with np.load(record_dir / relative, allow_pickle=False) as npz:
+        with np.load(path, allow_pickle=False) as npz:
             return json.loads(bytes(npz["__header__"]).decode()).get("meta", {})
     except (OSError, ValueError, KeyError):
         return {}
@@ -349,8 +361,8 @@ def _attach(pdf: ReportPDF, content: ReportContent, record_dir: Path, created: d
     files = [(t.get("capture") or {}).get("file") for t in content.record.get("tests", [])]
     files += [p.get("file") for p in content.record.get("pending_captures", [])]
     for relative in dict.fromkeys(f for f in files if f):
-        path = (record_dir / relative).resolve()
-        if not path.is_relative_to((record_dir / "captures").resolve()) or not path.is_file():
+        path = capture_path(record_dir, relative)
+        if path is None or not path.is_file():
             continue
         size = path.stat().st_size
         if total + size > MAX_ATTACHED_BYTES:

@@ -108,8 +108,7 @@ def _section(name: str, entries: list[dict]) -> SourceSection:
     swept = swept_knobs(injections)
     displays = {k: knob_display(k, [_number(i.get(k)) or 0.0 for i in injections]) for k in swept}
     points = [point_from_entry(e, swept, displays) for e in entries]
-    points.sort(key=lambda p: (p.x is None, p.x if p.x is not None else 0.0, p.label,
-                               p.test_id))
+    points.sort(key=lambda p: (_sort_key(p.entry.get("injection") or {}, swept), p.test_id))
     measured = [p for p in points if p.measured_pu is not None]
     worst = max(measured, key=lambda p: p.measured_pu) if measured else None
     statement = worst_decision([p.decision for p in points if p.outcome != "skipped"])
@@ -117,10 +116,13 @@ def _section(name: str, entries: list[dict]) -> SourceSection:
 
 
 def swept_knobs(injections: list[dict]) -> list[str]:
-    """The numeric injection knobs whose values change across the tests (or the only one)."""
-    keys = sorted({k for inj in injections for k, v in inj.items() if _number(v) is not None})
-    varied = [k for k in keys if len({_number(inj.get(k)) for inj in injections}) > 1]
+    """The injection knobs (numbers or flags) whose values change across the tests, or the
+    only knob there is."""
+    keys = sorted({k for inj in injections for k, v in inj.items()
+                   if isinstance(v, bool) or _number(v) is not None})
+    varied = [k for k in keys if len({repr(inj.get(k)) for inj in injections}) > 1]
     return varied or (keys if len(keys) == 1 else [])
+
 
 
 def point_from_entry(entry: dict, swept: list[str],
@@ -137,14 +139,15 @@ def point_from_entry(entry: dict, swept: list[str],
     decision = str(verdict.get("decision", "")).lower()
     injection = entry.get("injection") or {}
     displays = displays or {k: knob_display(k, [_number(injection.get(k)) or 0.0]) for k in swept}
-    label = ", ".join(f"{displays[k][0]} = {fmt(_scaled(injection.get(k), displays[k][1]))}"
+    label = ", ".join(f"{displays[k][0]} = {_knob_text(injection.get(k), displays[k][1])}"
                       for k in swept) or "—"
     if entry.get("outcome") in ("error", "skipped") or decision not in DECISIONS:
         decision = NOT_DETERMINED
     return Point(
         test_id=str(entry.get("test_id")),
         outcome=str(entry.get("outcome")),
-        x=_number(injection.get(swept[0])) if len(swept) == 1 else None,
+        x=_number(injection.get(swept[0])) if len(swept) == 1 and \
+            not isinstance(injection.get(swept[0]), bool) else None,
         label=label,
         measured_pu=_first_number(verdict.get("measured_pk_pk_pu"), measured.get("pk_pk_pu")),
         u_pu=_first_number(verdict.get("expanded_uncertainty_pu"),
@@ -250,9 +253,21 @@ def fmt(value: Any, digits: int = 4) -> str:
     return str(value)
 
 
-def _scaled(value: Any, scale: float) -> float | None:
+def _sort_key(injection: dict, swept: list[str]) -> tuple:
+    """Order points by their knob values, numerically; a knob not injected sorts last."""
+    key = []
+    for name in swept:
+        value = injection.get(name)
+        number = float(value) if isinstance(value, bool) else _number(value)
+        key.append((number is None, number or 0.0))
+    return tuple(key)
+
+
+def _knob_text(value: Any, scale: float) -> str:
+    if isinstance(value, bool):
+        return "on" if value else "off"
     number = _number(value)
-    return None if number is None else number * scale
+    return fmt(None if number is None else number * scale)
 
 
 def _first_number(*values: Any) -> float | None:

@@ -177,6 +177,9 @@ def test_content_helpers():
                                                                        "ib_offset_a"]
     assert swept_knobs([{"dead_time_s": 2e-6}]) == ["dead_time_s"]
     assert swept_knobs([{}]) == []
+    assert swept_knobs([{"encoder_decimation": 100, "hall_mode": False},
+                        {"encoder_decimation": 1, "hall_mode": True}]) == ["encoder_decimation",
+                                                                           "hall_mode"]
     assert worst_decision(["pass", "conditional fail", "conditional pass"]) == "conditional fail"
     assert worst_decision(["pass", "not determined"]) == "not determined"
     assert knob_display("dead_time_s", [1e-6, 2e-6]) == ("dead_time (µs)", 1e6)
