@@ -61,14 +61,16 @@ class Bench:
     # ------------------------------------------------------------------ lifecycle
     @classmethod
     def open(cls, config: BenchConfig, *, seed: int = 0) -> "Bench":
-        """Start the simulated instruments if ``config.simulated``, then connect the drivers.
+        """Start the simulated instruments if needed, then connect the drivers.
 
-        If anything fails part-way, everything opened so far is closed again before raising.
+        A simulated bench file without addresses (the shipped one) starts its instruments in
+        this process; one with addresses (written by ``hil sim-bench``) connects to them. If
+        anything fails part-way, everything opened so far is closed again before raising.
         """
         simulated = None
         opened: list = []
         try:
-            if config.simulated:
+            if config.simulated and not has_addresses(config):
                 from hil.simbench import SimulatedBench
 
                 simulated = SimulatedBench(config, seed=seed)
@@ -196,6 +198,12 @@ class Bench:
             if raise_on_failure:
                 raise SafeStateError(report.failures)
         return report
+
+
+def has_addresses(config: BenchConfig) -> bool:
+    """True if the bench file says where its drive, DAQ and transducer are."""
+    daq_at = config.daq.serial_port if config.daq.transport == "rtu" else config.daq.port
+    return bool(config.drive.channel and daq_at and config.torque.serial_port)
 
 
 def _make_drive(config: BenchConfig):

@@ -15,7 +15,7 @@ from hil import __version__
 from hil.errors import HilError, InputError
 
 #: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
-COMMAND_MODULES: list[str] = ["run", "analyze", "report", "predict", "budget"]
+COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "predict", "budget"]
 
 
 class OneLineErrorParser(argparse.ArgumentParser):
