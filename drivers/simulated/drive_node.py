@@ -25,14 +25,14 @@ import threading
 import time
 
 import canopen
+from canopen.sdo import SdoAbortedError
 
 from drivers import canopen_402 as sm
 from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  current_command_object, injection_objects, load_dictionary)
 from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
-from drivers.simulated.can_node import (ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode)
+from drivers.simulated.can_node import ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode
 from drivers.simulated.can_pdo import PdoEngine, is_pdo_config_index, validate_mapping_entry
-from canopen.sdo import SdoAbortedError
 from hil.motor import TABLE_I
 
 logger = logging.getLogger(__name__)
@@ -190,7 +190,9 @@ class SimulatedDrive:
         if index == 0x6040:
             self._on_controlword(value)
         elif index == 0x6060:
-            if value not in sm.MODE_CODES.values() or not self._supported_modes & sm.supported_mode_bit(value):
+            supported = value in sm.MODE_CODES.values() and \
+                self._supported_modes & sm.supported_mode_bit(value)
+            if not supported:
                 raise SdoAbortedError(ABORT_VALUE_RANGE)
         elif index in self._knobs:
             knob = self._knobs[index]
@@ -204,17 +206,15 @@ class SimulatedDrive:
                 raise SdoAbortedError(ABORT_CANNOT_STORE)
             self.twin.restore_defaults()
         elif index == CURRENT_COMMAND_INDEX:
-            self._set_current_command_a(self._current_command.to_si(value))
+            self._apply_twin_attribute("current_command_a", self._current_command.to_si(value))
         elif index == 0x6071:
-            self._set_current_command_a(value / 1000.0 * self._rated_torque_nm / self._kt)
+            torque_nm = value / 1000.0 * self._rated_torque_nm
+            self._apply_twin_attribute("current_command_a", torque_nm / self._kt)
         elif index == 0x60FF:
             self._apply_twin_attribute("speed_rpm", float(value))
         elif 0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF:
             if subindex and not validate_mapping_entry(self.node, value):
                 raise SdoAbortedError(0x06040041)  # object cannot be mapped to the PDO
-
-    def _set_current_command_a(self, current_a: float) -> None:
-        self._apply_twin_attribute("current_command_a", current_a)
 
     def _apply_twin_attribute(self, name: str, value: float) -> None:
         try:
