@@ -25,8 +25,9 @@ import numpy as np
 from numba import njit, prange
 
 from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs)
-from hil.sim.electrical import (B_ECOS, B_ESIN, BASIS_COLUMNS, MAX_HARMONICS, evaluate, harmonic_table,
-                                impedance_angles, period_basis, sincos_small, spread)
+from hil.sim.electrical import (B_ECOS, B_ESIN, BASIS_COLUMNS, MAX_HARMONICS, evaluate,
+                                exp_small, harmonic_table, impedance_angles, period_basis,
+                                sincos_small, spread)
 from hil.sim.firmware import adc_read, firmware_step
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
@@ -151,25 +152,37 @@ def _currents_at(tau, tau_a, mode, clamped, k, x0, u, omega_e, orders, count, ba
                  resistance, inductance):
     """``_currents`` at an arbitrary τ of the sub-segment (evaluates the forced response)."""
     fa, fb, fc, _, _, _ = evaluate(tau, omega_e, orders, count, basis)
-    decay = math.exp(-resistance * (tau - tau_a) / inductance)
+    decay = exp_small(-resistance * (tau - tau_a) / inductance)
     return _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance)
 
 
 @njit(cache=True)
-def _shaft_torque(theta_m, k_a, k_b, k_c, ia, ib, ic, params):
-    """(electromagnetic Σ e_x·i_x/ω_m, shaft = electromagnetic + cogging) in N·m."""
-    electromagnetic = k_a * ia + k_b * ib + k_c * ic
-    cogging = 0.0
+def _cogging_basis(params, theta_m0, cogging):
+    """Rows (mechanical order, amplitude N·m, sin, cos of the cogging angle at θm0)."""
     for c in range(int(params[P_N_COG])):
-        cogging += params[P_COG + 3 * c + 1] * math.sin(params[P_COG + 3 * c] * theta_m
-                                                        + params[P_COG + 3 * c + 2])
-    return electromagnetic, electromagnetic + cogging
+        order = params[P_COG + 3 * c]
+        angle = order * theta_m0 + params[P_COG + 3 * c + 2]
+        cogging[c, 0] = order
+        cogging[c, 1] = params[P_COG + 3 * c + 1]
+        cogging[c, 2] = math.sin(angle)
+        cogging[c, 3] = math.cos(angle)
+
+
+@njit(cache=True)
+def _shaft_torque(tau, omega_m, k_a, k_b, k_c, ia, ib, ic, n_cogging, cogging):
+    """(electromagnetic Σ e_x·i_x/ω_m, shaft = electromagnetic + cogging) in N·m at τ."""
+    electromagnetic = k_a * ia + k_b * ib + k_c * ic
+    total = electromagnetic
+    for c in range(n_cogging):
+        s_d, c_d = sincos_small(cogging[c, 0] * omega_m * tau)
+        total += cogging[c, 1] * (cogging[c, 2] * c_d + cogging[c, 3] * s_d)
+    return electromagnetic, total
 
 
 @njit(cache=True)
 def _filter(y0, x0, slope, h, tau_f):
     """First-order low-pass output after h seconds of the input x0 + slope·t (exact)."""
-    decay = math.exp(-h / tau_f)
+    decay = exp_small(-h / tau_f)
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
@@ -206,6 +219,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     phases = np.zeros(MAX_HARMONICS)
     basis = np.zeros((MAX_HARMONICS, BASIS_COLUMNS))
     lag = np.zeros((MAX_HARMONICS, 3))
+    n_cogging = int(params[P_N_COG])
+    cogging = np.zeros((2, 4))
     lag_speed = math.nan
     count = harmonic_table(params, orders, amplitudes, phases)
 
@@ -292,8 +307,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         v_integral[:] = 0.0
         tau = 0.0
         f_a, f_b, f_c, k_a, k_b, k_c = evaluate(0.0, omega_e, orders, count, basis)
-        torque_em_a, torque_a = _shaft_torque(theta_m0, k_a, k_b, k_c, cur[0], cur[1], cur[2],
-                                              params)
+        _cogging_basis(params, theta_m0, cogging)
+        torque_em_a, torque_a = _shaft_torque(0.0, omega, k_a, k_b, k_c, cur[0], cur[1], cur[2],
+                                              n_cogging, cogging)
         y_a = state[S_TR_Y]
 
         for e in range(n_edges - 1):
@@ -369,7 +385,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                 tau_b = seg_end
                 fb_a, fb_b, fb_c, kb_a, kb_b, kb_c = evaluate(tau_b, omega_e, orders, count, basis)
                 ia, ib, ic = _currents(mode, clamped, k, x0, u, fb_a, fb_b, fb_c,
-                                       math.exp(-resistance * (tau_b - tau) / inductance),
+                                       exp_small(-resistance * (tau_b - tau) / inductance),
                                        resistance)
                 crossing = -1
                 if mode != MODE_ZERO:
@@ -394,11 +410,10 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                         fb_a, fb_b, fb_c, kb_a, kb_b, kb_c = evaluate(tau_b, omega_e, orders,
                                                                       count, basis)
                         ia, ib, ic = _currents(mode, clamped, k, x0, u, fb_a, fb_b, fb_c,
-                                               math.exp(-resistance * (tau_b - tau) / inductance),
+                                               exp_small(-resistance * (tau_b - tau) / inductance),
                                                resistance)
-                theta_mb = theta_m0 + omega * tau_b
-                torque_em_b, torque_b = _shaft_torque(theta_mb, kb_a, kb_b, kb_c, ia, ib, ic,
-                                                      params)
+                torque_em_b, torque_b = _shaft_torque(tau_b, omega, kb_a, kb_b, kb_c, ia, ib, ic,
+                                                      n_cogging, cogging)
                 span = tau_b - tau
                 slope = (torque_b - torque_a) / span
 
@@ -411,10 +426,11 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     fs_a, fs_b, fs_c, ks_a, ks_b, ks_c = evaluate(tau_s, omega_e, orders, count,
                                                                   basis)
                     sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c,
-                                           math.exp(-resistance * (tau_s - tau) / inductance),
+                                           exp_small(-resistance * (tau_s - tau) / inductance),
                                            resistance)
                     theta_m = theta_m0 + omega * tau_s
-                    t_em, t_shaft = _shaft_torque(theta_m, ks_a, ks_b, ks_c, sa, sb, sc, params)
+                    t_em, t_shaft = _shaft_torque(tau_s, omega, ks_a, ks_b, ks_c, sa, sb, sc,
+                                                  n_cogging, cogging)
                     s_d, c_d = sincos_small(omega_e * tau_s)
                     sin_e = sin_e0 * c_d + cos_e0 * s_d
                     cos_e = cos_e0 * c_d - sin_e0 * s_d
