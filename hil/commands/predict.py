@@ -74,17 +74,21 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  lambda us: us * 1e-6, 0.0, 10.0),
     SourceOption("--nominal-current-a", "nominal_current_a", ("dead_time",),
                  "nominal current of eq 38 (default: --current-a)", float, 0.0, 100.0, True),
-    SourceOption("--current-loop-bandwidth-hz", "current_loop_bandwidth_hz", ("dead_time",),
-                 "PI current-loop bandwidth for model=average_voltage", float, 0.0, 25000.0, True),
+    SourceOption("--current-loop-bandwidth-hz", "current_loop_bandwidth_hz",
+                 ("dead_time", "pwm_resolution"),
+                 "PI current-loop bandwidth for model=average_voltage or closed_loop", float, 0.0,
+                 25000.0, True),
     SourceOption("--current-loop-delay-us", "current_loop_delay_s", ("dead_time",),
                  "current-loop delay for model=average_voltage, µs (the drive: 1.5 PWM periods)",
                  lambda us: us * 1e-6, 0.0, 1000.0),
     SourceOption("--modulation", "modulation", ("pwm_switching",),
                  "svpwm (default, the drive's) or sine, for model=switched_torque", str, kind=str,
                  choices=("svpwm", "sine")),
-    SourceOption("--model", "model", ("pwm_switching", "dead_time"),
-                 "paper (default) or the physically derived form", str, kind=str,
-                 choices=("paper", "switched_torque", "average_voltage")),
+    SourceOption("--model", "model", ("pwm_switching", "dead_time", "pwm_resolution"),
+                 "paper (default) or a physically derived form: switched_torque "
+                 "(pwm_switching), average_voltage (dead_time), closed_loop (pwm_resolution)",
+                 str, kind=str, choices=("paper", "switched_torque", "average_voltage",
+                                         "closed_loop")),
 )
 
 

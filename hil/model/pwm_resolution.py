@@ -13,6 +13,15 @@ operating voltage. A centre-aligned counter of C counts per half period (``pwm_p
 has duty steps of 1/C, i.e. a leg-voltage step of V_dc/C and a peak phase-voltage step of at most
 V_dc/C: ΔV/V = V_dc/(√2·C·V) ("dc_bus" basis, the default for counts). The "paper" basis with
 counts reads C as 2^(n−1): ΔV/V = 1/C, which equals the dc-bus basis only at V = V_dc/√2.
+
+Eq 28 is open loop: a current loop integrates a steady voltage error away. With the PI loop
+(``current_loop_bandwidth_hz`` given; Kp = ω_c·L_s, Ki = ω_c·R) the truncated duties act as a
+voltage disturbance whose space vector is at most (2/3)·V_dc/C (each leg low by less than one
+count). Its current response h(t) = L⁻¹{s/((R + L_s·s)(s + ω_c))} has the L1 norm
+2·(e^(−a·t0) − e^(−ω_c·t0))/(L_s·(ω_c − a)), a = R/L_s, t0 = ln(ω_c/a)/(ω_c − a), so the q current
+stays within ±(2/3)·(V_dc/C)·‖h‖₁ and the pk-pk torque per unit of the mean torque is at most
+2·(2/3)·(V_dc/C)·‖h‖₁/(I·cos φ) (``model="closed_loop"``, a bound not in the paper; the loop's
+delay and cross-coupling are neglected).
 """
 
 from __future__ import annotations
@@ -80,19 +89,58 @@ def voltage_step_rel(op: OperatingPoint, *, pwm_bits: int | None = None,
     return op.dc_bus_v / (math.sqrt(2.0) * counts * abs(voltage_phasor(op))), basis
 
 
+def loop_l1_norm_a_per_v(op: OperatingPoint, bandwidth_hz: float) -> float:
+    """‖h‖₁ of the voltage-disturbance → current response of the PI loop, A per V (docstring)."""
+    omega_c = 2.0 * math.pi * bandwidth_hz
+    inductance = op.motor.phase_inductance_h
+    a = op.motor.phase_resistance_ohm / inductance
+    t0 = math.log(omega_c / a) / (omega_c - a)
+    return 2.0 * (math.exp(-a * t0) - math.exp(-omega_c * t0)) / (inductance * (omega_c - a))
+
+
+def closed_loop_bound_pu(op: OperatingPoint, counts: float, bandwidth_hz: float) -> float:
+    """Pk-pk torque bound per unit of the mean torque for duty steps of 1/C under a PI loop."""
+    disturbance_v = (2.0 / 3.0) * op.dc_bus_v / counts
+    return 2.0 * disturbance_v * loop_l1_norm_a_per_v(op, bandwidth_hz) / (
+        op.current_a * math.cos(op.current_angle_rad))
+
+
 def predict_pwm_resolution(op: OperatingPoint, *, pwm_bits: int | None = None,
                            pwm_period_counts: int | None = None,
-                           voltage_step_basis: str | None = None) -> Prediction:
-    """Torque step of one voltage-resolution step (eq 28), per unit of the operating torque."""
+                           voltage_step_basis: str | None = None, model: str = "paper",
+                           current_loop_bandwidth_hz: float | None = None) -> Prediction:
+    """Torque step of one voltage-resolution step (eq 28), per unit of the operating torque;
+    or, with ``model="closed_loop"``, the bound under the PI current loop."""
     step, basis = voltage_step_rel(op, pwm_bits=pwm_bits, pwm_period_counts=pwm_period_counts,
                                    voltage_step_basis=voltage_step_basis)
     phasor = voltage_phasor(op)
     gain = sensitivity(op)
+    if model not in ("paper", "closed_loop"):
+        raise InputError(f"model={model!r} is not one of paper, closed_loop")
+    if model == "closed_loop":
+        if current_loop_bandwidth_hz is None:
+            raise InputError("model=closed_loop needs current_loop_bandwidth_hz "
+                             "(allowed 10..25000 Hz)")
+        bandwidth = check_range("current_loop_bandwidth_hz", current_loop_bandwidth_hz, 10.0,
+                                25000.0, unit=" Hz")
+        counts = pwm_period_counts if pwm_period_counts is not None else 2.0 ** (pwm_bits - 1)
+        return Prediction(
+            source="pwm_resolution", pk_pk_pu=closed_loop_bound_pu(op, counts, bandwidth),
+            base=MEAN_TORQUE_BASE, base_nm=op.mean_torque_nm, order=None,
+            inputs={"pwm_bits": pwm_bits, "pwm_period_counts": pwm_period_counts,
+                    "model": model, "current_loop_bandwidth_hz": bandwidth, **op.to_dict()},
+            equations="closed-loop bound (not in the paper; eqs 27-28 for the open-loop form)",
+            assumptions=[
+                "duties truncated to 1/C: voltage disturbance vector at most (2/3)·V_dc/C",
+                "PI loop Kp = ω_c·L_s, Ki = ω_c·R; delay and cross-coupling neglected",
+                "worst-case bound (an adversarial disturbance); typical ripple is smaller"],
+            extras={"paper_pk_pk_pu": abs(step * gain), "voltage_step_rel": step})
     return Prediction(
         source="pwm_resolution", pk_pk_pu=abs(step * gain), base=MEAN_TORQUE_BASE,
         base_nm=op.mean_torque_nm, order=None,
         inputs={"pwm_bits": pwm_bits, "pwm_period_counts": pwm_period_counts,
-                "voltage_step_basis": basis, "voltage_step_rel": step, **op.to_dict()},
+                "voltage_step_basis": basis, "voltage_step_rel": step, "model": model,
+                **op.to_dict()},
         equations="eqs 27-28", assumptions=[
             "steady-state phasor circuit, sinusoidal EMF, voltage command in open loop",
             "the duty register toggles by one step (a band ΔV) at fixed voltage angle δ",
