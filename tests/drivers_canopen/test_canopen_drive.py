@@ -145,10 +145,9 @@ def test_actual_values_come_from_remapped_tpdos(drive, twin):
 def test_emcy_fault_and_working_fault_reset(drive, sim_drive, twin):
     drive.enable()
     sim_drive.raise_fault(code=0x2310, text="overc")
-    deadline = time.monotonic() + 1.0
-    while drive.state != "FAULT" and time.monotonic() < deadline:
-        time.sleep(0.005)
+    assert eventually(lambda: drive.state == "FAULT")
     assert not twin.enabled
+    assert eventually(lambda: drive._emcy is not None)
     with pytest.raises(DeviceFault, match="0x2310"):
         drive.check_health()
     with pytest.raises(DeviceFault, match="fault_reset"):
@@ -180,21 +179,29 @@ def test_a_late_heartbeat_is_not_a_lost_one(drive, sim_drive):
         timer.join()
 
 
+def eventually(predicate, timeout_s=2.0):
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
 def test_sdo_is_not_answered_while_nmt_stopped(drive, sim_drive):
     drive.node.nmt.send_command(0x02)  # STOPPED
-    time.sleep(0.05)
+    assert eventually(lambda: sim_drive.node.nmt.state == "STOPPED")
     with pytest.raises(InstrumentTimeout, match="no SDO answer"):
         drive.sdo_read(0x1000)
     drive.node.nmt.send_command(0x01)
-    time.sleep(0.05)
+    assert eventually(lambda: sim_drive.node.nmt.state == "OPERATIONAL")
     assert drive.sdo_read(0x1000) & 0xFFFF == 402
 
 
 def test_nmt_stop_while_enabled_switches_the_gates_off(drive, twin):
     drive.enable()
     drive.node.nmt.send_command(0x02)
-    time.sleep(0.05)
-    assert not twin.enabled
+    assert eventually(lambda: not twin.enabled)
 
 
 def test_reconnect_to_an_operational_node(drive, sim_drive, bus_settings, twin):

@@ -82,7 +82,7 @@ def test_heartbeat_period_and_nmt_states(raw):
     first = wait_for(raw, HEARTBEAT, 0.5)
     second = wait_for(raw, HEARTBEAT, 0.5)
     assert first.data[0] == 0x7F and second.data[0] == 0x7F  # PRE-OPERATIONAL
-    assert 0.06 < second.timestamp - first.timestamp < 0.2  # 0x1017 default 100 ms
+    assert 0.05 < second.timestamp - first.timestamp < 0.4  # 0x1017 default 100 ms (+ load jitter)
     send(raw, 0x000, [0x01, NODE])  # NMT start remote node
     assert wait_for(raw, HEARTBEAT, 0.5, lambda m: m.data[0] == 0x05) is not None
     send(raw, 0x000, [0x02, 0x00])  # NMT stop, all nodes
@@ -128,9 +128,9 @@ def test_emcy_frame_on_fault_and_on_reset(raw, sim_drive):
 
 def test_tpdo_event_timer_and_sync_transmission(raw):
     send(raw, 0x000, [0x01, NODE])
-    first = wait_for(raw, TPDO1)
-    second = wait_for(raw, TPDO1)
-    assert 0.004 < second.timestamp - first.timestamp < 0.05  # event timer 0x1800:05 = 10 ms
+    stamps = [wait_for(raw, TPDO1).timestamp for _ in range(8)]
+    intervals = sorted(b - a for a, b in zip(stamps, stamps[1:]))
+    assert 0.005 < intervals[len(intervals) // 2] < 0.03  # median; event timer 0x1800:05 = 10 ms
     send(raw, 0x000, [0x80, NODE])  # PRE-OPERATIONAL to reconfigure TPDO1 as synchronous
     time.sleep(0.02)
     response = sdo_upload(raw, 0x1800, 2)
@@ -145,6 +145,6 @@ def test_tpdo_event_timer_and_sync_transmission(raw):
     tpdo_count = 0
     for _ in range(6):
         send(raw, 0x080, [])
-        if wait_for(raw, TPDO1, 0.05) is not None:
+        if wait_for(raw, TPDO1, 0.2) is not None:
             tpdo_count += 1
     assert tpdo_count == 3
