@@ -94,6 +94,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
             handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
+        os.chmod(tmp, 0o644)      # mkstemp creates 0600; records are meant to be read by others
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -131,7 +131,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
             "max_order": plan.max_order, "named_order": result.named_order,
             "pole_pairs": pole_pairs, "pk_pk_method": plan.pk_pk_method,
             "analysis": plan.analysis}},
-        prediction=prediction.to_dict() | {"pk_pk_pu_of_measured_mean": predicted_pu},
+        prediction=_thinned(prediction.to_dict()) | {"pk_pk_pu_of_measured_mean": predicted_pu},
         uncertainty=result.uncertainty.to_dict(),
         verdict=verdict.to_dict(),
     )
@@ -206,6 +206,19 @@ def _order_of(plan: PointPlan, bench: Bench) -> int | None:
     if order is None or order > plan.max_order:
         return None
     return int(round(order))
+
+
+#: Most points of a predicted waveform kept in the record (0.5° electrical over a revolution).
+RECORDED_WAVEFORM_POINTS = 720
+
+
+def _thinned(prediction: dict) -> dict:
+    """The prediction with its waveform thinned for the record (plots only; pk-pk is kept)."""
+    angle, wave = prediction.get("angle_rad"), prediction.get("waveform_pu")
+    if angle is None or wave is None or len(angle) <= RECORDED_WAVEFORM_POINTS:
+        return prediction
+    step = -(-len(angle) // RECORDED_WAVEFORM_POINTS)
+    return prediction | {"angle_rad": list(angle[::step]), "waveform_pu": list(wave[::step])}
 
 
 def _add_safely(record: RunRecord, entry: dict) -> None:
