@@ -106,7 +106,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("budget", help="invert a ripple limit into controller limits",
                                    description=__doc__.splitlines()[0])
     parser.add_argument("--limit-pct", type=float, required=True,
-                        help="pk-pk ripple limit, % of the mean torque")
+                        help="pk-pk ripple limit, %% of the mean torque")
     parser.add_argument("--allocation", choices=ALLOCATIONS, default="equal_sum",
                         help="how the limit is shared among the sources (default equal_sum)")
     add_operating_point_options(parser)

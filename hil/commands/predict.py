@@ -104,9 +104,11 @@ def add_operating_point_options(parser: argparse.ArgumentParser) -> None:
 
 def add_source_options(parser: argparse.ArgumentParser) -> None:
     for option in SOURCE_OPTIONS:
-        extra: dict[str, Any] = {"choices": option.choices} if option.choices else {}
+        extra: dict[str, Any] = ({"choices": option.choices} if option.choices else
+                                 {"metavar": option.flag.rsplit("-", 1)[-1].upper()})
         parser.add_argument(option.flag, dest=option.param, type=option.kind, default=None,
-                            help=f"[{', '.join(option.sources)}] {option.help}", **extra)
+                            help=f"[{', '.join(option.sources)}] {option.help}".replace("%", "%%"),
+                            **extra)
     parser.add_argument("--hall-mode", action="store_true", default=None,
                         help="[encoder] 60° electrical Hall sectors")
 

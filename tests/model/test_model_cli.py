@@ -128,3 +128,12 @@ def test_model_does_not_import_the_simulation_or_drivers():
             "print(bad); sys.exit(1 if bad else 0)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+@pytest.mark.parametrize("command", ["predict", "budget"])
+def test_help_lists_the_options(capsys, command):
+    with pytest.raises(SystemExit) as done:
+        main([command, "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert done.value.code == 0 and "--offset-a-pct PCT" in out
+    assert "% of the current amplitude" in out
