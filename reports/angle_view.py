@@ -22,6 +22,10 @@ from hil.record import capture_path
 SETTING_KEYS = ("max_order", "named_order", "rated_torque_nm", "pk_pk_method", "pole_pairs")
 
 
+ARRAY_NAMES = ("angle_grid_rad", "revolution_matrix_nm", "sync_average_nm", "orders",
+               "amplitude_nm")
+
+
 @dataclass
 class AngleView:
     angle_grid_rad: np.ndarray | None = None
@@ -31,15 +35,13 @@ class AngleView:
     amplitude_nm: np.ndarray | None = None
     how: str = ""             # where the arrays came from, printed under the plots
     problem: str | None = None
+    mismatch: str | None = None  # the re-analysis disagrees with the recorded figures
 
 
 def angle_view(entry: dict, record_dir: Path) -> AngleView:
     measured = entry.get("measured") or {}
     if measured.get("angle_grid_rad") is not None and measured.get("sync_average_nm") is not None:
-        return AngleView(_array(measured.get("angle_grid_rad")),
-                         _array(measured.get("revolution_matrix_nm")),
-                         _array(measured.get("sync_average_nm")),
-                         _array(measured.get("orders")), _array(measured.get("amplitude_nm")),
+        return AngleView(**{name: _array(measured.get(name)) for name in ARRAY_NAMES},
                          how="arrays stored by the test in the record")
     capture_info = entry.get("capture") or {}
     path = capture_path(record_dir, capture_info.get("file"))
@@ -56,13 +58,25 @@ def angle_view(entry: dict, record_dir: Path) -> AngleView:
     except (HilError, ValueError) as exc:
         return AngleView(problem=f"the raw capture could not be analysed again: {exc}")
     shown = ", ".join(f"{k}={v}" for k, v in sorted(settings.items())) or "defaults"
-    return AngleView(_array(getattr(result, "angle_grid_rad", None)),
-                     _array(getattr(result, "revolution_matrix_nm", None)),
-                     _array(getattr(result, "sync_average_nm", None)),
-                     _array(getattr(result, "orders", None)),
-                     _array(getattr(result, "amplitude_nm", None)),
+    return AngleView(mismatch=_mismatch(measured.get("pk_pk_pu"), result), **_arrays(result),
                      how=f"raw capture {capture_info['file']} through "
                          f"hil.analysis.analyze_capture({shown}), the settings in the record")
+
+
+def _arrays(result) -> dict:
+    return {name: _array(getattr(result, name, None)) for name in ARRAY_NAMES}
+
+
+def _mismatch(recorded, result) -> str | None:
+    """Say so if analysing the raw capture again does not give the recorded pk-pk."""
+    again = getattr(result, "pk_pk_pu", None)
+    if not isinstance(recorded, (int, float)) or not isinstance(again, (int, float)):
+        return None
+    if np.isclose(again, recorded, rtol=1e-6, atol=1e-12):
+        return None
+    return (f"analysing the raw capture again gives pk-pk {again:.6g} pu, the record says "
+            f"{recorded:.6g} pu; the curves may come from a different analysis version than "
+            f"the recorded figures")
 
 
 def _settings(measured: dict, function) -> dict:

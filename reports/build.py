@@ -33,13 +33,15 @@ BUDGET_WIDTHS = {"value": 16, "unit": 11, "distribution": 24, "divisor": 12, "se
 MAX_ATTACHED_BYTES = 25 * 1024 * 1024
 
 STATEMENTS = {
-    "pass": "PASS: every point agrees with the prediction, outside the guard band "
-            "(conformity stated with the guard band w = U).",
-    "conditional pass": "CONDITIONAL PASS: agreement found, but at least one point lies inside "
-                        "the guard band; conformity cannot be stated with 95 % confidence.",
-    "conditional fail": "CONDITIONAL FAIL: at least one point lies outside the acceptance limit "
-                        "but within the guard band; non-conformity is likely, not certain.",
-    "fail": "FAIL: at least one point disagrees with the prediction beyond the guard band.",
+    "pass": "PASS: every point meets its acceptance limits with the guard band w = U "
+            "(ILAC-G8); conformity is stated.",
+    "conditional pass": "CONDITIONAL PASS: every point is within its limits, but at least one "
+                        "lies inside the guard band; conformity cannot be stated with 95 % "
+                        "confidence.",
+    "conditional fail": "CONDITIONAL FAIL: at least one point lies outside its limits but "
+                        "within the guard band; non-conformity is likely, not certain.",
+    "fail": "FAIL: at least one point lies outside its limits beyond the guard band, or shows "
+            "a ripple order other than the predicted one.",
     NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped, has no verdict, or the run "
                     "is incomplete.",
 }
@@ -303,6 +305,8 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
                                          f"{section.name}: order spectrum of the synchronous "
                                          f"average"))
         pdf.para(f"Source of the curves: {view.how}.", size=7, style="I")
+        if view.mismatch:
+            pdf.para(f"Warning: {view.mismatch}", style="B")
     _budget(pdf, worst.entry)
 
 

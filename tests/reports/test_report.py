@@ -93,6 +93,8 @@ def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
     assert "SDO abort 0x06090030" in text                # the errored test's reason
     assert "ideal current regulation" in text.lower()     # the paper's assumption, stated
     assert "Uncertainty budget" in text and "contributionpu" in squeezed
+    assert "throughhil.analysis.analyze_capture(" in squeezed  # dead_time: capture re-analysed
+    assert "Warning: analysing the raw capture again" not in text
 
 
 def test_same_record_gives_the_same_pdf(full_record, full_pdf, tmp_path):
@@ -144,17 +146,23 @@ def test_partial_record_says_so(partial_record, tmp_path):
     assert "captured, not analysed" in text and "End of report" in pages[-1]
 
 
-def test_tampered_capture_is_reported(full_record, tmp_path):
+def test_altered_capture_and_disagreeing_reanalysis_are_reported(full_record, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    target = copy / load_record(copy)["tests"][0]["capture"]["file"]
+    data = json.loads((copy / "record.json").read_text())
+    target = copy / data["tests"][0]["capture"]["file"]
     raw = bytearray(target.read_bytes())
-    raw[len(raw) // 2] ^= 0xFF
+    raw[len(raw) // 2] ^= 0xFF                       # a flipped byte in one raw capture
     target.write_bytes(bytes(raw))
+    worst = max((t for t in data["tests"] if t["source"] == "dead_time"),
+                key=lambda t: t["verdict"]["measured_pk_pk_pu"])
+    worst["measured"]["pk_pk_pu"] *= 1.5            # as if another analysis version wrote it
+    (copy / "record.json").write_text(json.dumps(data))
     rendered = render_report(copy)
     assert len(rendered.content.capture_problems) == 1
-    text = "\n".join(page_texts(rendered.save(tmp_path / "tampered.pdf")))
+    text = "\n".join(page_texts(rendered.save(tmp_path / "altered.pdf")))
     assert "Capture check found problems" in text
+    assert "Warning: analysing the raw capture again gives pk-pk" in text
 
 
 def test_cli_writes_the_report(full_record, tmp_path, capsys):
