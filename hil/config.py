@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, fields
 from datetime import date
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import can
 
@@ -380,7 +380,7 @@ class _Context:
         self.base_dir = base_dir
         self.simulated = False
 
-    def fail(self, message: str) -> None:
+    def fail(self, message: str) -> NoReturn:
         raise InputError(f"{self.source}: {message}")
 
 
@@ -398,12 +398,11 @@ def _reject_unknown(keys, allowed, path: str, ctx: _Context) -> None:
                      f"{' in [' + path + ']' if path else ''}: {', '.join(allowed)}")
 
 
-def _parse_section(cls: type, table: Any, path: str, ctx: _Context,
-                   extra: tuple[str, ...] = ()):
+def _parse_section(cls: type, table: Any, path: str, ctx: _Context):
     if not isinstance(table, dict):
         ctx.fail(f"{path} must be a table ([{path}]), got {type(table).__name__}")
     specs = _specs(cls)
-    _reject_unknown(table.keys(), [f.name for f, _ in specs] + list(extra), path, ctx)
+    _reject_unknown(table.keys(), [f.name for f, _ in specs], path, ctx)
     values = {}
     for f, spec in specs:
         key = f"{path}.{f.name}"
@@ -467,7 +466,6 @@ def _to_date(value: Any, key: str, ctx: _Context) -> date:
         except ValueError:
             pass
     ctx.fail(f"{key} = {value!r} must be a date like 2026-03-31")
-    raise AssertionError  # unreachable: fail raises
 
 
 def _resolve_path(value: str, key: str, ctx: _Context) -> Path:

@@ -9,6 +9,8 @@ from datetime import date
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hil.config import (BenchConfig, default_sim_bench, example_bench_path, load_bench)
 from hil.errors import InputError
@@ -174,3 +176,25 @@ def test_no_code_is_evaluated(tmp_path: Path):
     path.write_text('simulated = true\n[lab]\nname = "__import__(\'os\').system(\'false\')"\n')
     bench = load_bench(path)
     assert bench.lab.name == "__import__('os').system('false')"
+
+
+@settings(max_examples=25, deadline=None)
+@given(port=st.integers(1, 65535), node_id=st.integers(1, 127),
+       current=st.floats(0.1, 60.0), speed=st.floats(-2500.0, 2500.0),
+       angle=st.floats(-90.0, 90.0), bad_key=st.text(min_size=1, max_size=12))
+def test_valid_values_round_trip_and_any_unknown_key_is_refused(port, node_id, current, speed,
+                                                                angle, bad_key):
+    d = real_dict()
+    d["daq"]["port"] = port
+    d["drive"]["node_id"] = node_id
+    d["operating_point"] = {"current_a": current, "speed_rpm": speed, "current_angle_deg": angle}
+    bench = BenchConfig.from_dict(d)
+    assert BenchConfig.from_dict(bench.to_dict()) == bench
+    assert (bench.daq.port, bench.drive.node_id) == (port, node_id)
+    assert bench.operating_point.current_angle_rad == pytest.approx(math.radians(angle))
+    if bad_key not in d["daq"] and bad_key not in ("host", "port", "unit_id", "timeout_s",
+                                                   "transport", "serial_port", "baudrate",
+                                                   "register_map"):
+        d["daq"][bad_key] = 1
+        with pytest.raises(InputError, match="unknown key"):
+            BenchConfig.from_dict(d)
