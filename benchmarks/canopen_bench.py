@@ -9,7 +9,7 @@ TCP on 127.0.0.1) it prints:
   * TPDO frames per second received by the master with a 1 ms event timer (3 TPDOs configured),
   * RPDO frames per second sent back to back (controlword) and applied by the simulated drive,
     and the fraction lost (0 expected: the virtual bus and the websocket queue frames).
-The TPDO rate is bounded by the simulated node's 2 ms scheduler tick (3 TPDOs per tick).
+The TPDO rate is bounded by the simulated node's scheduler tick (1 ms at a 1 ms event timer).
 The figures depend on machine load (the CI machine is shared); they are not pass/fail targets.
 """
 

@@ -78,11 +78,14 @@ def validate_mapping_entry(node, value: int) -> bool:
 class PdoEngine:
     """RPDO reception and TPDO transmission for a ``DriveLocalNode`` on a canopen network."""
 
-    def __init__(self, node, network, *, is_operational, poll_s: float = 0.002) -> None:
+    MIN_TICK_S = 0.001
+    MAX_TICK_S = 0.005
+
+    def __init__(self, node, network, *, is_operational) -> None:
         self._node = node
         self._network = network
         self._is_operational = is_operational
-        self._poll_s = poll_s
+        self._tick_s = self.MAX_TICK_S
         self._lock = threading.RLock()
         self._rpdos: list[PdoConfig] = []
         self._tpdos: list[PdoConfig] = []
@@ -111,6 +114,9 @@ class PdoEngine:
                     self._network.subscribe(config.cob_id, self._on_rpdo)
             self._next_due.clear()
             self._last_sent.clear()
+            timers_s = [c.event_timer_ms / 1000 for c in self._tpdos if c.enabled and c.event_timer_ms]
+            # scheduler tick: half the shortest event timer, within 1..5 ms
+            self._tick_s = min(self.MAX_TICK_S, max(self.MIN_TICK_S, min(timers_s, default=1) / 2))
 
     @property
     def tpdo_configs(self) -> list[PdoConfig]:
@@ -184,7 +190,7 @@ class PdoEngine:
 
     def _run(self) -> None:
         while not self._stop.is_set():
-            self._changed.wait(self._poll_s)
+            self._changed.wait(self._tick_s)
             self._changed.clear()
             try:
                 self.send_event_driven()
