@@ -1,0 +1,320 @@
+"""PWM switching ripple measured electrically (paper section III-D, eqs 29-31, Fig. 9).
+
+A torque transducer (≈ 1 kHz bandwidth) cannot see ripple at the switching frequency, so the
+air-gap torque is *estimated* from the phase currents sampled fast and the encoder angle:
+
+    T̂ = Σ_x e_x·i_x / ω_m = K·[i_a·sin θ + i_b·sin(θ − 2π/3) + i_c·sin(θ + 2π/3)],   i_c = −i_a − i_b
+
+with θ the electrical angle, K = E/ω_m = √2·Ke the nameplate EMF constant (sinusoidal EMF,
+:class:`hil.motor.MotorParameters`) and the neutral isolated — equivalently (3/2)·p·ψ·i_q. This is
+a measurement-based estimate that assumes the nameplate EMF; it is not the paper's closed form,
+and no prediction formula is used here. Ke and a gain error common to both current sensors cancel
+in the per-unit figure.
+
+The ripple is then split by PWM period and summarised the way eqs 29-31 describe it:
+
+1. **Windows.** The record (from its first sample, by time stamp) is cut into windows of G whole
+   PWM periods, G = the largest integer whose window spans at most :data:`MAX_WINDOW_ANGLE_RAD`
+   of electrical angle (at least 1). Any window of whole periods holds every phase of a periodic
+   ripple, so its pk-pk is the within-period pk-pk wherever the window starts. With G > 1 and a
+   sample rate that is not an integer multiple of f_pwm the sample phases walk through the period
+   from one period to the next (equivalent-time sampling), so a DAQ limited to a few samples per
+   period still finds the extremes. The *effective samples per period* is T_s divided by the
+   largest gap between the sample phases (modulo T_s) in a window; fewer than
+   :data:`MIN_EFFECTIVE_SAMPLES_PER_PERIOD` is refused (InputError).
+2. **Envelope.** pk-pk of T̂ within each window → an envelope series at the window centres'
+   electrical angles (Fig. 9's pk-pk per PWM period; the paper's envelope repeats every 60°,
+   order 6).
+3. **Angle analysis.** The envelope and the window means of T̂ go through the same chain as
+   :func:`hil.analysis.analyze_torque`: resampled on whole electrical revolutions, order spectrum,
+   synchronous average, bootstrap type-A over revolutions.
+
+The metric — the quantity eqs 30-31 predict — is the **largest within-period pk-pk**: the maximum
+over angle of the synchronously averaged envelope (band-limited to ``max_order``), per unit of the
+mean of T̂. The paper's figure is the pk-pk current ripple 2·Δi at its worst angle (the voltage
+zero crossing) per unit of I, taken equal to the per-unit torque ripple.
+
+Fields of the returned :class:`~hil.analysis.metrics.RippleResult` (same type as
+``analyze_capture``, so ``decide`` and the record work unchanged):
+
+* ``mean_torque_nm``: mean of T̂ over the whole revolutions analysed;
+* ``pk_pk_nm``/``pk_pk_pu``: the largest within-period pk-pk of T̂ (above), in N·m / per unit of
+  ``|mean_torque_nm|``; ``pk_pk_method`` = :data:`PK_PK_METHOD`;
+* ``orders``/``amplitude_nm``/``phase_rad``/``amplitude_u_nm``/``dominant_order``/``rms_ac_nm``:
+  the order spectrum of the *envelope* (N·m of within-period pk-pk), so ``dominant_order`` is the
+  envelope's order (6 expected); ``named_order`` = 6;
+* ``angle_grid_rad``/``sync_average_nm``/``revolution_matrix_nm``: the envelope's synchronous
+  average and its per-revolution angle bins;
+* ``uncertainty``: type A and noise bias as in :mod:`hil.analysis.uncertainty`, plus a bound of
+  the sampling bias (extremes falling between sample phases) and the current channels' DAQ
+  resolution; the notes give G and the effective samples per period.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from hil.analysis.angle import TWO_PI, TravelAngle, check_finite, check_time, travel_angle
+from hil.analysis.metrics import RippleResult
+from hil.analysis.resample import (interpolation_response, resample_revolutions,
+                                   samples_per_revolution)
+from hil.analysis.spectrum import order_coefficients, reconstruct
+from hil.analysis.uncertainty import (COVERAGE_FACTOR, BudgetRow, UncertaintyBudget,
+                                      amplitude_standard_uncertainty, type_a)
+from hil.capture import Capture
+from hil.errors import InputError
+from hil.motor import MotorParameters
+
+#: Longest window (electrical rad): 3°, 1/20 of the order-6 envelope's period.
+MAX_WINDOW_ANGLE_RAD = math.pi / 60.0
+#: Fewer effective samples per PWM period than this cannot locate the ripple's extremes.
+MIN_EFFECTIVE_SAMPLES_PER_PERIOD = 8
+#: The envelope order of eqs 29-31 (the ripple's pk-pk repeats every 60° electrical).
+ENVELOPE_ORDER = 6
+#: ``RippleResult.pk_pk_method`` of this analysis.
+PK_PK_METHOD = "max within-PWM-period pk-pk (envelope)"
+#: Grid points per period of ``max_order`` on which the envelope's maximum is searched.
+PEAK_SEARCH_POINTS_PER_PERIOD = 64
+PHASE_OFFSETS_RAD = (0.0, 2.0 * math.pi / 3.0, -2.0 * math.pi / 3.0)
+
+
+def estimated_torque_nm(ia_a: np.ndarray, ib_a: np.ndarray, angle_elec_rad: np.ndarray,
+                        motor: MotorParameters) -> np.ndarray:
+    """T̂ = Σ e_x·i_x/ω_m from two phase currents (isolated neutral) and the electrical angle.
+
+    e_x/ω_m = √2·Ke·sin(θ − o_x), o_x = 0, 2π/3, −2π/3 (nameplate sinusoidal EMF, paper eq 1).
+    """
+    currents = (ia_a, ib_a, -ia_a - ib_a)
+    torque = np.zeros_like(angle_elec_rad)
+    for current, offset in zip(currents, PHASE_OFFSETS_RAD):
+        torque += current * np.sin(angle_elec_rad - offset)
+    return motor.emf_peak_v_s_per_rad * torque
+
+
+def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: MotorParameters,
+                      max_order: int = 48, instruments=None) -> RippleResult:
+    """Largest within-PWM-period pk-pk of the estimated torque T̂ and its envelope (eqs 29-31).
+
+    Needs channels ``time_s``, ``ia_a``, ``ib_a`` and ``rotor_angle_mech_rad`` (else
+    ``encoder_counts`` with meta ``encoder_counts_per_rev``); pole pairs from meta ``pole_pairs``
+    (else ``motor``). ``instruments`` (the transducer chain's type-B data) is accepted so that the
+    call matches ``analyze_capture``; the transducer does not enter this estimate, which the
+    budget notes. Raises InputError for missing channels, a bad ``pwm_frequency_hz``, fewer than
+    8 effective samples per PWM period, too few windows per revolution for ``max_order``, or the
+    checks of the angle analysis. See the module docstring for the definitions.
+    """
+    if not isinstance(motor, MotorParameters):
+        raise InputError(f"motor must be a MotorParameters, got {type(motor).__name__}")
+    if isinstance(pwm_frequency_hz, bool) or not isinstance(pwm_frequency_hz, (int, float)) \
+            or not (math.isfinite(pwm_frequency_hz) and pwm_frequency_hz > 0):
+        raise InputError(f"pwm_frequency_hz={pwm_frequency_hz!r} must be a positive number (Hz)")
+    if isinstance(max_order, bool) or not isinstance(max_order, (int, np.integer)) \
+            or not 1 <= max_order <= 4096:
+        raise InputError(f"max_order must be an integer in 1..4096, got {max_order!r}")
+    missing = [name for name in ("time_s", "ia_a", "ib_a") if name not in capture]
+    if missing:
+        raise InputError(f"switching analysis needs capture channels {missing}; "
+                         f"it has {sorted(capture.channels)}")
+    time_s = check_time(capture["time_s"])
+    ia = check_finite("ia_a", capture["ia_a"])
+    ib = check_finite("ib_a", capture["ib_a"])
+    mech = _mechanical_angle(capture)
+    if not time_s.size == ia.size == ib.size == mech.size:
+        raise InputError(f"channels time_s ({time_s.size}), ia_a ({ia.size}), ib_a ({ib.size}) "
+                         f"and the angle ({mech.size}) must have the same number of samples")
+    if time_s.size < 2 * MIN_EFFECTIVE_SAMPLES_PER_PERIOD:
+        raise InputError(f"the capture has {time_s.size} samples; too few for a PWM analysis")
+    pole_pairs = _pole_pairs(capture, motor)
+    travel = travel_angle(time_s, pole_pairs * mech)
+    angle = travel.direction * travel.travel_rad
+    torque = estimated_torque_nm(ia, ib, angle, motor)
+
+    windows = _windows(time_s, travel, float(pwm_frequency_hz))
+    _check_windows(windows, pwm_frequency_hz, max_order)
+    centre_travel = np.interp(windows.centre_s, time_s, travel.travel_rad)
+    centres = TravelAngle(travel_rad=centre_travel, direction=travel.direction)
+    used = torque[:windows.stop]
+    envelope_nm = np.maximum.reduceat(used, windows.starts) - \
+        np.minimum.reduceat(used, windows.starts)
+    window_mean_nm = np.add.reduceat(used, windows.starts) / np.diff(
+        np.append(windows.starts, windows.stop))
+
+    n_bins = samples_per_revolution(max_order)
+    env_revs = resample_revolutions(centres, envelope_nm, n_bins)
+    mean_revs = resample_revolutions(centres, window_mean_nm, n_bins)
+    response = interpolation_response(centre_travel, max_order)
+    per_rev = order_coefficients(env_revs.matrix_nm, int(max_order), response)
+    per_rev_mean = mean_revs.matrix_nm.mean(axis=1)
+    coefficients = per_rev.mean(axis=0)
+    mean_nm = float(per_rev_mean.mean())
+    peak_nm = float(_band_limited_max(coefficients[None, :])[0])
+    pk_pk_pu = peak_nm / abs(mean_nm) if mean_nm != 0 else math.nan
+    amplitude, phase = np.abs(coefficients[1:]), np.angle(coefficients[1:])
+    budget = _budget(per_rev, per_rev_mean, peak_nm, pk_pk_pu, mean_nm, torque, time_s, windows,
+                     capture, motor, instruments)
+    named = ENVELOPE_ORDER if ENVELOPE_ORDER <= max_order else None
+    return RippleResult(
+        mean_torque_nm=mean_nm, pk_pk_nm=peak_nm, pk_pk_pu=pk_pk_pu, pk_pk_rated_pu=None,
+        rated_torque_nm=None, rms_ac_nm=float(np.sqrt(np.sum(amplitude ** 2) / 2.0)),
+        orders=np.arange(1, max_order + 1), amplitude_nm=amplitude, phase_rad=phase,
+        amplitude_u_nm=amplitude_standard_uncertainty(per_rev)[1:],
+        dominant_order=int(np.argmax(amplitude)) + 1, pk_pk_method=PK_PK_METHOD,
+        named_order=named,
+        named_amplitude_nm=None if named is None else float(amplitude[named - 1]),
+        named_phase_rad=None if named is None else float(phase[named - 1]),
+        revolutions=env_revs.revolutions, samples_per_rev=env_revs.samples_per_rev,
+        max_order=int(max_order), direction=travel.direction,
+        angle_grid_rad=env_revs.angle_grid_rad,
+        sync_average_nm=reconstruct(coefficients, env_revs.samples_per_rev, centred=True),
+        revolution_matrix_nm=env_revs.matrix_nm, uncertainty=budget)
+
+
+class _Windows:
+    """Windows of ``periods`` whole PWM periods: sample index ranges and timing."""
+
+    def __init__(self, starts, stop, count, periods, period_s, centre_s, largest_gap_s,
+                 per_revolution):
+        self.starts, self.stop, self.count = starts, stop, count
+        self.periods, self.period_s = periods, period_s
+        self.centre_s, self.largest_gap_s = centre_s, largest_gap_s
+        self.per_revolution = per_revolution          # windows per electrical revolution
+
+    @property
+    def effective_samples_per_period(self) -> float:
+        return self.period_s / self.largest_gap_s
+
+
+def _windows(time_s: np.ndarray, travel: TravelAngle, pwm_frequency_hz: float) -> _Windows:
+    """Cut the record into complete windows of G PWM periods (module docstring, step 1)."""
+    period_s = 1.0 / pwm_frequency_hz
+    duration_s = time_s[-1] - time_s[0]
+    speed = (travel.travel_rad[-1] - travel.travel_rad[0]) / duration_s     # electrical rad/s
+    periods = max(1, int(MAX_WINDOW_ANGLE_RAD / (speed * period_s) + 1e-6))
+    window_s = periods * period_s
+    elapsed = time_s - time_s[0]
+    index = np.floor(elapsed / window_s + 1e-9).astype(np.int64)
+    # a window is complete if the record goes on to (or past) its end
+    count = int(np.floor((duration_s + np.median(np.diff(time_s))) / window_s + 1e-9))
+    count = min(count, int(index[-1]) + 1)
+    if count < 1:
+        raise InputError(f"the capture ({duration_s:.3g} s) is shorter than one PWM window "
+                         f"({window_s:.3g} s)")
+    starts = np.searchsorted(index, np.arange(count))
+    stop = int(np.searchsorted(index, count))
+    if np.any(np.diff(np.append(starts, stop)) == 0):
+        raise InputError("some PWM windows hold no sample: the sample rate is far too low for "
+                         f"pwm_frequency_hz={pwm_frequency_hz:g}")
+    phase = np.mod(elapsed[:stop], period_s)
+    order = np.lexsort((phase, index[:stop]))
+    sorted_phase, sorted_window = phase[order], index[:stop][order]
+    gaps = np.diff(sorted_phase)
+    gaps[np.diff(sorted_window) != 0] = 0.0
+    wrap = period_s - sorted_phase[np.append(starts[1:], stop) - 1] + sorted_phase[starts]
+    largest_gap = max(float(gaps.max(initial=0.0)), float(wrap.max()))
+    centre_s = time_s[0] + (np.arange(count) + 0.5) * window_s
+    return _Windows(starts, stop, count, periods, period_s, centre_s, largest_gap,
+                    TWO_PI / (speed * window_s))
+
+
+def _check_windows(windows: _Windows, pwm_frequency_hz: float, max_order: int) -> None:
+    effective = windows.effective_samples_per_period
+    if effective < MIN_EFFECTIVE_SAMPLES_PER_PERIOD:
+        raise InputError(
+            f"the sample rate gives {effective:.3g} effective samples per PWM period of "
+            f"pwm_frequency_hz={pwm_frequency_hz:g} (windows of {windows.periods} periods); at "
+            f"least {MIN_EFFECTIVE_SAMPLES_PER_PERIOD} are needed: sample faster, or at a rate "
+            "that is not an integer multiple of the PWM frequency (equivalent-time sampling)")
+    if windows.per_revolution <= 2 * max_order:
+        raise InputError(
+            f"max_order={max_order} needs more than {2 * max_order} envelope points per "
+            f"electrical revolution; windows of {windows.periods} PWM periods give "
+            f"{windows.per_revolution:.3g}: lower max_order or raise pwm_frequency_hz/slow down")
+
+
+def _band_limited_max(coefficients: np.ndarray) -> np.ndarray:
+    """Maximum over angle of each row's Fourier series (c_0..c_K), on a fine grid."""
+    max_order = coefficients.shape[-1] - 1
+    points = max(256, PEAK_SEARCH_POINTS_PER_PERIOD * max_order)
+    return reconstruct(coefficients, points).max(axis=-1)
+
+
+def _budget(per_rev, per_rev_mean, peak_nm, pk_pk_pu, mean_nm, torque, time_s, windows, capture,
+            motor, instruments) -> UncertaintyBudget:
+    """Type A, noise bias, sampling bias bound and DAQ current resolution of ``pk_pk_pu``."""
+    width = per_rev.shape[1]
+    rows_a = np.concatenate([per_rev, per_rev_mean[:, None].astype(np.complex128)], axis=1)
+
+    def statistic(rows: np.ndarray) -> np.ndarray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return _band_limited_max(rows[:, :width]) / np.abs(rows[:, width].real)
+
+    scatter = type_a(rows_a, statistic)
+    mean_abs = abs(mean_nm)
+    revolutions = per_rev.shape[0]
+    rows = [BudgetRow(f"type A: revolution scatter ({revolutions} revs, bootstrap)",
+                      scatter.standard_pu, "pu", "normal", 1.0, 1.0, "1", scatter.standard_pu),
+            BudgetRow("residual noise bias of sync-average envelope maximum", scatter.bias_pu,
+                      "pu", "bias (added linearly)", 1.0, 1.0, "1", abs(scatter.bias_pu),
+                      combination="linear")]
+    # extremes between sample phases: each reads low by at most slope·gap/2
+    used = slice(0, windows.stop)
+    slope = float(np.max(np.abs(np.diff(torque[used]) / np.diff(time_s[used]))))
+    sampling_nm = slope * windows.largest_gap_s
+    rows.append(BudgetRow(f"sampling: extremes between sample phases (largest gap "
+                          f"{windows.largest_gap_s:.3g} s)", sampling_nm, "N*m",
+                          "bias bound (reads low; added linearly)", 1.0, 1.0 / mean_abs,
+                          "1/(N*m)", sampling_nm / mean_abs, combination="linear"))
+    notes = [f"torque T̂ from ia, ib and the encoder angle with the nameplate EMF; windows of "
+             f"{windows.periods} PWM periods, {windows.effective_samples_per_period:.3g} "
+             "effective samples per period",
+             "Ke and a gain error common to both current sensors cancel in the per-unit figure"]
+    lsb = (capture.meta.get("daq_lsb") or {}).get("ia_a")
+    if isinstance(lsb, (int, float)) and lsb > 0:
+        # one T̂ reading carries K·(c_a·e_a + c_b·e_b), mean-square c_a² + c_b² = 3, e ~ U(±LSB/2):
+        # std K·LSB/2; the pk-pk is a difference of two readings: K·LSB/√2
+        rows.append(BudgetRow("type B: DAQ current resolution (1 LSB of ia, ib), on pk-pk",
+                              float(lsb), "A", "rectangular, 2 readings x 2 channels",
+                              math.sqrt(2.0), motor.emf_peak_v_s_per_rad / mean_abs, "N*m/A/(N*m)",
+                              motor.emf_peak_v_s_per_rad * lsb / math.sqrt(2.0) / mean_abs))
+    else:
+        notes.append("no DAQ current resolution in the capture meta (daq_lsb): its row is omitted")
+    if instruments is not None:
+        notes.append("the torque transducer's accuracy class does not enter: torque estimated "
+                     "from the currents")
+    if revolutions < 2:
+        notes.append("one revolution only: type A cannot be estimated, U is undefined (NaN)")
+    combined = math.sqrt(sum(row.contribution_pu ** 2 for row in rows if row.combination == "rss"))
+    linear = sum(row.contribution_pu for row in rows if row.combination == "linear")
+    return UncertaintyBudget(rows=tuple(rows), coverage_factor=COVERAGE_FACTOR,
+                             combined_standard_pu=combined,
+                             expanded_pu=COVERAGE_FACTOR * combined + linear,
+                             noise_bias_pu=scatter.bias_pu, revolutions=revolutions,
+                             bootstrap_draws=scatter.draws, notes=tuple(notes))
+
+
+def _mechanical_angle(capture: Capture) -> np.ndarray:
+    if "rotor_angle_mech_rad" in capture:
+        return np.unwrap(check_finite("rotor_angle_mech_rad", capture["rotor_angle_mech_rad"]),
+                         period=TWO_PI)
+    if "encoder_counts" in capture:
+        counts_per_rev = capture.meta.get("encoder_counts_per_rev")
+        if not isinstance(counts_per_rev, (int, float)) or not counts_per_rev > 0:
+            raise InputError("capture channel 'encoder_counts' needs meta 'encoder_counts_per_rev' "
+                             f"> 0, got {counts_per_rev!r}")
+        return check_finite("encoder_counts", capture["encoder_counts"]) * (TWO_PI / counts_per_rev)
+    raise InputError("switching analysis needs the rotor angle: channel 'rotor_angle_mech_rad' or "
+                     f"'encoder_counts'; the capture has {sorted(capture.channels)}")
+
+
+def _pole_pairs(capture: Capture, motor: MotorParameters) -> int:
+    value = capture.meta.get("pole_pairs", motor.pole_pairs)
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or not 1 <= value <= 100:
+        raise InputError(f"capture meta 'pole_pairs' must be an integer 1..100, got {value!r}")
+    if value != motor.pole_pairs:
+        raise InputError(f"capture meta pole_pairs={value} differs from the motor's "
+                         f"{motor.pole_pairs} (pole_count={motor.pole_count})")
+    return int(value)
