@@ -84,6 +84,7 @@ class Cia402Drive:
         self._connected_at: float | None = None
         self._emcy: canopen.emcy.EmcyError | None = None
         self._identity: dict | None = None
+        self._rated_torque_cache_nm: float | None = None
         self.network: canopen.Network | None = None
         self.node: canopen.RemoteNode | None = None
 
@@ -211,6 +212,7 @@ class Cia402Drive:
     def close(self) -> None:
         """Leave the drive as it is (the safety guard disables it first) and release the bus."""
         network, self.network, self.node = self.network, None, None
+        self._rated_torque_cache_nm = None
         if network is not None:
             try:
                 network.disconnect()
@@ -427,7 +429,11 @@ class Cia402Drive:
         return next((name for name, c in sm.MODE_CODES.items() if c == code), f"code {code}")
 
     def _rated_torque_nm(self) -> float:
-        return self.sdo_read(0x6076, action="read motor rated torque 0x6076") / 1000.0
+        """Motor rated torque 0x6076 (mN·m on the bus), read once per connection."""
+        if self._rated_torque_cache_nm is None:
+            self._rated_torque_cache_nm = self.sdo_read(
+                0x6076, action="read motor rated torque 0x6076") / 1000.0
+        return self._rated_torque_cache_nm
 
     def _checked_count(self, obj: ScaledObject, value_si, action: str) -> int:
         try:
@@ -499,8 +505,7 @@ class Cia402Drive:
     def actual(self, max_age_s: float | None = None) -> dict:
         """Latest PDO-fed actual values: torque_nm, velocity_rpm, position_counts, state, age_s."""
         max_age_s = max_age_s if max_age_s is not None else max(0.1, 5 * self.tpdo_event_timer_ms / 1000)
-        if not hasattr(self, "_rated_torque_cache"):
-            self._rated_torque_cache = self._rated_torque_nm()
+        rated_torque_nm = self._rated_torque_nm()
         with self._tpdo_update:
             needed = (0x6041, 0x6077, 0x606C, 0x6064)
             missing = [f"0x{i:04X}" for i in needed if i not in self._tpdo_time]
@@ -512,7 +517,7 @@ class Cia402Drive:
             raise self._error(InstrumentTimeout, "read actual values",
                               f"newest TPDOs are {age_s:.3f} s old (limit {max_age_s} s)")
         return {
-            "torque_nm": values[0x6077] / 1000.0 * self._rated_torque_cache,
+            "torque_nm": values[0x6077] / 1000.0 * rated_torque_nm,
             "velocity_rpm": float(values[0x606C]),
             "position_counts": int(values[0x6064]),
             "state": sm.state_from_statusword(values[0x6041]),

@@ -9,12 +9,7 @@ import pytest
 
 from drivers.canopen_transport import CanBusSettings
 
-try:  # integration tests use the real digital twin once the sim engineer has landed it
-    from hil.sim import DriveTwin as _Twin
-    REAL_TWIN = True
-except ImportError:  # pragma: no cover - only before hil.sim exists
-    from canopen_fake_twin import FakeTwin as _Twin
-    REAL_TWIN = False
+from hil.sim import DriveTwin  # integration tests use the real digital twin
 
 _channels = itertools.count()
 
@@ -26,7 +21,7 @@ def unique_virtual_settings() -> CanBusSettings:
 
 @pytest.fixture
 def twin():
-    return _Twin(seed=0)
+    return DriveTwin(seed=0)
 
 
 @pytest.fixture

@@ -7,7 +7,6 @@ import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import can
 import pytest
@@ -70,11 +69,7 @@ def _recv_id(bus, can_id, timeout=1.0):
 
 SERVER_SCRIPT = textwrap.dedent("""
     import json, sys
-    try:
-        from hil.sim import DriveTwin
-    except ImportError:  # same fallback as conftest.py while hil.sim does not import
-        sys.path.insert(0, TEST_DIR)
-        from canopen_fake_twin import FakeTwin as DriveTwin
+    from hil.sim import DriveTwin
     from drivers.simulated.can_remote_server import serve_simulated_drive
     twin = DriveTwin(seed=0)
     server = serve_simulated_drive(twin, node_id=7)
@@ -89,8 +84,7 @@ SERVER_SCRIPT = textwrap.dedent("""
 
 
 def test_second_process_uses_only_bench_file_settings():
-    script = f"TEST_DIR = {str(Path(__file__).parent)!r}\n" + SERVER_SCRIPT
-    proc = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-c", SERVER_SCRIPT], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, text=True)
     try:
         table = json.loads(proc.stdout.readline())
