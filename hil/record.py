@@ -18,7 +18,6 @@ import platform
 import re
 import secrets
 import subprocess
-import sys
 import threading
 from datetime import date, datetime, timezone
 from pathlib import Path
@@ -53,7 +52,7 @@ def utc_now() -> str:
 
 
 def new_record_id(now: datetime | None = None) -> str:
-    """A unique record id: UTC timestamp plus six random hex digits (``20261121T053000Z-3fa2c1``)."""
+    """A unique record id: UTC timestamp and six random hex digits (``20261121T053000Z-3fa2c1``)."""
     now = now or datetime.now(timezone.utc)
     return f"{now.strftime('%Y%m%dT%H%M%SZ')}-{secrets.token_hex(3)}"
 

@@ -121,9 +121,11 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
         ("Operator", lab.get("operator") or "—"),
         ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
                   f"{record['bench'].get('path')}"),
-        ("Item tested: motor", f"{motor.get('model') or '—'}, s/n {motor.get('serial_number') or '—'}"
-                               f" ({motor.get('pole_count')} poles, Ke {motor.get('ke_v_s_per_rad')}"
-                               f" V·s/rad, {motor.get('dc_bus_v')} V dc bus)"),
+        ("Item tested: motor", f"{motor.get('model') or '—'}, "
+                               f"s/n {motor.get('serial_number') or '—'} "
+                               f"({motor.get('pole_count')} poles, "
+                               f"Ke {motor.get('ke_v_s_per_rad')} V·s/rad, "
+                               f"{motor.get('dc_bus_v')} V dc bus)"),
         ("Item tested: drive", _drive_text(drive)),
     ])
     if content.partial:

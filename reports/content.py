@@ -163,7 +163,8 @@ def point_from_entry(entry: dict, swept: list[str],
     )
 
 
-def deviations(record: dict, sources: list[SourceSection], capture_problems: list[str]) -> list[str]:
+def deviations(record: dict, sources: list[SourceSection],
+               capture_problems: list[str]) -> list[str]:
     """Everything a reader must be told: partial run, overrides, problems, assumptions, misfits."""
     out = []
     status = record.get("status")
@@ -178,15 +179,16 @@ def deviations(record: dict, sources: list[SourceSection], capture_problems: lis
     for override in record.get("calibration_overrides", []):
         out.append(f"Calibration override: {override.get('role')} s/n "
                    f"{override.get('serial_number')} was used past its due date "
-                   f"{override.get('due')}; reason: {override.get('reason')} (by {override.get('by')}).")
+                   f"{override.get('due')}; reason: {override.get('reason')} "
+                   f"(by {override.get('by')}).")
     for row in record.get("instruments", []):
         for problem in row.get("problems", []):
             out.append(f"Instrument {row.get('role')} s/n {row.get('serial_number')}: {problem}.")
     if (record.get("bench") or {}).get("simulated"):
         out.append("The instruments are simulated (hil.sim digital twin behind the real protocol "
                    "stacks). The simulation does not regulate current ideally, as the paper's "
-                   "closed forms assume; differences between measured and predicted ripple can come "
-                   "from that assumption.")
+                   "closed forms assume; differences between measured and predicted ripple can "
+                   "come from that assumption.")
     assumptions: dict[str, list[str]] = {}
     for section in sources:
         for point in section.points:
@@ -203,7 +205,9 @@ def deviations(record: dict, sources: list[SourceSection], capture_problems: lis
                 out.append(f"Disagreement with the paper: '{point.test_id}' measured "
                            f"{fmt_pct(point.measured_pu)} against the predicted "
                            f"{fmt_pct(point.predicted_pu)} (U = {fmt_pct(point.u_pu)}); "
-                           f"decision: {point.decision}.")
+                           f"decision: {point.decision}"
+                           + (f" ({reason})." if (reason := (point.entry.get("verdict") or {})
+                                                  .get("reason")) else "."))
     for text, users in assumptions.items():
         out.append(f"Paper's assumption ({', '.join(users)}): {text}")
     return out

@@ -73,8 +73,8 @@ def angle_svg(angle_rad: np.ndarray, revolutions_nm: np.ndarray | None,
             step = max(1, math.ceil(len(rows) / MAX_REVOLUTION_LINES))
             for row in rows[::step]:
                 ax.plot(degrees, row, color="0.7", linewidth=0.4)
-            ax.plot([], [], color="0.7", linewidth=0.6,
-                    label=f"revolutions ({len(rows)}{'' if step == 1 else f', every {step}th drawn'})")
+            drawn = "" if step == 1 else f", every {step}th drawn"
+            ax.plot([], [], color="0.7", linewidth=0.6, label=f"revolutions ({len(rows)}{drawn})")
         ax.plot(degrees, sync_average_nm, color="tab:blue", linewidth=1.4,
                 label="synchronous average")
         ax.set_xlim(degrees[0], degrees[-1])
