@@ -193,3 +193,14 @@ def test_content_helpers():
     assert knob_display("dead_time_s", [1e-6, 2e-6]) == ("dead_time (µs)", 1e6)
     assert knob_display("ia_gain_error_pu", [0.01]) == ("ia_gain_error (%)", 100.0)
     assert knob_display("word_length_bits", [8]) == ("word_length (bits)", 1.0)
+
+
+def test_a_record_without_any_test_still_gives_a_report(tmp_path):
+    from hil.config import default_sim_bench
+    from hil.record import RunRecord
+    record = RunRecord.create(tmp_path, default_sim_bench(), [], name="empty")
+    record.finish("failed")
+    pages = page_texts(build_report(record.path, tmp_path / "empty.pdf"))
+    text = "\n".join(pages)
+    assert "PARTIAL RECORD" in text and "status 'failed'" in text.replace("\n", " ")
+    assert f"Page {len(pages)} of {len(pages)}" in pages[-1] and "End of report" in pages[-1]
