@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from drivers.canopen_eds import (DEFAULT_EDS_PATH, COUNTS_PER_SI_UNIT, current_command_object,
                                  injection_objects, load_dictionary, parse_scaled_name)
@@ -127,3 +129,19 @@ def test_object_table_is_rendered_from_the_eds():
     assert "| 0x200A | `dead_time_s` | ns | 0..1e-05 | 0.0 |" in table
     assert "0x64616F6C" in table
     assert len(table.splitlines()) == 2 + len(CONTRACT) + 2
+
+
+@given(data=st.data())
+@settings(max_examples=200, deadline=None)
+def test_any_in_range_value_is_accepted_and_quantised_to_half_a_count(data):
+    objects = injection_objects()
+    obj = objects[data.draw(st.sampled_from(sorted(objects)))]
+    if obj.is_bool:
+        value = data.draw(st.booleans())
+    elif obj.is_integer:
+        value = data.draw(st.integers(obj.low_count, obj.high_count))
+    else:
+        value = data.draw(st.floats(obj.low_si, obj.high_si, allow_nan=False))
+    count = obj.check_si(value)
+    assert obj.low_count <= count <= obj.high_count
+    assert abs(obj.to_si(count) - value) <= 0.5 / obj.counts_per_si + 1e-12

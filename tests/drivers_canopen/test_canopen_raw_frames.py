@@ -76,6 +76,11 @@ def test_sdo_abort_for_missing_object_and_out_of_range_injection(raw, twin):
     assert struct.unpack_from("<I", response, 4)[0] == 0x08000020
     assert sdo_download_u32(raw, 0x2000, 0, int.from_bytes(b"load", "little"))[0] == 0x60
     assert twin.injection.ia_offset_a == 0.0
+    # PDO mapping entries must name a mappable object of the right size
+    response = sdo_download_u32(raw, 0x1A00, 1, 0x20010020)  # injection object: not mappable
+    assert struct.unpack_from("<I", response, 4)[0] == 0x06040041
+    response = sdo_download_u32(raw, 0x1A00, 1, 0x60410020)  # statusword is 16 bits, not 32
+    assert struct.unpack_from("<I", response, 4)[0] == 0x06040041
 
 
 def test_heartbeat_period_and_nmt_states(raw):
