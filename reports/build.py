@@ -22,7 +22,7 @@ from hil.record import RECORD_FILE, capture_path, load_record, verify_captures
 from reports import figures
 from reports.angle_view import angle_view
 from reports.content import (DECISIONS, NOT_DETERMINED, RIPPLE_DEFINITION, ReportContent,
-                             SourceSection, fmt, fmt_pct, report_content)
+                             SourceSection, fmt, fmt_pct, report_content, status_text)
 from reports.document import ReportPDF
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
@@ -129,9 +129,9 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
         ("Item tested: drive", _drive_text(drive)),
     ])
     if content.partial:
-        pdf.para(f"PARTIAL RECORD: the run ended with status '{record.get('status')}'. This report "
-                 f"covers the {len(record.get('tests', []))} test(s) recorded; it makes no overall "
-                 f"statement of conformity.", size=9.5, style="B")
+        pdf.para(f"PARTIAL RECORD: {status_text(record.get('status'))}. This report covers the "
+                 f"{len(record.get('tests', []))} test(s) recorded; it makes no overall statement "
+                 f"of conformity.", size=9.5, style="B")
     pdf.heading("Statement of conformity")
     pdf.para("Decision rule per ILAC-G8 with a guard band equal to the expanded uncertainty U "
              "(k = 2); the rule was recorded before the first measurement (see Method).")
@@ -288,6 +288,11 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
              widths=(34, 0, 17, 15, 17, 12, 15, 22))
     pdf.para("Ripple figures in % of the mean torque at the operating point; the full test ids "
              "and capture hashes are in the traceability table.", size=7, style="I")
+    unfinished = [f"{p.test_id.split('::')[-1]}: {p.outcome}: "
+                  f"{p.entry.get('error') or '; '.join(p.entry.get('notes') or []) or 'no reason'}"
+                  for p in section.points if p.outcome in ("error", "skipped")]
+    if unfinished:
+        pdf.bullets(unfinished, size=7.5)
     worst = section.worst
     if worst is None:
         pdf.para("No point of this source has a measured ripple; no waveform to show.")

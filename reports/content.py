@@ -169,7 +169,7 @@ def deviations(record: dict, sources: list[SourceSection],
     out = []
     status = record.get("status")
     if status != "complete":
-        out.append(f"PARTIAL RECORD: the run's status is '{status}'; this report covers only the "
+        out.append(f"PARTIAL RECORD: {status_text(status)}; this report covers only the "
                    f"{len(record.get('tests', []))} test(s) recorded and makes no overall "
                    f"statement of conformity.")
     for item in record.get("pending_captures", []):
@@ -211,6 +211,15 @@ def deviations(record: dict, sources: list[SourceSection],
     for text, users in assumptions.items():
         out.append(f"Paper's assumption ({', '.join(users)}): {text}")
     return out
+
+
+def status_text(status: str | None) -> str:
+    """What a record's status means, for a reader."""
+    return {"running": "the run never finished (status 'running': the process stopped before "
+                       "it could close the record)",
+            "interrupted": "the run was interrupted (status 'interrupted')",
+            "failed": "the run stopped on an error (status 'failed')",
+            }.get(status, f"the run's status is '{status}'")
 
 
 def fmt_pct(value: float | None, digits: int = 2) -> str:
