@@ -23,11 +23,14 @@ from numba import njit
 from hil.sim.layout import P_HARM, P_L, P_N_HARM, P_NEUTRAL, P_POLE_PAIRS, P_PSI, P_R
 
 SIN_120 = math.sqrt(3.0) / 2.0
+#: LLVM fast-math flags for the hot loop: contraction to FMA and reassociation, but NaN and
+#: infinity handling kept (the engine uses neither, and must not have them optimised away)
+FAST_MATH = {"contract", "reassoc", "nsz", "arcp", "afn"}
 MAX_HARMONICS = 5          # fundamental + up to 4 harmonics
 BASIS_COLUMNS = 6
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def sincos_small(x):
     """(sin x, cos x); Taylor series to x^12 for |x| <= 0.5 (error < 1e-13), libm beyond."""
     if abs(x) > 0.5:
@@ -40,7 +43,7 @@ def sincos_small(x):
     return s, c
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def exp_small(x):
     """exp(x); Taylor series to x^12 for |x| <= 0.5 (error < 1e-13 relative), libm beyond."""
     if abs(x) > 0.5:
@@ -50,7 +53,7 @@ def exp_small(x):
             1.0 + x / 11.0 * (1.0 + x / 12.0)))))))))))
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def spread(order, s, c):
     """sin(α − order·x·2π/3) for phases x = a, b, c, from s = sin α and c = cos α."""
     shift = order % 3
@@ -116,7 +119,7 @@ def period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis
         basis[k, B_FCOS] = c * lag[k, 2] + s * lag[k, 1]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def evaluate(tau, omega_e, orders, count, basis):
     """At τ into the period: forced currents i_e (A) and EMF per speed k_x (V·s/rad), a/b/c.
 

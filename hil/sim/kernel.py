@@ -25,9 +25,9 @@ import numpy as np
 from numba import njit, prange
 
 from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs)
-from hil.sim.electrical import (B_ECOS, B_ESIN, BASIS_COLUMNS, MAX_HARMONICS, evaluate,
-                                exp_small, harmonic_table, impedance_angles, period_basis,
-                                sincos_small, spread)
+from hil.sim.electrical import (B_ECOS, B_ESIN, BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS,
+                                evaluate, exp_small, harmonic_table, impedance_angles,
+                                period_basis, sincos_small, spread)
 from hil.sim.firmware import adc_read, firmware_step
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
@@ -80,7 +80,7 @@ def _stepping_angle(time_s, params, speed):
     return cycles * step + moving
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _sort(values, count):
     """In-place insertion sort of values[:count] (a handful of switching instants)."""
     for i in range(1, count):
@@ -92,7 +92,7 @@ def _sort(values, count):
         values[j + 1] = v
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
     """Gate state of a leg at τ within the period (centre-aligned, dead time after each edge).
 
@@ -118,7 +118,7 @@ def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
     return LOW
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance):
     """Exact phase currents of a sub-segment, given the forced response i_e at that instant and
     decay = exp(−R·(τ − τa)/L) since the sub-segment start τa (see module electrical)."""
@@ -147,7 +147,7 @@ def _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance):
     return ia, -ia, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _currents_at(tau, tau_a, mode, clamped, k, x0, u, omega_e, orders, count, basis,
                  resistance, inductance):
     """``_currents`` at an arbitrary τ of the sub-segment (evaluates the forced response)."""
@@ -156,7 +156,7 @@ def _currents_at(tau, tau_a, mode, clamped, k, x0, u, omega_e, orders, count, ba
     return _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _cogging_basis(params, theta_m0, cogging):
     """Rows (mechanical order, amplitude N·m, sin, cos of the cogging angle at θm0)."""
     for c in range(int(params[P_N_COG])):
@@ -168,7 +168,7 @@ def _cogging_basis(params, theta_m0, cogging):
         cogging[c, 3] = math.cos(angle)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _shaft_torque(tau, omega_m, k_a, k_b, k_c, ia, ib, ic, n_cogging, cogging):
     """(electromagnetic Σ e_x·i_x/ω_m, shaft = electromagnetic + cogging) in N·m at τ."""
     electromagnetic = k_a * ia + k_b * ib + k_c * ic
@@ -179,14 +179,14 @@ def _shaft_torque(tau, omega_m, k_a, k_b, k_c, ia, ib, ic, n_cogging, cogging):
     return electromagnetic, total
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def _filter(y0, x0, slope, h, tau_f):
     """First-order low-pass output after h seconds of the input x0 + slope·t (exact)."""
     decay = exp_small(-h / tau_f)
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST_MATH)
 def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
 
