@@ -1,0 +1,223 @@
+"""``python -m benchmarks`` (``make bench``): run every benchmark, print a table, write JSON.
+
+Each benchmark script runs in its own process (as its docstring says to run it), so one that
+fails or hangs cannot take the others with it; its printed figures are read back with the
+patterns below (the scripts print for people; this keeps them free of a second output format).
+The table goes to stdout, the machine-readable summary to ``benchmarks/results.json`` (or
+``--json FILE``): per benchmark its command, exit code, wall time, figures (value + unit) and the
+raw output, plus the machine and its load. A figure a pattern no longer finds is reported as
+missing, never invented. ``--quick`` runs every benchmark on small sizes (a smoke check of the
+plumbing, not figures to quote).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+DEFAULT_JSON = HERE / "results.json"
+#: One benchmark may not run longer than this, s (a stuck server must not hang ``make bench``).
+TIMEOUT_S = 1800.0
+_NUMBER = r"([-+]?[\d,]*\.?\d+(?:[eE][-+]?\d+)?)"
+
+
+@dataclass(frozen=True)
+class Pattern:
+    """A printed figure: ``regex`` finds it (named groups become ``{name}`` in ``figure``)."""
+
+    regex: str
+    figure: str
+    unit: str
+    value_group: str = "value"
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    name: str
+    script: str
+    args: tuple[str, ...]
+    quick_args: tuple[str, ...]
+    patterns: tuple[Pattern, ...]
+    what: str
+    #: The script prints ``header:`` lines with indented ``key value`` rows under them.
+    sectioned: bool = False
+
+
+def _v(unit_text: str) -> str:
+    """A value followed by its printed unit."""
+    return rf"(?P<value>{_NUMBER[1:-1]})\s*{unit_text}"
+
+
+BENCHMARKS: tuple[Benchmark, ...] = (
+    Benchmark(
+        "simulation", "sim_bench.py", (), ("--seconds", "0.05", "--repeats", "1"),
+        (Pattern(r"one drive, one core\s*:\s*" + _v(r"wall s per simulated s"),
+                 "one_drive_one_core_wall_s_per_sim_s", "s/s"),
+         Pattern(r"batch of 16, all cores:\s*" + _v(r"wall s per simulated s of the batch"),
+                 "batch_of_16_wall_s_per_sim_s", "s/s"),
+         Pattern(r"batch of 16.*?,\s*" + _v(r"per drive-second"),
+                 "batch_of_16_wall_s_per_drive_s", "s/s"),
+         Pattern(r"first calls \(compile or cache load\):\s*" + _v("s"),
+                 "first_call_compile_s", "s")),
+        "digital twin: wall seconds per simulated second"),
+    Benchmark(
+        "analysis", "analysis_bench.py", (), ("--samples", "200000", "--repeat", "1"),
+        (Pattern(r"analysis chain:.*=\s*" + _v(r"samples/s"), "analysis_samples_per_s",
+                 "samples/s"),
+         Pattern(r"analysis is\s*" + _v(r"x faster"), "analysis_over_capture_rate", "x")),
+        "analysis chain (resample, average, spectrum, uncertainty): samples per second"),
+    Benchmark(
+        "canopen", "canopen_bench.py", (), ("--seconds", "0.2"),
+        (Pattern(r"(?m)^(?P<section>\w+): (?P<key>\w+_per_s)\s+(?P<value>[\d.]+)$",
+                 "{section}.{key}", "1/s"),
+         Pattern(r"(?m)^(?P<section>\w+): (?P<key>\w+_fraction)\s+(?P<value>[\d.]+)$",
+                 "{section}.{key}", "1")),
+        "CANopen drive: SDO round trips and PDO frames per second (virtual and remote bus)",
+        sectioned=True),
+    Benchmark(
+        "modbus", "modbus_bench.py", (), ("--samples", "2000"),
+        (Pattern(r"(?m)^Modbus (?P<label>[^:]+): buffer paging\s*" + _v(r"registers/s"),
+                 "{label} registers_per_s", "registers/s"),
+         Pattern(r"(?m)^Modbus (?P<label>[^:]+): whole capture.*\(" + _v(r"samples/s"),
+                 "{label} capture_samples_per_s", "samples/s")),
+        "Modbus DAQ: registers per second (TCP loopback, RTU on a pty)"),
+    Benchmark(
+        "transducer", "transducer_bench.py", (), ("--samples", "500"),
+        (Pattern(r"(?m)^(?P<label>\w+ [^:]+): (?P<how>polled read\(\)|stream\(\d+\)):\s*"
+                 + _v(r"samples/s"), "{label} {how} samples_per_s", "samples/s"),),
+        "serial torque transducer: samples per second (both dialects, unpaced and paced pty)"),
+    Benchmark(
+        "hil_run", "run_bench.py", ("--report",), ("--source", "baseline"),
+        (Pattern(r"hil run \((?P<which>[^,]+(?:, [^,]+)*?), simulated bench\):\s*"
+                 r"(?P<value>\d+) points", "points", "points"),
+         Pattern(r"hil run .*points in\s*" + _v(r"wall s"), "wall_s", "s"),
+         Pattern(r"hil run .*=\s*" + _v(r"points/s"), "points_per_s", "points/s"),
+         Pattern(r"hil report on that record:\s*" + _v(r"wall s"), "report_wall_s", "s")),
+        "the whole `hil run` on the simulated bench (all plans), then `hil report`"),
+)
+
+
+def parse_figures(benchmark: Benchmark, text: str) -> dict[str, dict]:
+    """Every figure the benchmark's patterns find in its output: ``{name: {value, unit}}``."""
+    if benchmark.sectioned:
+        text = flatten_sections(text)
+    figures: dict[str, dict] = {}
+    for pattern in benchmark.patterns:
+        for match in re.finditer(pattern.regex, text):
+            groups = {k: v.strip() for k, v in match.groupdict().items() if v is not None}
+            figures[pattern.figure.format(**groups)] = {
+                "value": float(groups[pattern.value_group].replace(",", "")),
+                "unit": pattern.unit}
+    return figures
+
+
+def flatten_sections(text: str) -> str:
+    """``virtual (in-process):`` + indented ``key value`` rows -> ``virtual: key value`` lines."""
+    lines, section = [], ""
+    for line in text.splitlines():
+        if line[:1].strip() and line.rstrip().endswith(":"):
+            section = line.split()[0].rstrip(":")
+        elif line.startswith(" ") and section:
+            lines.append(f"{section}: {line.strip()}")
+            continue
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def run_benchmark(benchmark: Benchmark, quick: bool, timeout_s: float = TIMEOUT_S) -> dict:
+    """Run one benchmark script in a subprocess; its figures, exit code and raw output."""
+    command = [sys.executable, str(HERE / benchmark.script),
+               *(benchmark.quick_args if quick else benchmark.args)]
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s,
+                              cwd=HERE.parent)
+        stdout, stderr, code = done.stdout, done.stderr, done.returncode
+    except subprocess.TimeoutExpired as exc:
+        stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else exc.stdout or ""
+        stderr, code = f"timed out after {timeout_s:g} s", None
+    wall_s = time.perf_counter() - start
+    figures = parse_figures(benchmark, stdout)
+    result = {"what": benchmark.what, "command": [Path(c).name if i == 0 else c
+                                                   for i, c in enumerate(command)],
+              "returncode": code, "wall_s": wall_s, "figures": figures,
+              "stdout": stdout, "stderr": stderr[-4000:]}
+    if code != 0:
+        result["error"] = f"exit {code}: {stderr.strip().splitlines()[-1] if stderr.strip() else ''}"
+    elif not figures:
+        result["error"] = "no figure found in the output (did the script's wording change?)"
+    return result
+
+
+def machine() -> dict:
+    return {"python": platform.python_version(), "platform": platform.platform(),
+            "cpu_count": os.cpu_count(), "load_average_1min_start": os.getloadavg()[0]}
+
+
+def table(results: dict[str, dict]) -> str:
+    """The human summary: one line per figure."""
+    rows = [("benchmark", "figure", "value", "unit")]
+    for name, result in results.items():
+        for figure, item in result["figures"].items():
+            rows.append((name, figure, _format(item["value"]), item["unit"]))
+        if "error" in result:
+            rows.append((name, "ERROR", result["error"][:60], ""))
+    widths = [max(len(row[i]) for row in rows) for i in range(4)]
+    lines = [f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:>{widths[2]}}  {r[3]}"
+             for r in rows]
+    lines.insert(1, "-" * len(lines[0]))
+    return "\n".join(lines)
+
+
+def _format(value: float) -> str:
+    if value == int(value) and abs(value) < 1e15:
+        return f"{int(value):,}"
+    return f"{value:,.0f}" if abs(value) >= 1000 else f"{value:.4g}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--json", metavar="FILE", type=Path, default=DEFAULT_JSON,
+                        help=f"JSON summary to write (default {DEFAULT_JSON.relative_to(HERE.parent)})")
+    parser.add_argument("--only", action="append", metavar="NAME",
+                        choices=[b.name for b in BENCHMARKS],
+                        help="run only this benchmark (repeatable)")
+    parser.add_argument("--quick", action="store_true",
+                        help="small sizes: checks the plumbing, figures not for quoting")
+    parser.add_argument("--timeout-s", type=float, default=TIMEOUT_S,
+                        help=f"per-benchmark time limit (default {TIMEOUT_S:g} s)")
+    args = parser.parse_args(argv)
+    selected = [b for b in BENCHMARKS if not args.only or b.name in args.only]
+    summary = {"created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+               "quick": args.quick, "machine": machine(), "benchmarks": {}}
+    for benchmark in selected:
+        print(f"running {benchmark.name}: {benchmark.what} ...", file=sys.stderr, flush=True)
+        summary["benchmarks"][benchmark.name] = run_benchmark(benchmark, args.quick,
+                                                              args.timeout_s)
+    summary["machine"]["load_average_1min_end"] = os.getloadavg()[0]
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(summary, indent=2) + "\n")
+    print(table(summary["benchmarks"]))
+    m = summary["machine"]
+    print(f"\n{m['cpu_count']} cores, load average {m['load_average_1min_start']:.2f} -> "
+          f"{m['load_average_1min_end']:.2f}{' (QUICK sizes)' if args.quick else ''}; "
+          f"JSON: {args.json}")
+    failed = [name for name, result in summary["benchmarks"].items() if "error" in result]
+    if failed:
+        print(f"benchmarks with errors: {', '.join(failed)}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
