@@ -135,24 +135,22 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
     _check_windows(windows, pwm_frequency_hz, max_order)
     centre_travel = np.interp(windows.centre_s, time_s, travel.travel_rad)
     centres = TravelAngle(travel_rad=centre_travel, direction=travel.direction)
+    n_bins = samples_per_revolution(max_order)
+    response = interpolation_response(centre_travel, max_order)
     used = torque[:windows.stop]
-    envelope_nm = np.maximum.reduceat(used, windows.starts) - \
-        np.minimum.reduceat(used, windows.starts)
+    env_revs, per_rev = _envelope_revolutions(used, windows, centres, n_bins, max_order, response)
     window_mean_nm = np.add.reduceat(used, windows.starts) / np.diff(
         np.append(windows.starts, windows.stop))
-
-    n_bins = samples_per_revolution(max_order)
-    env_revs = resample_revolutions(centres, envelope_nm, n_bins)
-    mean_revs = resample_revolutions(centres, window_mean_nm, n_bins)
-    response = interpolation_response(centre_travel, max_order)
-    per_rev = order_coefficients(env_revs.matrix_nm, int(max_order), response)
-    per_rev_mean = mean_revs.matrix_nm.mean(axis=1)
+    per_rev_mean = resample_revolutions(centres, window_mean_nm, n_bins).matrix_nm.mean(axis=1)
     coefficients = per_rev.mean(axis=0)
     mean_nm = float(per_rev_mean.mean())
     peak_nm = float(_band_limited_max(coefficients[None, :])[0])
     pk_pk_pu = peak_nm / abs(mean_nm) if mean_nm != 0 else math.nan
     amplitude, phase = np.abs(coefficients[1:]), np.angle(coefficients[1:])
-    budget = _budget(per_rev, per_rev_mean, peak_nm, pk_pk_pu, mean_nm, torque, time_s, windows,
+    # extremes between sample phases: each reads low by at most (slope)·(largest gap)/2
+    slope_nm_s = float(np.max(np.abs(np.diff(used) / np.diff(time_s[:windows.stop]))))
+    sampling_bias_nm = slope_nm_s * windows.largest_gap_s
+    budget = _budget(per_rev, per_rev_mean, pk_pk_pu, mean_nm, sampling_bias_nm, windows,
                      capture, motor, instruments)
     named = ENVELOPE_ORDER if ENVELOPE_ORDER <= max_order else None
     return RippleResult(
@@ -207,15 +205,31 @@ def _windows(time_s: np.ndarray, travel: TravelAngle, pwm_frequency_hz: float) -
         raise InputError("some PWM windows hold no sample: the sample rate is far too low for "
                          f"pwm_frequency_hz={pwm_frequency_hz:g}")
     phase = np.mod(elapsed[:stop], period_s)
-    order = np.lexsort((phase, index[:stop]))
-    sorted_phase, sorted_window = phase[order], index[:stop][order]
-    gaps = np.diff(sorted_phase)
-    gaps[np.diff(sorted_window) != 0] = 0.0
-    wrap = period_s - sorted_phase[np.append(starts[1:], stop) - 1] + sorted_phase[starts]
-    largest_gap = max(float(gaps.max(initial=0.0)), float(wrap.max()))
+    largest_gap = _largest_phase_gap(phase, index[:stop], period_s)
     centre_s = time_s[0] + (np.arange(count) + 0.5) * window_s
     return _Windows(starts, stop, count, periods, period_s, centre_s, largest_gap,
                     TWO_PI / (speed * window_s))
+
+
+def _largest_phase_gap(phase_s: np.ndarray, window: np.ndarray, period_s: float) -> float:
+    """Largest gap between the sample phases (mod T_s) within any window, wrap included."""
+    order = np.lexsort((phase_s, window))
+    phase_s, window = phase_s[order], window[order]
+    first = np.flatnonzero(np.diff(window, prepend=-1) != 0)
+    last = np.append(first[1:], phase_s.size) - 1
+    gaps = np.diff(phase_s)
+    gaps[np.diff(window) != 0] = 0.0
+    wrap = period_s - phase_s[last] + phase_s[first]
+    return max(float(gaps.max(initial=0.0)), float(wrap.max()))
+
+
+def _envelope_revolutions(torque_nm, windows, centres, n_bins, max_order, response):
+    """pk-pk of T̂ in each window (NaN samples skipped), binned on revolutions, and its
+    per-revolution order coefficients."""
+    envelope_nm = np.fmax.reduceat(torque_nm, windows.starts) - \
+        np.fmin.reduceat(torque_nm, windows.starts)
+    revs = resample_revolutions(centres, envelope_nm, n_bins)
+    return revs, order_coefficients(revs.matrix_nm, int(max_order), response)
 
 
 def _check_windows(windows: _Windows, pwm_frequency_hz: float, max_order: int) -> None:
@@ -240,7 +254,7 @@ def _band_limited_max(coefficients: np.ndarray) -> np.ndarray:
     return reconstruct(coefficients, points).max(axis=-1)
 
 
-def _budget(per_rev, per_rev_mean, peak_nm, pk_pk_pu, mean_nm, torque, time_s, windows, capture,
+def _budget(per_rev, per_rev_mean, pk_pk_pu, mean_nm, sampling_bias_nm, windows, capture,
             motor, instruments) -> UncertaintyBudget:
     """Type A, noise bias, sampling bias bound and DAQ current resolution of ``pk_pk_pu``."""
     width = per_rev.shape[1]
@@ -258,14 +272,11 @@ def _budget(per_rev, per_rev_mean, peak_nm, pk_pk_pu, mean_nm, torque, time_s, w
             BudgetRow("residual noise bias of sync-average envelope maximum", scatter.bias_pu,
                       "pu", "bias (added linearly)", 1.0, 1.0, "1", abs(scatter.bias_pu),
                       combination="linear")]
-    # extremes between sample phases: each reads low by at most slope·gap/2
-    used = slice(0, windows.stop)
-    slope = float(np.max(np.abs(np.diff(torque[used]) / np.diff(time_s[used]))))
-    sampling_nm = slope * windows.largest_gap_s
     rows.append(BudgetRow(f"sampling: extremes between sample phases (largest gap "
-                          f"{windows.largest_gap_s:.3g} s)", sampling_nm, "N*m",
-                          "bias bound (reads low; added linearly)", 1.0, 1.0 / mean_abs,
-                          "1/(N*m)", sampling_nm / mean_abs, combination="linear"))
+                          f"{windows.largest_gap_s:.3g} s x largest sample-to-sample slope)",
+                          sampling_bias_nm, "N*m", "bias bound (reads low; added linearly)", 1.0,
+                          1.0 / mean_abs, "1/(N*m)", sampling_bias_nm / mean_abs,
+                          combination="linear"))
     notes = [f"torque T̂ from ia, ib and the encoder angle with the nameplate EMF; windows of "
              f"{windows.periods} PWM periods, {windows.effective_samples_per_period:.3g} "
              "effective samples per period",
