@@ -106,9 +106,13 @@ class DriveLocalNode(LocalNode):
         self.data_store.setdefault(index, {})[subindex] = bytes(data)
         self._after_store(index, subindex, obj, bytes(data))
 
+    def find_object(self, index: int, subindex: int = 0):
+        """The dictionary entry; SdoAbortedError (0x06020000 / 0x06090011) if there is none."""
+        return self._find_object(index, subindex)
+
     def stored_value(self, index: int, subindex: int = 0):
         """Decoded value from the data store (or the EDS default), bypassing read callbacks."""
-        obj = self._find_object(index, subindex)
+        obj = self.find_object(index, subindex)
         try:
             return obj.decode_raw(self.data_store[index][subindex])
         except KeyError:

@@ -14,6 +14,8 @@ import threading
 import time
 from dataclasses import dataclass
 
+from canopen.sdo import SdoAbortedError
+
 logger = logging.getLogger(__name__)
 
 RPDO_COMM, RPDO_MAP, TPDO_COMM, TPDO_MAP = 0x1400, 0x1600, 0x1800, 0x1A00
@@ -49,7 +51,7 @@ def read_pdo_config(node, comm_index: int, map_index: int, number: int) -> PdoCo
     transmission_type = node.stored_value(comm_index, 2)
     try:
         event_timer_ms = node.stored_value(comm_index, 5)
-    except Exception:  # RPDOs have no event timer
+    except SdoAbortedError:  # RPDO communication records have no event timer (sub-index 5)
         event_timer_ms = 0
     count = node.stored_value(map_index, 0)
     entries = []
@@ -69,8 +71,8 @@ def validate_mapping_entry(node, value: int) -> bool:
     if value == 0:
         return True
     try:
-        obj = node._find_object(index, sub)
-    except Exception:
+        obj = node.find_object(index, sub)
+    except SdoAbortedError:  # no such object
         return False
     return bool(obj.pdo_mappable) and len(obj) == bits
 
