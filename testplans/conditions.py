@@ -56,6 +56,9 @@ DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (1e-6, 2e-6, 4e-6)]
 #: tunes its PI to 0.08·f_pwm = 1.6 kHz at 20 kHz). The dead-time disturbance is a voltage the
 #: loop rejects, so the derived estimate needs it; the paper's eq 38 ignores the loop.
 DRIVE_CURRENT_LOOP_BANDWIDTH_HZ = 1600.0
+#: The drive's current-loop delay, s: one PWM period of computation plus half a period of
+#: sampling (the simulated drive's firmware; from the firmware documentation on a real one).
+DRIVE_CURRENT_LOOP_DELAY_S = 1.5 / 20_000.0
 
 
 def point(op, source: str, injection: dict, rule: DecisionRule, **overrides):

@@ -17,7 +17,8 @@ pytestmark = pytest.mark.ripple_source("dead_time")
 def test_dead_time(measure, operating_point, injection):
     plan = c.point(operating_point, "dead_time", injection, c.DERIVED_ESTIMATE_RULE,
                    prediction_params={"model": "average_voltage",
-                                      "current_loop_bandwidth_hz": c.DRIVE_CURRENT_LOOP_BANDWIDTH_HZ},
+                                      "current_loop_bandwidth_hz": c.DRIVE_CURRENT_LOOP_BANDWIDTH_HZ,
+                                      "current_loop_delay_s": c.DRIVE_CURRENT_LOOP_DELAY_S},
                    expectation="judged against the average-voltage-error model with the current "
                                "loop's rejection; the paper's eq 38 per-event step is recorded "
                                "for comparison only")
