@@ -145,3 +145,25 @@ def test_any_in_range_value_is_accepted_and_quantised_to_half_a_count(data):
     count = obj.check_si(value)
     assert obj.low_count <= count <= obj.high_count
     assert abs(obj.to_si(count) - value) <= 0.5 / obj.counts_per_si + 1e-12
+
+
+def test_eds_is_structurally_consistent_per_cia306():
+    import configparser
+    eds = configparser.RawConfigParser()
+    eds.optionxform = str
+    eds.read(DEFAULT_EDS_PATH)
+    object_sections = {s for s in eds.sections() if len(s) == 4 and int(s, 16) >= 0x1000}
+    listed = set()
+    for group in ("MandatoryObjects", "OptionalObjects", "ManufacturerObjects"):
+        count = int(eds.get(group, "SupportedObjects"))
+        entries = [int(eds.get(group, str(i)), 16) for i in range(1, count + 1)]
+        assert len(entries) == count
+        listed |= {f"{e:04X}" for e in entries}
+    assert listed == object_sections
+    for section in object_sections:
+        if eds.has_option(section, "SubNumber"):
+            subs = [s for s in eds.sections() if s.startswith(section + "sub")]
+            assert int(eds.get(section, "SubNumber")) == len(subs), section
+    for mandatory in ("1000", "1001", "1018"):
+        assert f"{int(mandatory, 16):04X}" in {f"{int(eds.get('MandatoryObjects', str(i)), 16):04X}"
+                                                for i in range(1, 4)}
