@@ -282,6 +282,11 @@ class Cia402Drive:
         logger.warning("%s: EMCY %s", self.instrument_name, error)
         self._emcy = error if error.code != 0 else None
 
+    @property
+    def last_emcy(self):
+        """The last EMCY with a non-zero code since connect or fault reset (``canopen.emcy.EmcyError``)."""
+        return self._emcy
+
     def _on_tpdo(self, pdo_map) -> None:
         now = time.monotonic()
         with self._tpdo_update:

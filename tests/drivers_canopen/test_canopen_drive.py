@@ -147,12 +147,14 @@ def test_emcy_fault_and_working_fault_reset(drive, sim_drive, twin):
     sim_drive.raise_fault(code=0x2310, text="overc")
     assert eventually(lambda: drive.state == "FAULT")
     assert not twin.enabled
-    assert eventually(lambda: drive._emcy is not None)
+    assert eventually(lambda: drive.last_emcy is not None)
+    assert drive.last_emcy.code == 0x2310
     with pytest.raises(DeviceFault, match="0x2310"):
         drive.check_health()
     with pytest.raises(DeviceFault, match="fault_reset"):
         drive.enable()
     assert drive.fault_reset() == "SWITCH ON DISABLED"
+    assert drive.last_emcy is None
     drive.check_health()
     drive.enable()
     assert twin.enabled
