@@ -108,3 +108,23 @@ def test_second_process_uses_only_bench_file_settings():
             proc.kill()
             proc.wait()
     assert proc.returncode == 0
+
+
+def _vcan0_available() -> bool:
+    try:
+        can.Bus(interface="socketcan", channel="vcan0").shutdown()
+        return True
+    except Exception:  # no SocketCAN on this machine (CI has none)
+        return False
+
+
+@pytest.mark.skipif(not _vcan0_available(), reason="no socketcan vcan0 on this machine")
+def test_socketcan_vcan0_when_the_kernel_has_it(twin):
+    from drivers.canopen_transport import CanBusSettings
+    from drivers.simulated.drive_node import SimulatedDrive
+    settings = CanBusSettings(interface="socketcan", channel="vcan0")
+    with SimulatedDrive(twin, settings, node_id=5), Cia402Drive(settings, node_id=5) as drive:
+        drive.enable()
+        drive.set_injection(ib_gain_error_pu=-0.03)
+        assert twin.enabled and twin.injection.ib_gain_error_pu == pytest.approx(-0.03)
+        drive.disable()
