@@ -186,13 +186,19 @@ class Bench:
             ("DAQ disarm", self.daq.disarm),
             ("dyno speed reference 0 rpm", lambda: self.daq.set_dyno_speed_rpm(0.0)),
         )
+        interrupted = None
         for name, action in steps:
             try:
                 action()
                 report.steps.append(name)
+            except KeyboardInterrupt as exc:   # a second Ctrl-C must not skip the other steps
+                interrupted = exc
+                report.failures.append(f"{name}: interrupted by Ctrl-C")
             except Exception as exc:  # noqa: BLE001 - keep going: the next step may still help
                 report.failures.append(f"{name}: {exc}")
         self.safe_state_reports.append(report)
+        if interrupted is not None:
+            raise interrupted
         if report.failures:
             logger.error("safe state incomplete: %s", report.failures)
             if raise_on_failure:

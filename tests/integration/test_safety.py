@@ -112,3 +112,19 @@ def test_daq_timeout_mid_capture(sim_bench, run_record):
     with pytest.raises(InstrumentTimeout):
         measure_point(sim_bench, run_record, "daq-timeout", plan())
     assert_safe(sim_bench)
+
+
+def test_second_ctrl_c_during_make_safe_does_not_skip_steps(sim_bench, monkeypatch):
+    energise(sim_bench)
+    real_quick_stop = sim_bench.drive.quick_stop
+
+    def interrupted_quick_stop(*args, **kwargs):
+        real_quick_stop(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sim_bench.drive, "quick_stop", interrupted_quick_stop)
+    with pytest.raises(KeyboardInterrupt):
+        sim_bench.make_safe("operator pressed Ctrl-C twice")
+    monkeypatch.undo()
+    assert_safe(sim_bench)
+    assert "interrupted by Ctrl-C" in sim_bench.safe_state_reports[-1].failures[0]
