@@ -3,7 +3,8 @@
 A torque transducer (≈ 1 kHz bandwidth) cannot see ripple at the switching frequency, so the
 air-gap torque is *estimated* from the phase currents sampled fast and the encoder angle:
 
-    T̂ = Σ_x e_x·i_x / ω_m = K·[i_a·sin θ + i_b·sin(θ − 2π/3) + i_c·sin(θ + 2π/3)],   i_c = −i_a − i_b
+    T̂ = Σ_x e_x·i_x / ω_m = K·[i_a·sin θ + i_b·sin(θ − 2π/3) + i_c·sin(θ + 2π/3)],
+    i_c = −i_a − i_b
 
 with θ the electrical angle, K = E/ω_m = √2·Ke the nameplate EMF constant (sinusoidal EMF,
 :class:`hil.motor.MotorParameters`) and the neutral isolated — equivalently (3/2)·p·ψ·i_q. This is
@@ -53,6 +54,7 @@ Fields of the returned :class:`~hil.analysis.metrics.RippleResult` (same type as
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -169,15 +171,17 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
         revolution_matrix_nm=env_revs.matrix_nm, uncertainty=budget)
 
 
+@dataclass(frozen=True)
 class _Windows:
-    """Windows of ``periods`` whole PWM periods: sample index ranges and timing."""
+    """Complete windows of ``periods`` whole PWM periods over samples ``[0, stop)``."""
 
-    def __init__(self, starts, stop, count, periods, period_s, centre_s, largest_gap_s,
-                 per_revolution):
-        self.starts, self.stop, self.count = starts, stop, count
-        self.periods, self.period_s = periods, period_s
-        self.centre_s, self.largest_gap_s = centre_s, largest_gap_s
-        self.per_revolution = per_revolution          # windows per electrical revolution
+    starts: np.ndarray              # first sample index of each window
+    stop: int                       # one past the last sample of the last window
+    periods: int                    # G, PWM periods per window
+    period_s: float                 # T_s
+    centre_s: np.ndarray            # time stamp of each window's centre
+    largest_gap_s: float            # largest gap between sample phases (mod T_s) in a window
+    per_revolution: float           # windows per electrical revolution
 
     @property
     def effective_samples_per_period(self) -> float:
@@ -207,7 +211,7 @@ def _windows(time_s: np.ndarray, travel: TravelAngle, pwm_frequency_hz: float) -
     phase = np.mod(elapsed[:stop], period_s)
     largest_gap = _largest_phase_gap(phase, index[:stop], period_s)
     centre_s = time_s[0] + (np.arange(count) + 0.5) * window_s
-    return _Windows(starts, stop, count, periods, period_s, centre_s, largest_gap,
+    return _Windows(starts, stop, periods, period_s, centre_s, largest_gap,
                     TWO_PI / (speed * window_s))
 
 
@@ -224,10 +228,10 @@ def _largest_phase_gap(phase_s: np.ndarray, window: np.ndarray, period_s: float)
 
 
 def _envelope_revolutions(torque_nm, windows, centres, n_bins, max_order, response):
-    """pk-pk of T̂ in each window (NaN samples skipped), binned on revolutions, and its
+    """pk-pk of T̂ in each window, binned on whole revolutions, and its
     per-revolution order coefficients."""
-    envelope_nm = np.fmax.reduceat(torque_nm, windows.starts) - \
-        np.fmin.reduceat(torque_nm, windows.starts)
+    envelope_nm = np.maximum.reduceat(torque_nm, windows.starts) - \
+        np.minimum.reduceat(torque_nm, windows.starts)
     revs = resample_revolutions(centres, envelope_nm, n_bins)
     return revs, order_coefficients(revs.matrix_nm, int(max_order), response)
 
