@@ -25,14 +25,14 @@ import numpy as np
 from numba import njit, prange
 
 from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs)
-from hil.sim.electrical import (B_ECOS, B_ESIN, BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS,
+from hil.sim.electrical import (B_ECOS, B_ESIN, B_GAIN, BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS,
                                 evaluate, exp_small, harmonic_table, impedance_angles,
                                 period_basis, sincos_small, spread)
 from hil.sim.firmware import adc_read, firmware_step
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
                             C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_BITS, P_ADC_FS,
-                            P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
+                            P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR, P_MERGE_SEGMENTS,
                             P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_N_COG,
                             P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_R, P_RAMP,
                             P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC, P_WORD_BITS, S_CMP_A,
@@ -213,6 +213,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     bits = int(params[P_WORD_BITS])
     lsb = 0.0 if bits == 0 else 2.0 ** (1 - bits)
     adc_half = 2.0 ** (params[P_ADC_BITS] - 1)
+    merge = params[P_MERGE_SEGMENTS] != 0.0
 
     orders = np.zeros(MAX_HARMONICS)
     amplitudes = np.zeros(MAX_HARMONICS)
@@ -312,7 +313,12 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                                               n_cogging, cogging)
         y_a = state[S_TR_Y]
 
-        for e in range(n_edges - 1):
+        forced_rate = 0.0                             # bound on |d i_e/dτ| (A/s), all phases
+        for h in range(count):
+            forced_rate += abs(basis[h, B_GAIN]) * orders[h] * abs(omega_e)
+        e = -1
+        while e < n_edges - 2:
+            e += 1
             seg_end = edges[e + 1]
             if seg_end - edges[e] <= tiny:
                 continue
@@ -381,14 +387,55 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     u[0] = 0.5 * (volts[m] - volts[n])
                     x0[0] = cur[m] - 0.5 * (forced[m] - forced[n])
 
-                # ---- end of the sub-segment: the segment end or the first zero crossing
+                # ---- merge the following segments while every leg keeps its voltage: a dead
+                # leg whose current provably keeps its sign (|i| above a bound on its change)
+                # acts as the driven state next to it, so no boundary is needed there
                 tau_b = seg_end
+                e_last = e
+                if merge and dead > 0.0 and mode == MODE_FREE and clamped == 0:
+                    dead_legs = 0
+                    for x in range(3):
+                        if gate[x] == DEAD:
+                            dead_legs |= 1 << x
+                    while e_last < n_edges - 2:
+                        next_start = edges[e_last + 1]
+                        next_end = edges[e_last + 2]
+                        middle = 0.5 * (next_start + next_end)
+                        same = True
+                        for x in range(3):
+                            state_x = LOW if gates_off else _leg_state(
+                                middle, t_on[x], t_off[x], dead, compare[x], counts_top,
+                                state[S_HIGH_END + x] != 0.0)
+                            if state_x == HIGH or (state_x == DEAD and cur[x] < 0.0):
+                                level = vdc
+                            elif state_x == LOW or (state_x == DEAD and cur[x] > 0.0):
+                                level = 0.0
+                            else:
+                                level = -1.0
+                            if level != volts[x]:
+                                same = False
+                            if state_x == DEAD:
+                                dead_legs |= 1 << x
+                        if not same:
+                            break
+                        e_last += 1
+                    if e_last > e:
+                        span_b = edges[e_last + 1] - tau
+                        drift = 1.0 - exp_small(-resistance * span_b / inductance)
+                        for x in range(3):
+                            if dead_legs & (1 << x):
+                                bound = abs(x0[x] - u[x] / resistance) * drift \
+                                    + forced_rate * span_b
+                                if abs(cur[x]) <= bound:
+                                    e_last = e            # might cross zero: no merge
+                        if e_last > e:
+                            tau_b = edges[e_last + 1]
                 fb_a, fb_b, fb_c, kb_a, kb_b, kb_c = evaluate(tau_b, omega_e, orders, count, basis)
                 ia, ib, ic = _currents(mode, clamped, k, x0, u, fb_a, fb_b, fb_c,
                                        exp_small(-resistance * (tau_b - tau) / inductance),
                                        resistance)
                 crossing = -1
-                if mode != MODE_ZERO:
+                if mode != MODE_ZERO and e_last == e:
                     for x in range(3):
                         end_value = (ia, ib, ic)[x]
                         if gate[x] == DEAD and cur[x] != 0.0 and cur[x] * end_value <= 0.0:
@@ -486,6 +533,14 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                         cur[(crossing + 1) % 3] += 0.5 * residual
                         cur[(crossing + 2) % 3] += 0.5 * residual
                 tau = tau_b
+                if e_last > e:                        # continue after the merged segments
+                    e = e_last
+                    seg_end = edges[e + 1]
+                    middle = 0.5 * (edges[e] + seg_end)
+                    for x in range(3):
+                        gate[x] = LOW if gates_off else _leg_state(
+                            middle, t_on[x], t_off[x], dead, compare[x], counts_top,
+                            state[S_HIGH_END + x] != 0.0)
                 torque_a = torque_b
                 f_a = fb_a
                 f_b = fb_b

@@ -41,7 +41,8 @@ P_RAMP = 48              # rpm/s
 P_STEP_ANGLE = 49        # mech rad
 P_DWELL = 50             # s
 P_TR_TAU = 51            # transducer time constant, s
-N_PARAMS = 52
+P_MERGE_SEGMENTS = 52    # 1: skip boundaries where no leg voltage changes (0 only to test that)
+N_PARAMS = 53
 
 # ---- state vector (float64), at a PWM period boundary ----
 S_TIME = 0               # s, start of the next period

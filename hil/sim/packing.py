@@ -63,6 +63,7 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     p[L.P_STEP_ANGLE] = config.dyno.step_mech_rad
     p[L.P_DWELL] = config.dyno.dwell_s
     p[L.P_TR_TAU] = 1.0 / (2.0 * math.pi * config.transducer.bandwidth_hz)
+    p[L.P_MERGE_SEGMENTS] = 1.0
     return p
 
 
