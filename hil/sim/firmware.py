@@ -19,10 +19,10 @@ import math
 
 from numba import njit
 
-from hil.sim.layout import (P_ADC_FS, P_CURRENT_CMD, P_ENC_CPR, P_ENC_DECIM, P_HALL,
-                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_KI_TS_PU, P_KP_PU,
-                            P_MODULATION, P_PHI, P_POLE_PAIRS, P_TABLE_SIZE,
-                            S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B)
+from hil.sim.layout import (P_ADC_FS, P_ENC_CPR, P_ENC_DECIM, P_HALL, P_IA_GAIN, P_IA_OFFSET,
+                            P_IB_GAIN, P_IB_OFFSET, P_ID_CMD, P_IQ_CMD, P_KI_TS_PU, P_KP_PU,
+                            P_MODULATION, P_POLE_PAIRS, P_TABLE_SIZE, S_INT_D, S_INT_Q,
+                            S_ISENSE_A, S_ISENSE_B)
 
 TWO_PI = 2.0 * math.pi
 SIN_120 = math.sqrt(3.0) / 2.0
@@ -34,7 +34,7 @@ def qfix(x, lsb):
     (2^(1-n) for an n-bit word, see ``word_lsb``); lsb 0 = floating point, unchanged."""
     if lsb == 0.0:
         return x
-    y = math.floor(x / lsb) * lsb
+    y = math.floor(x * (1.0 / lsb)) * lsb          # exact: lsb is a power of two
     if y > 1.0 - lsb:
         return 1.0 - lsb
     if y < -1.0:
@@ -145,9 +145,8 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
     i_d = qfix(two_thirds * (qfix(i_a * c_a, lsb) + qfix(i_b * c_b, lsb)
                              + qfix(i_c * c_c, lsb)), lsb)
 
-    command_pu = params[P_CURRENT_CMD] / full_scale               # current lags EMF by φ, eq (4)
-    i_q_ref = qfix(command_pu * math.cos(params[P_PHI]), lsb)
-    i_d_ref = qfix(-command_pu * math.sin(params[P_PHI]), lsb)
+    i_q_ref = qfix(params[P_IQ_CMD] / full_scale, lsb)            # current lags EMF by φ, eq (4)
+    i_d_ref = qfix(params[P_ID_CMD] / full_scale, lsb)
 
     svpwm = params[P_MODULATION] == 0.0
     limit = 1.0 / math.sqrt(3.0) if svpwm else 0.5      # linear range, per unit of V_dc

@@ -54,8 +54,8 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     p[L.P_ENC_DECIM] = injection.encoder_decimation
     p[L.P_HALL] = 1.0 if injection.hall_mode else 0.0
 
-    p[L.P_CURRENT_CMD] = config.current_command_a
-    p[L.P_PHI] = injection.current_angle_rad
+    p[L.P_IQ_CMD] = config.current_command_a * math.cos(injection.current_angle_rad)
+    p[L.P_ID_CMD] = -config.current_command_a * math.sin(injection.current_angle_rad)
     p[L.P_ENABLED] = 1.0 if config.enabled else 0.0
     p[L.P_SPEED_CMD] = config.speed_rpm
     p[L.P_DYNO_MODE] = DYNO_MODES.index(config.dyno.mode)
