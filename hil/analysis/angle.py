@@ -40,7 +40,11 @@ class TravelAngle:
 
 def check_finite(name: str, values: np.ndarray) -> np.ndarray:
     """Return ``values`` as float64; InputError naming the channel if any sample is NaN or inf."""
-    values = np.asarray(values, dtype=np.float64)
+    try:
+        values = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"channel {name!r} must hold numbers, got "
+                         f"{np.asarray(values).dtype} values") from None
     if values.ndim != 1:
         raise InputError(f"channel {name!r} must be one-dimensional, got shape {values.shape}")
     bad = ~np.isfinite(values)
