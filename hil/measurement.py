@@ -59,6 +59,9 @@ class PointPlan:
             raise InputError(f"revolutions={self.revolutions} must be >= 2 (type A needs scatter)")
         if self.analysis not in ANALYSES:
             raise InputError(f"analysis={self.analysis!r}; allowed: {', '.join(ANALYSES)}")
+        if "current_angle_rad" in self.injection:
+            raise InputError("injection current_angle_rad: give the current angle as "
+                             "PointPlan.current_angle_rad, not in the injection")
         if self.speed_rpm == 0:
             raise InputError("speed_rpm=0: the angle never advances; use a slow speed (e.g. 3 rpm)"
                              " for the paper's near-standstill encoder measurement")
