@@ -46,11 +46,13 @@ MAX_ORDER = 24
 #: The prediction the plan judges against (module docstring).
 PREDICTION = {"model": "switched_torque", "modulation": "svpwm"}
 EXPECTATION = ("judged against the switched-circuit torque ripple of the drive's centre-aligned "
-               "SVPWM (hil.model switched_torque): the paper's eqs 30-31 give the phase-current "
-               "ripple at the phase-voltage zero crossing (envelope largest there, zero 30° away) "
-               "and equate it to the torque ripple, whose envelope is nearly flat and peaks "
-               "midway between zero crossings; the paper's figure is recorded for comparison "
-               "only (prediction.extras.paper_pk_pk_pu)")
+               "SVPWM (hil.model switched_torque). The paper's eqs 30-31 give the phase-current "
+               "ripple 2·Δi at the phase-voltage zero crossing and equate it to the torque "
+               "ripple; at this modulation index (M ≈ 0.23) the current ripple is larger at the "
+               "voltage peak than at the zero crossing, and the torque ripple (the ripple's "
+               "projection on the EMF) has a nearly flat envelope that peaks midway between "
+               "zero crossings, about 12 % above the paper's figure, which is recorded for "
+               "comparison only (prediction.extras.paper_pk_pk_pu)")
 
 
 @pytest.mark.parametrize("injection", c.PWM_SWITCHING_SWEEP, ids=c.sweep_id)
