@@ -7,9 +7,10 @@ exactly into i = X + i_e where i_e is the *forced response* to the EMF,
     i_e,x = −Σ_h  ψ_h·ω_m / |R + j·h·ωe·L| · sin(h·(θe − 2πx/3) + φ_h − ∠(R + j·h·ωe·L)),
 
 and X obeys L·dX/dt + R·X = u with u piecewise constant (the inverter's leg voltages), so
-X(τ) = X0·a + (u/R)·(1 − a), a = exp(−R·τ/L). No step grid, no truncation error: the only
-approximation in this module is float64 rounding. With an isolated neutral the zero-sequence
-(triplen) EMF drives no current and u_x = v_xo − mean(v_o); when one phase is held at zero current
+X(τ) = X0·a + (u/R)·(1 − a), a = exp(−R·τ/L). No step grid, no truncation error: besides float64
+rounding, the only approximation is the polynomial sin/cos/exp of small arguments (< 1e-13).
+With an isolated neutral the zero-sequence (triplen) EMF drives no current and
+u_x = v_xo − mean(v_o); when one phase is held at zero current
 by its diodes (dead time) the other two carry ±i with u = (v_mo − v_no)/2 and EMF (e_m − e_n)/2,
 whose forced response is (i_e,m − i_e,n)/2.
 """

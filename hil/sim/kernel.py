@@ -7,14 +7,17 @@ up/down counter meets the compare value, dead time after every edge) cut the per
 ``hil.sim.electrical``. During a dead interval a leg's voltage is set by its current's sign (diode
 conduction); a zero crossing there is an event (located by bisection on the exact solution to
 ~1e-14 s) after which the phase is held at zero while the floating terminal voltage stays between
-the rails. Outputs are the exact solution evaluated at the sample instants. State lives in a flat
-array so a later call continues where this one stopped.
+the rails. Where a dead leg's current provably keeps its sign (|i| above a bound on its change),
+the dead interval merely extends the neighbouring gate state and its boundary is skipped (same
+solution, fewer steps). Outputs are the exact solution evaluated at the sample instants. State
+lives in a flat array so a later call continues where this one stopped.
 
 Approximations (stated): the speed is constant within a PWM period (the dyno's profile is
 piecewise linear in angle at period resolution); the transducer's first-order filter is driven by
-the shaft torque interpolated linearly within each segment (segments are < 1/3 of its time
-constant of 159 µs at 1 kHz); gates off means zero current (valid while the line-to-line EMF peak
-is below V_dc, i.e. below ~2000 rpm for Table I, else the diodes would rectify).
+the shaft torque interpolated linearly within each segment (at most half a PWM period: 25 µs at
+20 kHz against its 159 µs time constant at 1 kHz; coarser at the lowest PWM frequencies); gates
+off means zero current (valid while the line-to-line EMF peak is below V_dc, i.e. below
+~2000 rpm for Table I, else the diodes would rectify).
 """
 
 from __future__ import annotations
@@ -32,13 +35,13 @@ from hil.sim.firmware import adc_read, firmware_step
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
                             C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_BITS, P_ADC_FS,
-                            P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR, P_MERGE_SEGMENTS,
-                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_N_COG,
-                            P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_R, P_RAMP,
-                            P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC, P_WORD_BITS, S_CMP_A,
-                            S_CMP_B, S_CMP_C, S_HIGH_END, S_IA, S_IB, S_IC, S_INITIALISED,
-                            S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M, S_THETA_M,
-                            S_TIME, S_TR_Y)
+                            P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
+                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L,
+                            P_MERGE_SEGMENTS, P_N_COG, P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS,
+                            P_PWM_FREQ, P_R, P_RAMP, P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC,
+                            P_WORD_BITS, S_CMP_A, S_CMP_B, S_CMP_C, S_HIGH_END, S_IA, S_IB, S_IC,
+                            S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M,
+                            S_THETA_M, S_TIME, S_TR_Y)
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0

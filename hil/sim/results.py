@@ -30,16 +30,6 @@ ENGINE_CHANNELS: dict[int, tuple[str, str]] = {
     L.C_IB_SENSED: ("ib_sensed_a", "A"),
 }
 
-CHANNEL_DOCS = {
-    "ia_a": "actual phase current", "ia_sensed_a": "phase-a current as the firmware read it "
-    "(ADC value, held over the PWM period)", "torque_em_nm": "electromagnetic torque "
-    "Σ e_x·i_x/ω_m", "torque_shaft_nm": "electromagnetic + cogging torque",
-    "torque_nm": "transducer reading: shaft torque through its bandwidth, gain error and noise",
-    "va_v": "line-to-neutral voltage averaged over the PWM period containing the sample",
-    "id_a": "actual d current (true rotor angle)", "iq_a": "actual q current (true rotor angle)",
-}
-
-
 def transducer_gain_error(config: DriveConfig, rng: np.random.Generator) -> float:
     """The unit's fixed gain error (per unit of reading), uniform within its accuracy class."""
     return float(rng.uniform(-1.0, 1.0)) * config.transducer.accuracy_class_pct / 100.0
@@ -65,7 +55,15 @@ def channel_units() -> dict[str, str]:
 
 @dataclass
 class SimResult:
-    """Simulated channels (dict-like, SI units in the names), their units and metadata."""
+    """Simulated channels (dict-like, SI units in the names), their units and metadata.
+
+    Besides the standard channels: ``ia_a``/``ib_a``/``ic_a`` are the actual phase currents and
+    ``ia_sensed_a``/``ib_sensed_a`` what the firmware read (ADC value held over the PWM period);
+    ``torque_em_nm`` = Σ e_x·i_x/ω_m, ``torque_shaft_nm`` adds cogging, ``torque_nm`` is the
+    transducer's reading of the shaft torque (bandwidth, gain error, noise); ``id_a``/``iq_a``
+    use the true rotor angle; ``va_v``/``vb_v``/``vc_v`` are line-to-neutral voltages averaged
+    over the PWM period containing the sample.
+    """
 
     channels: dict[str, np.ndarray]
     units: dict[str, str] = field(default_factory=channel_units)

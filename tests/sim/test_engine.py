@@ -10,11 +10,12 @@ import pytest
 
 from hil.capture import Capture
 from hil.motor import TABLE_I
-from hil.sim import (DriveConfig, DynoModel, Injection, InverterModel, MotorModel,
-                     TransducerModel, simulate, simulate_batch)
+from hil.sim import (DriveConfig, DriveTwin, DynoModel, Injection, InverterModel, MotorModel,
+                     TransducerModel, layout, simulate, simulate_batch)
 from hil.sim.electrical import (BASIS_COLUMNS, MAX_HARMONICS, evaluate, harmonic_table,
                                 impedance_angles, period_basis)
-from hil.sim.packing import pack_params
+from hil.sim.kernel import run_drive
+from hil.sim.packing import new_state, pack_params
 from sim_spectra import amplitude_at, dominant_order, run
 
 
@@ -57,9 +58,6 @@ def test_merging_dead_intervals_does_not_change_the_solution(current_a, dead_tim
     # the engine skips a dead-interval boundary when the dead leg's current provably keeps its
     # sign; the exact solution must not notice (only the transducer's piecewise-linear input
     # moves, by < 1e-4 N·m)
-    from hil.sim import layout
-    from hil.sim.kernel import run_drive
-    from hil.sim.packing import new_state
     config = DriveConfig(injection=Injection(dead_time_s=dead_time_s), speed_rpm=900.0,
                          current_command_a=current_a)
     outs = []
@@ -203,7 +201,6 @@ def test_stepping_dyno_moves_by_steps_and_dwells():
 
 def test_ramp_dyno_slews_to_the_setpoint():
     config = DriveConfig(dyno=DynoModel(mode="ramp", ramp_rpm_per_s=10_000.0), speed_rpm=300.0)
-    from hil.sim import DriveTwin
     twin = DriveTwin(config)
     twin.advance(0.01, 10_000)
     twin.speed_rpm = 800.0
