@@ -182,3 +182,20 @@ def test_twin_envelope_is_order_6(twin_channels):
     assert result.dominant_order == 6
     assert result.revolutions == 3
     assert 0.0 < result.pk_pk_pu < 0.5
+
+
+def test_twin_envelope_peaks_midway_between_voltage_zero_crossings(twin_channels):
+    """The torque ripple's envelope is largest 30° from the phase-voltage zero crossings, where
+    the paper's (phase-current) envelope of eq 31 is zero (see testplans/test_pwm_switching)."""
+    from hil.model import OperatingPoint
+    from hil.model.pwm_resolution import voltage_phasor
+
+    channels = {name: twin_channels[name] for name in ("time_s", "ia_a", "ib_a",
+                                                       "rotor_angle_mech_rad")}
+    result = analyze_switching(Capture(channels=channels, units={}, meta={"pole_pairs": 2}),
+                               pwm_frequency_hz=PWM_HZ, motor=TABLE_I, max_order=24)
+    phasor = voltage_phasor(OperatingPoint(speed_rpm=SPEED_RPM, current_a=20.0))
+    voltage_angle = math.atan2(phasor.imag, phasor.real)      # v_a ∝ sin(θ + δ)
+    peak_angle = -result.named_phase_rad / 6                   # max of cos(6θ + φ6)
+    from_zero_crossing_deg = math.degrees((peak_angle + voltage_angle) % (math.pi / 3))
+    assert from_zero_crossing_deg == pytest.approx(30.0, abs=5.0)
