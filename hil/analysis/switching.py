@@ -46,9 +46,12 @@ Fields of the returned :class:`~hil.analysis.metrics.RippleResult` (same type as
   envelope's order (6 expected); ``named_order`` = 6;
 * ``angle_grid_rad``/``sync_average_nm``/``revolution_matrix_nm``: the envelope's synchronous
   average and its per-revolution angle bins;
-* ``uncertainty``: type A and noise bias as in :mod:`hil.analysis.uncertainty`, plus a bound of
-  the sampling bias (extremes falling between sample phases) and the current channels' DAQ
-  resolution; the notes give G and the effective samples per period.
+* ``uncertainty``: type A and noise bias as in :mod:`hil.analysis.uncertainty`; the sampling
+  bias (extremes falling between sample phases read low by at most slope·gap/2 each), bounded by
+  the largest sample-to-sample slope of T̂ times the largest phase gap and added linearly (a
+  secant slope can understate a very short steep segment, so it is an estimated bound); and the
+  current channels' DAQ resolution (meta ``daq_lsb``). The notes give G and the effective
+  samples per period.
 """
 
 from __future__ import annotations
