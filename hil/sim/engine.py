@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 
 import numpy as np
@@ -11,6 +12,9 @@ from hil.sim.config import DriveConfig
 from hil.sim.kernel import run_batch, run_drive
 from hil.sim.packing import new_state, pack_params
 from hil.sim.results import SimResult, name_channels, result_meta, transducer_gain_error
+
+#: numba's default (workqueue) threading layer must not run two parallel kernels at once
+_PARALLEL_LOCK = threading.Lock()
 
 
 def sample_count(duration_s: float, sample_rate_hz: float) -> int:
@@ -46,7 +50,8 @@ def simulate_batch(configs: Sequence[DriveConfig], duration_s: float, sample_rat
     outs = np.zeros((len(configs), L.N_CHANNELS, n))
     end_s = settle_s + duration_s
     if parallel and len(configs) > 1:
-        run_batch(params, states, settle_s, 1.0 / sample_rate_hz, outs, end_s)
+        with _PARALLEL_LOCK:
+            run_batch(params, states, settle_s, 1.0 / sample_rate_hz, outs, end_s)
     else:
         for b in range(len(configs)):
             run_drive(params[b], states[b], settle_s, 1.0 / sample_rate_hz, outs[b], end_s)
