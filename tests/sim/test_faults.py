@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from hil.motor import TABLE_I
+from hil.sim import DriveConfig, DynoModel, Injection, simulate
 from sim_spectra import (amplitude_at, commanded_currents, dominant_order, ideal_torque, orders,
                          run)
 
@@ -123,3 +125,25 @@ def test_pwm_resolution_ripple_grows_as_counts_drop():
         torque = run(pwm_period_counts=counts)["torque_em_nm"]
         ripple[counts] = np.ptp(torque) / torque.mean()
     assert ripple[20] > 2 * ripple[100] > 2 * ripple[2000]
+
+
+def test_zero_speed_encoder_experiment_follows_the_staircase():
+    # the paper's Fig. 3 set-up: the dyno steps the rotor slowly (1° electrical every 5 ms) and
+    # the torque is read at rest; at standstill the loop settles fully, so the torque at the end
+    # of each dwell (read at a PWM valley, free of the switching ripple) is (3/2)·ψ·I·cos(γ + φ)
+    # (eq 7) to within the ADC's resolution (0.05 A of 10 A: 0.5 %)
+    phi = math.radians(10.0)
+    step = 2 * math.pi / 7200 * 5                       # 5 counts: 1° electrical
+    dyno = DynoModel(mode="stepping", step_mech_rad=step, dwell_s=0.005)
+    config = DriveConfig(dyno=dyno, speed_rpm=6.0, current_command_a=10.0,
+                         injection=Injection(encoder_decimation=100, current_angle_rad=phi))
+    move_s = step / (6.0 * 2 * math.pi / 60)
+    cycle = 0.005 + move_s
+    result = simulate(config, 24 * cycle, 20_000)
+    ends = np.round((np.arange(24) * cycle + 0.005 - 1e-4) * 20_000).astype(int)   # dwell ends
+    theta = 2 * result["rotor_angle_mech_rad"][ends]
+    used = np.floor(result["encoder_counts"][ends] / 100) * 100
+    gamma = theta - 2 * math.pi * ((used * 2) % 7200) / 7200
+    expected = 1.5 * TABLE_I.emf_peak_v_s_per_rad * 10.0 * np.cos(gamma + phi)
+    np.testing.assert_allclose(result["torque_em_nm"][ends], expected, rtol=0.005)
+    assert np.ptp(gamma) > math.radians(8)              # the dwells span a whole count step
