@@ -189,13 +189,14 @@ def _filter(y0, x0, slope, h, tau_f):
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, fastmath=FAST_MATH, nogil=True)
 def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
 
     Sample j is taken at record_start_s + j·sample_dt_s (only those >= the state's time).
     Returns the state at the start of the last period run (the one containing ``end_s``): the
     caller keeps it and re-runs that period next time, so consecutive calls are continuous.
+    Releases the GIL, so the simulated instruments' other threads (heartbeats) keep running.
     """
     n_samples = out.shape[1]
     resistance = params[P_R]
@@ -567,7 +568,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     return committed
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def run_batch(params, states, record_start_s, sample_dt_s, outs, end_s):
     """``run_drive`` for many parameter sets (rows) in parallel over all cores."""
     for b in prange(params.shape[0]):
