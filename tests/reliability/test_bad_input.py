@@ -138,12 +138,14 @@ def test_bad_bench_file_stops_the_run_before_anything_starts(tmp_path):
 @pytest.mark.xfail(strict=True, reason="hil/commands/run.py: `hil run --bench BAD.toml` only "
                    "checks that the file exists; the InputError surfaces through pytest (exit 4) "
                    "instead of the CLI contract's one stderr line `hil run: error: ...` and exit 2")
-def test_hil_run_with_a_bad_bench_file_exits_2(tmp_path, capsys):
+def test_hil_run_with_a_bad_bench_file_exits_2(tmp_path):
     path = write_bench(tmp_path / "bench.toml", edited("sim-bench", "limits", "current_a", 500.0))
-    code = hil_main(["run", "--bench", str(path), "--source", "baseline", "--no-report",
-                     "--record-dir", str(tmp_path / "records")])
-    err = capsys.readouterr().err
-    assert code == 2 and err.startswith("hil run: error:") and err.count("\n") == 1
+    done = subprocess.run(HIL + ["run", "--bench", str(path), "--source", "baseline",
+                                 "--no-report", "--record-dir", str(tmp_path / "records")],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert not (tmp_path / "records").exists()
+    assert done.returncode == 2 and done.stderr.startswith("hil run: error:"), done.stderr
+    assert done.stderr.count("\n") == 1 and "limits.current_a" in done.stderr
 
 
 def test_expired_calibration_refuses_to_open_the_bench(tmp_path, monkeypatch):
