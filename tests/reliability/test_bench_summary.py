@@ -1,0 +1,76 @@
+"""``python -m benchmarks``: each script's printed figures are found and named (unit tests on
+outputs the scripts printed on this machine), and a figure that is missing is an error in the
+summary, never a silent gap. No benchmark runs here (``make bench`` runs them)."""
+
+from __future__ import annotations
+
+import pytest
+
+from benchmarks.__main__ import BENCHMARKS, Benchmark, parse_figures, run_benchmark, table
+
+OUTPUTS = {
+    "simulation": """first calls (compile or cache load): 0.41 s
+cores: 2, numba threads: 2, load average: 5.46
+one drive, one core : 0.0801 wall s per simulated s (12x real time; target <= 0.02)
+batch of 16, all cores: 1.3693 wall s per simulated s of the batch, 0.0856 per drive-second
+""",
+    "analysis": """samples: 10000000, revolutions: 6669, max_order: 64, grid: 512 bins/rev
+analysis chain: 4.810 s (best of 3) = 2,078,985 samples/s
+capture of the same samples at 100,000 S/s: 100.0 s; analysis is 21x faster than capturing
+""",
+    "canopen": """virtual (in-process):
+  sdo_uploads_per_s                     6151.69
+  rpdo_frames_lost_fraction                0.00
+remote (TCP 127.0.0.1):
+  sdo_uploads_per_s                     3867.39
+""",
+    "modbus": """Modbus TCP loopback: buffer paging 98,544 registers/s (1,577 transactions/s, 120000 registers in 960 pages, x3)
+Modbus TCP loopback: whole capture of 20000 samples x 7 channels in 0.727 s (27,496 samples/s end to end)
+Modbus RTU pty (unpaced): buffer paging 13,652 registers/s (218 transactions/s, 30000 registers in 240 pages, x1)
+""",
+    "transducer": """magtrol unpaced pty: polled read(): 3,514 samples/s (1000 in 0.285 s)
+himmelstein pty paced at 115200 baud: stream(500): 478 samples/s (500 in 1.045 s)
+""",
+    "hil_run": """hil run (all plans, simulated bench): 22 points in 8.06 wall s = 2.731 points/s (exit 0, record complete; 22 passed)
+hil report on that record: 7.53 wall s (exit 0)
+""",
+}
+EXPECTED = {
+    "simulation": {"one_drive_one_core_wall_s_per_sim_s": 0.0801,
+                   "batch_of_16_wall_s_per_sim_s": 1.3693,
+                   "batch_of_16_wall_s_per_drive_s": 0.0856, "first_call_compile_s": 0.41},
+    "analysis": {"analysis_samples_per_s": 2078985.0, "analysis_over_capture_rate": 21.0},
+    "canopen": {"virtual.sdo_uploads_per_s": 6151.69, "virtual.rpdo_frames_lost_fraction": 0.0,
+                "remote.sdo_uploads_per_s": 3867.39},
+    "modbus": {"TCP loopback registers_per_s": 98544.0,
+               "TCP loopback capture_samples_per_s": 27496.0,
+               "RTU pty (unpaced) registers_per_s": 13652.0},
+    "transducer": {"magtrol unpaced pty polled read() samples_per_s": 3514.0,
+                   "himmelstein pty paced at 115200 baud stream(500) samples_per_s": 478.0},
+    "hil_run": {"points": 22.0, "wall_s": 8.06, "points_per_s": 2.731, "report_wall_s": 7.53},
+}
+
+
+@pytest.mark.parametrize("benchmark", BENCHMARKS, ids=[b.name for b in BENCHMARKS])
+def test_every_printed_figure_is_found(benchmark):
+    figures = parse_figures(benchmark, OUTPUTS[benchmark.name])
+    assert {name: item["value"] for name, item in figures.items()} == EXPECTED[benchmark.name]
+    assert all(item["unit"] for item in figures.values())
+
+
+def test_changed_wording_is_reported_not_hidden(tmp_path):
+    script = tmp_path / "quiet.py"
+    script.write_text("print('the figures moved elsewhere: 12 things/s')\n")
+    quiet = Benchmark("quiet", str(script), (), (), BENCHMARKS[0].patterns, "nothing")
+    result = run_benchmark(quiet, quick=False, timeout_s=60)
+    assert result["returncode"] == 0 and result["figures"] == {}
+    assert "no figure found" in result["error"]
+    assert "ERROR" in table({"quiet": result})
+
+
+def test_a_failing_script_is_reported(tmp_path):
+    script = tmp_path / "broken.py"
+    script.write_text("raise SystemExit('bus off')\n")
+    broken = Benchmark("broken", str(script), (), (), BENCHMARKS[0].patterns, "nothing")
+    result = run_benchmark(broken, quick=False, timeout_s=60)
+    assert result["returncode"] == 1 and "bus off" in result["error"]
