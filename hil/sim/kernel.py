@@ -313,8 +313,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         tau = 0.0
         f_a, f_b, f_c, k_a, k_b, k_c = evaluate(0.0, omega_e, orders, count, basis)
         _cogging_basis(params, theta_m0, cogging)
-        torque_em_a, torque_a = _shaft_torque(0.0, omega, k_a, k_b, k_c, cur[0], cur[1], cur[2],
-                                              n_cogging, cogging)
+        _, torque_a = _shaft_torque(0.0, omega, k_a, k_b, k_c, cur[0], cur[1], cur[2],
+                                    n_cogging, cogging)
         y_a = state[S_TR_Y]
 
         forced_rate = 0.0                             # bound on |d i_e/dτ| (A/s), all phases
@@ -463,8 +463,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                         ia, ib, ic = _currents(mode, clamped, k, x0, u, fb_a, fb_b, fb_c,
                                                exp_small(-resistance * (tau_b - tau) / inductance),
                                                resistance)
-                torque_em_b, torque_b = _shaft_torque(tau_b, omega, kb_a, kb_b, kb_c, ia, ib, ic,
-                                                      n_cogging, cogging)
+                _, torque_b = _shaft_torque(tau_b, omega, kb_a, kb_b, kb_c, ia, ib, ic,
+                                            n_cogging, cogging)
                 span = tau_b - tau
                 slope = (torque_b - torque_a) / span
 
