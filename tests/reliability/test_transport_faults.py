@@ -18,7 +18,10 @@ import pytest
 from drivers.errors import (DeviceFault, InjectionRangeError, InstrumentError, InstrumentTimeout,
                             ProtocolError)
 from drivers.modbus_daq import DeviceFailure
+from hil.bench import Bench
+from hil.config import default_sim_bench
 from hil.measurement import measure_point
+from hil.record import RunRecord
 from integration.test_safety import assert_safe
 
 from .faults import assert_names, assert_recorded_failure, point, wrap
@@ -202,3 +205,37 @@ def test_transducer_line_noise_and_partial_lines_are_tolerated(sim_bench):
     assert len(pieces) == 10
     for reading in noisy + pieces:
         assert abs(reading.torque_nm) < 0.01 and reading.speed_rpm == 0.0
+
+
+# ------------------------------------------------------------------------------ DAQ on Modbus RTU
+@pytest.fixture
+def rtu_bench():
+    """The simulated bench with its DAQ on Modbus RTU over a pty pair."""
+    bench = Bench.open(default_sim_bench().with_overrides({"daq": {"transport": "rtu"}}), seed=4)
+    yield bench
+    bench.close()
+
+
+@pytest.fixture
+def rtu_record(tmp_path, rtu_bench):
+    record = RunRecord.create(tmp_path, rtu_bench.config, rtu_bench.identities())
+    yield record
+    record.finish("complete")
+
+
+@pytest.mark.parametrize("kind, error_type", [("timeout", InstrumentTimeout),
+                                              ("exception", DeviceFailure)])
+def test_rtu_fault_mid_capture_then_the_line_recovers(rtu_bench, rtu_record, monkeypatch, kind,
+                                                      error_type):
+    """On a serial line a lost or refused answer must not leave the framing out of step: the
+    guard's own DAQ requests and the next point go through on the same line."""
+    assert rtu_bench.config.daq.transport == "rtu"
+    wrap(monkeypatch, rtu_bench.daq, "wait_done",
+         before=lambda: rtu_bench.simulated.daq.fail_next(kind))
+    with pytest.raises(error_type) as caught:
+        measure_point(rtu_bench, rtu_record, f"rtu-{kind}", point())
+    assert_names(caught.value, "daq", "read state")
+    assert_safe(rtu_bench)
+    assert_recorded_failure(rtu_bench, rtu_record, f"rtu-{kind}", caught.value, captured=False)
+    measure_point(rtu_bench, rtu_record, f"rtu-{kind}-after", point())
+    assert rtu_record.tests[-1]["outcome"] in ("passed", "failed")
