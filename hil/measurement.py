@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 
-from hil.analysis import DecisionRule, RippleResult, Verdict, analyze_capture, decide
+from hil.analysis import ANALYSES, DecisionRule, RippleResult, Verdict, decide, run_analysis
 from hil.bench import Bench
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, predict
@@ -113,7 +113,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     try:
         bench.check_command(current_a=plan.current_a, speed_rpm=plan.speed_rpm)
         capture = _acquire(bench, record, test_id, plan, pole_pairs)
-        result = ANALYSES[plan.analysis](capture, plan, bench)
+        settings = analysis_settings(plan, bench)
+        result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
         op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                             current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
         prediction = _predict(plan, op)
@@ -130,10 +131,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         raise
     entry.update(
         outcome="passed" if verdict.guarded_pass else "failed",
-        measured=result.to_dict() | {"analysis_settings": {
-            "max_order": plan.max_order, "named_order": result.named_order,
-            "pole_pairs": pole_pairs, "pk_pk_method": plan.pk_pk_method,
-            "analysis": plan.analysis}},
+        measured=result.to_dict() | {"analysis_settings": settings},
         prediction=_thinned(prediction.to_dict()) | {"pk_pk_pu_of_measured_mean": predicted_pu},
         uncertainty=result.uncertainty.to_dict(),
         verdict=verdict.to_dict(),
@@ -142,27 +140,19 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry)
 
 
-def _analyse_torque(capture, plan: PointPlan, bench: Bench) -> RippleResult:
-    """Transducer torque against rotor angle, synchronously averaged (hil.analysis)."""
-    return analyze_capture(capture, max_order=plan.max_order,
-                           named_order=plan.named_order or _order_of(plan, bench),
-                           instruments=bench.config.instrument_uncertainty(),
-                           pole_pairs=bench.config.motor.pole_pairs,
-                           pk_pk_method=plan.pk_pk_method)
+def analysis_settings(plan: PointPlan, bench: Bench) -> dict:
+    """The settings of ``hil.analysis.run_analysis`` for this point; recorded with the result."""
+    settings = {"analysis": plan.analysis, "max_order": plan.max_order,
+                "pole_pairs": bench.config.motor.pole_pairs}
+    if plan.analysis == "switching":
+        motor = bench.config.motor
+        return settings | {"pwm_frequency_hz": plan.injection.get("pwm_frequency_hz",
+                                                                  DEFAULT_PWM_FREQUENCY_HZ),
+                           "motor": {f.name: getattr(motor, f.name) for f in fields(motor)}}
+    return settings | {"named_order": plan.named_order or _order_of(plan, bench),
+                       "pk_pk_method": plan.pk_pk_method}
 
 
-def _analyse_switching(capture, plan: PointPlan, bench: Bench) -> RippleResult:
-    """Ripple within each PWM period, from the phase currents sampled fast (hil.analysis.switching)."""
-    from hil.analysis.switching import analyze_switching
-
-    return analyze_switching(capture, pwm_frequency_hz=plan.injection.get("pwm_frequency_hz",
-                                                                          DEFAULT_PWM_FREQUENCY_HZ),
-                             motor=bench.config.motor, max_order=plan.max_order,
-                             instruments=bench.config.instrument_uncertainty())
-
-
-#: How a point's capture is analysed: transducer torque vs angle, or switching ripple.
-ANALYSES = {"torque": _analyse_torque, "switching": _analyse_switching}
 #: The drive's PWM frequency when a plan does not inject one (the EDS default), Hz.
 DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
 

@@ -2,13 +2,12 @@
 
 The numbers come from the record, never from a different analysis: arrays the test stored in
 its ``measured`` entry are used as they are; otherwise the raw capture is run through
-``hil.analysis.analyze_capture`` with the settings stored in ``measured`` (the same analysis the
-test plan ran). If neither is possible the report says why instead of plotting something else.
+``hil.analysis.run_analysis`` with the settings stored in ``measured`` (the same analysis the
+test plan ran: torque against angle, or the PWM-switching envelope). If neither is possible the report says why instead of plotting something else.
 """
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,10 +16,6 @@ import numpy as np
 from hil.capture import Capture
 from hil.errors import HilError
 from hil.record import capture_path
-
-#: ``measured`` keys that are settings of analyze_capture (top level or under "settings").
-SETTING_KEYS = ("max_order", "named_order", "rated_torque_nm", "pk_pk_method", "pole_pairs")
-
 
 ARRAY_NAMES = ("angle_grid_rad", "revolution_matrix_nm", "sync_average_nm", "orders",
                "amplitude_nm")
@@ -34,6 +29,7 @@ class AngleView:
     orders: np.ndarray | None = None
     amplitude_nm: np.ndarray | None = None
     how: str = ""             # where the arrays came from, printed under the plots
+    analysis: str = "torque"  # which analysis the curves are from (hil.analysis.ANALYSES)
     problem: str | None = None
     mismatch: str | None = None  # the re-analysis disagrees with the recorded figures
 
@@ -47,20 +43,19 @@ def angle_view(entry: dict, record_dir: Path) -> AngleView:
     path = capture_path(record_dir, capture_info.get("file"))
     if path is None:
         return AngleView(problem="no raw capture inside the record for this test")
-    try:
-        from hil.analysis import analyze_capture
-    except ImportError as exc:
-        return AngleView(problem=f"hil.analysis.analyze_capture is not available ({exc})")
-    settings = _settings(measured, analyze_capture)
+    from hil.analysis import run_analysis
+
+    settings = _settings(measured)
     try:
         capture = Capture.load(path)
-        result = analyze_capture(capture, **settings)
+        result = run_analysis(capture, settings)
     except (HilError, ValueError) as exc:
         return AngleView(problem=f"the raw capture could not be analysed again: {exc}")
     shown = ", ".join(f"{k}={v}" for k, v in sorted(settings.items())) or "defaults"
     return AngleView(mismatch=_mismatch(measured.get("pk_pk_pu"), result), **_arrays(result),
+                     analysis=settings.get("analysis", "torque"),
                      how=f"raw capture {capture_info['file']} through "
-                         f"hil.analysis.analyze_capture({shown}), the settings in the record")
+                         f"hil.analysis.run_analysis({shown}), the settings in the record")
 
 
 def _arrays(result) -> dict:
@@ -79,16 +74,17 @@ def _mismatch(recorded, result) -> str | None:
             f"the recorded figures")
 
 
-def _settings(measured: dict, function) -> dict:
+#: Settings a torque analysis also reports among its results (used where none were recorded).
+RESULT_SETTING_KEYS = ("max_order", "named_order", "rated_torque_nm", "pk_pk_method", "pole_pairs")
+
+
+def _settings(measured: dict) -> dict:
+    """The recorded analysis settings (``analysis_settings``; older records: ``settings``),
+    completed by the settings the result itself reports."""
     nested = next((measured[key] for key in ("analysis_settings", "settings")
                    if isinstance(measured.get(key), dict)), {})
-    accepted = set(inspect.signature(function).parameters)
-    out = {}
-    for key in SETTING_KEYS:
-        value = nested.get(key, measured.get(key))
-        if value is not None and key in accepted:
-            out[key] = value
-    return out
+    settings = {key: measured.get(key) for key in RESULT_SETTING_KEYS} | nested
+    return {key: value for key, value in settings.items() if value is not None}
 
 
 def _array(value) -> np.ndarray | None:

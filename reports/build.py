@@ -304,9 +304,14 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
         pdf.para(f"Torque-against-angle plot and order spectrum not shown: {view.problem}.")
     else:
         if view.angle_grid_rad is not None and view.sync_average_nm is not None:
+            switching = view.analysis == "switching"
+            what = ("pk-pk of the estimated torque within each PWM period" if switching
+                    else "torque")
             pdf.svg(figures.angle_svg(view.angle_grid_rad, view.revolution_matrix_nm,
                                       view.sync_average_nm,
-                                      f"{section.name}: torque against rotor angle"))
+                                      f"{section.name}: {what} against rotor angle",
+                                      ylabel=f"{'within-period pk-pk' if switching else 'torque'}"
+                                             " (N·m)"))
         if view.orders is not None and view.amplitude_nm is not None:
             pdf.svg(figures.spectrum_svg(view.orders, view.amplitude_nm, worst.predicted_order,
                                          f"{section.name}: order spectrum of the synchronous "

@@ -63,7 +63,7 @@ def sweep_svg(section: SourceSection) -> bytes | None:
 
 
 def angle_svg(angle_rad: np.ndarray, revolutions_nm: np.ndarray | None,
-              sync_average_nm: np.ndarray, title: str) -> bytes:
+              sync_average_nm: np.ndarray, title: str, ylabel: str = "torque (N·m)") -> bytes:
     """Torque against electrical angle: revolutions (thin) overlaid on their synchronous average."""
     degrees = np.degrees(np.asarray(angle_rad, dtype=float))
     with plt.rc_context(_STYLE):
@@ -79,7 +79,7 @@ def angle_svg(angle_rad: np.ndarray, revolutions_nm: np.ndarray | None,
                 label="synchronous average")
         ax.set_xlim(degrees[0], degrees[-1])
         ax.set_xlabel("rotor angle (electrical degrees)")
-        ax.set_ylabel("torque (N·m)")
+        ax.set_ylabel(ylabel)
         ax.set_title(title)
         ax.legend(loc="best", fontsize=7)
         return _svg(fig)

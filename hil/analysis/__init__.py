@@ -9,11 +9,12 @@ Typical use::
     verdict = decide(measured=res, predicted_pk_pk_pu=0.02, predicted_order=6, rule=DecisionRule())
 """
 
+from hil.analysis.dispatch import ANALYSES, run_analysis
 from hil.analysis.decision import DECISIONS, DecisionRule, Verdict, classify, decide
 from hil.analysis.metrics import (DEFAULT_MAX_ORDER, PK_PK_METHODS, RippleResult, analyze_capture,
                                  analyze_torque)
 from hil.analysis.uncertainty import BudgetRow, InstrumentUncertainty, UncertaintyBudget
 
-__all__ = ["DECISIONS", "DEFAULT_MAX_ORDER", "PK_PK_METHODS", "BudgetRow", "DecisionRule",
+__all__ = ["ANALYSES", "run_analysis", "DECISIONS", "DEFAULT_MAX_ORDER", "PK_PK_METHODS", "BudgetRow", "DecisionRule",
            "InstrumentUncertainty", "RippleResult", "UncertaintyBudget", "Verdict",
            "analyze_capture", "analyze_torque", "classify", "decide"]

@@ -93,7 +93,7 @@ def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
     assert "SDO abort 0x06090030" in text                # the errored test's reason
     assert "ideal current regulation" in text.lower()     # the paper's assumption, stated
     assert "Uncertainty budget" in text and "contributionpu" in squeezed
-    assert "throughhil.analysis.analyze_capture(" in squeezed  # dead_time: capture re-analysed
+    assert "throughhil.analysis.run_analysis(" in squeezed  # dead_time: capture re-analysed
     assert "Warning: analysing the raw capture again" not in text
 
 
