@@ -132,6 +132,8 @@ class TorqueTransducer:
             deadline = time.monotonic() + self.timeout_s + k * self._line_time_s()
             for _ in range(k):
                 line = self._read_line(deadline)
+                if line.startswith("!"):
+                    raise DeviceFault(self.name, self._action, f"{line!r} in the stream")
                 try:
                     readings.append(self.dialect.parse_reading(line))
                 except DeviceReportedError as exc:
