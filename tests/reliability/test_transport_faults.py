@@ -239,3 +239,26 @@ def test_rtu_fault_mid_capture_then_the_line_recovers(rtu_bench, rtu_record, mon
     assert_recorded_failure(rtu_bench, rtu_record, f"rtu-{kind}", caught.value, captured=False)
     measure_point(rtu_bench, rtu_record, f"rtu-{kind}-after", point())
     assert rtu_record.tests[-1]["outcome"] in ("passed", "failed")
+
+
+@pytest.fixture
+def himmelstein_bench():
+    bench = Bench.open(default_sim_bench().with_overrides({"torque": {"dialect": "himmelstein"}}),
+                       seed=6)
+    yield bench
+    bench.close()
+
+
+@pytest.mark.parametrize("how", ["read", "stream"])
+def test_transducer_error_message_is_a_device_fault(himmelstein_bench, how):
+    """An error message from the instrument (Himmelstein ``!...``) is a DeviceFault whether it
+    answers a single request or arrives inside a stream — never skipped as line noise."""
+    himmelstein_bench.simulated.torque.inject_garbage(b"!Overrange\r", responses=1)
+    with pytest.raises(DeviceFault) as caught:
+        if how == "read":
+            himmelstein_bench.torque.read()
+        else:
+            himmelstein_bench.torque.stream(20)
+    assert_names(caught.value, "torque", "read" if how == "read" else "stream 20 readings")
+    assert "!Overrange" in caught.value.detail
+    assert math.isfinite(himmelstein_bench.torque.read().torque_nm)
