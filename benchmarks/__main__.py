@@ -39,6 +39,8 @@ class Pattern:
     figure: str
     unit: str
     value_group: str = "value"
+    #: A benchmark whose output lacks a required figure is reported with an error.
+    required: bool = True
 
 
 @dataclass(frozen=True)
@@ -61,14 +63,15 @@ def _v(unit_text: str) -> str:
 BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark(
         "simulation", "sim_bench.py", (), ("--seconds", "0.05", "--repeats", "1"),
-        (Pattern(r"one drive, one core\s*:\s*" + _v(r"wall s per simulated s"),
-                 "one_drive_one_core_wall_s_per_sim_s", "s/s"),
+        (Pattern(r"(?m)^one drive, one core(?P<label>[^:\n]*?)\s*:\s*"
+                 + _v(r"wall s per simulated s"), "one_drive_one_core{label}_wall_s_per_sim_s",
+                 "s/s"),
          Pattern(r"batch of 16, all cores:\s*" + _v(r"wall s per simulated s of the batch"),
                  "batch_of_16_wall_s_per_sim_s", "s/s"),
          Pattern(r"batch of 16.*?,\s*" + _v(r"per drive-second"),
                  "batch_of_16_wall_s_per_drive_s", "s/s"),
          Pattern(r"first calls \(compile or cache load\):\s*" + _v("s"),
-                 "first_call_compile_s", "s")),
+                 "first_call_compile_s", "s", required=False)),
         "digital twin: wall seconds per simulated second"),
     Benchmark(
         "analysis", "analysis_bench.py", (), ("--samples", "200000", "--repeat", "1"),
@@ -102,23 +105,35 @@ BENCHMARKS: tuple[Benchmark, ...] = (
                  r"(?P<value>\d+) points", "points", "points"),
          Pattern(r"hil run .*points in\s*" + _v(r"wall s"), "wall_s", "s"),
          Pattern(r"hil run .*=\s*" + _v(r"points/s"), "points_per_s", "points/s"),
-         Pattern(r"hil report on that record:\s*" + _v(r"wall s"), "report_wall_s", "s")),
+         Pattern(r"hil report on that record:\s*" + _v(r"wall s"), "report_wall_s", "s",
+                 required=False)),
         "the whole `hil run` on the simulated bench (all plans), then `hil report`"),
 )
 
 
 def parse_figures(benchmark: Benchmark, text: str) -> dict[str, dict]:
-    """Every figure the benchmark's patterns find in its output: ``{name: {value, unit}}``."""
+    """Every figure the benchmark's patterns find in its output: ``{name: {value, unit}}``.
+
+    Names are the pattern's template filled from its groups, with runs of other characters
+    than letters, digits and ``.()+-`` made one ``_`` (``TCP_loopback_registers_per_s``)."""
     if benchmark.sectioned:
         text = flatten_sections(text)
     figures: dict[str, dict] = {}
     for pattern in benchmark.patterns:
         for match in re.finditer(pattern.regex, text):
             groups = {k: v.strip() for k, v in match.groupdict().items() if v is not None}
-            figures[pattern.figure.format(**groups)] = {
-                "value": float(groups[pattern.value_group].replace(",", "")),
-                "unit": pattern.unit}
+            name = re.sub(r"[^\w.()+-]+", "_", pattern.figure.format(**groups)).strip("_")
+            figures[name] = {"value": float(groups[pattern.value_group].replace(",", "")),
+                             "unit": pattern.unit}
     return figures
+
+
+def missing_figures(benchmark: Benchmark, text: str) -> list[str]:
+    """The required patterns that match nothing in the output (the script's wording changed)."""
+    if benchmark.sectioned:
+        text = flatten_sections(text)
+    return [pattern.figure for pattern in benchmark.patterns
+            if pattern.required and re.search(pattern.regex, text) is None]
 
 
 def flatten_sections(text: str) -> str:
@@ -152,10 +167,12 @@ def run_benchmark(benchmark: Benchmark, quick: bool, timeout_s: float = TIMEOUT_
                                                    for i, c in enumerate(command)],
               "returncode": code, "wall_s": wall_s, "figures": figures,
               "stdout": stdout, "stderr": stderr[-4000:]}
+    missing = missing_figures(benchmark, stdout)
     if code != 0:
         result["error"] = f"exit {code}: {stderr.strip().splitlines()[-1] if stderr.strip() else ''}"
-    elif not figures:
-        result["error"] = "no figure found in the output (did the script's wording change?)"
+    elif missing:
+        result["error"] = (f"figure(s) not found in the output: {', '.join(missing)} "
+                           "(did the script's wording change?)")
     return result
 
 

@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import pytest
 
-from benchmarks.__main__ import BENCHMARKS, Benchmark, parse_figures, run_benchmark, table
+from benchmarks.__main__ import (BENCHMARKS, Benchmark, missing_figures, parse_figures,
+                                 run_benchmark, table)
 
 OUTPUTS = {
     "simulation": """first calls (compile or cache load): 0.41 s
 cores: 2, numba threads: 2, load average: 5.46
-one drive, one core : 0.0801 wall s per simulated s (12x real time; target <= 0.02)
+one drive, one core, Table I motor           : 0.0226 wall s per simulated s (44x real time; target <= 0.02)
+one drive, one core, + EMF harmonics, cogging: 0.0282 wall s per simulated s (35x real time; target <= 0.02)
 batch of 16, all cores: 1.3693 wall s per simulated s of the batch, 0.0856 per drive-second
 """,
     "analysis": """samples: 10000000, revolutions: 6669, max_order: 64, grid: 512 bins/rev
@@ -36,17 +38,18 @@ hil report on that record: 7.53 wall s (exit 0)
 """,
 }
 EXPECTED = {
-    "simulation": {"one_drive_one_core_wall_s_per_sim_s": 0.0801,
+    "simulation": {"one_drive_one_core_Table_I_motor_wall_s_per_sim_s": 0.0226,
+                   "one_drive_one_core_+_EMF_harmonics_cogging_wall_s_per_sim_s": 0.0282,
                    "batch_of_16_wall_s_per_sim_s": 1.3693,
                    "batch_of_16_wall_s_per_drive_s": 0.0856, "first_call_compile_s": 0.41},
     "analysis": {"analysis_samples_per_s": 2078985.0, "analysis_over_capture_rate": 21.0},
     "canopen": {"virtual.sdo_uploads_per_s": 6151.69, "virtual.rpdo_frames_lost_fraction": 0.0,
                 "remote.sdo_uploads_per_s": 3867.39},
-    "modbus": {"TCP loopback registers_per_s": 98544.0,
-               "TCP loopback capture_samples_per_s": 27496.0,
-               "RTU pty (unpaced) registers_per_s": 13652.0},
-    "transducer": {"magtrol unpaced pty polled read() samples_per_s": 3514.0,
-                   "himmelstein pty paced at 115200 baud stream(500) samples_per_s": 478.0},
+    "modbus": {"TCP_loopback_registers_per_s": 98544.0,
+               "TCP_loopback_capture_samples_per_s": 27496.0,
+               "RTU_pty_(unpaced)_registers_per_s": 13652.0},
+    "transducer": {"magtrol_unpaced_pty_polled_read()_samples_per_s": 3514.0,
+                   "himmelstein_pty_paced_at_115200_baud_stream(500)_samples_per_s": 478.0},
     "hil_run": {"points": 22.0, "wall_s": 8.06, "points_per_s": 2.731, "report_wall_s": 7.53},
 }
 
@@ -64,8 +67,17 @@ def test_changed_wording_is_reported_not_hidden(tmp_path):
     quiet = Benchmark("quiet", str(script), (), (), BENCHMARKS[0].patterns, "nothing")
     result = run_benchmark(quiet, quick=False, timeout_s=60)
     assert result["returncode"] == 0 and result["figures"] == {}
-    assert "no figure found" in result["error"]
+    assert "not found in the output" in result["error"]
+    assert "one_drive_one_core" in result["error"]
     assert "ERROR" in table({"quiet": result})
+
+
+def test_one_missing_figure_is_an_error_even_if_others_are_found():
+    simulation = next(b for b in BENCHMARKS if b.name == "simulation")
+    text = OUTPUTS["simulation"].replace("one drive, one core", "a single drive")
+    assert "batch_of_16_wall_s_per_sim_s" in parse_figures(simulation, text)
+    assert missing_figures(simulation, text) == ["one_drive_one_core{label}_wall_s_per_sim_s"]
+    assert missing_figures(simulation, OUTPUTS["simulation"]) == []
 
 
 def test_a_failing_script_is_reported(tmp_path):
