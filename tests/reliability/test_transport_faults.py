@@ -4,19 +4,21 @@ driver method. For each: a typed error naming the instrument and the step, the d
 disabled with every injection at its default (read back from the drive and seen on the twin),
 and a record keeping every finished point and the raw data of the failed one if it was captured.
 
-Not repeated here (tests/integration/test_safety.py and test_run.py cover them): heartbeat loss,
-EMCY after one capture, a DAQ timeout on the first request, Ctrl-C inside the guard, Ctrl-C of
-``hil run`` keeping the record.
+Not repeated here (tests/integration/test_safety.py and test_run.py cover them): the safe state
+after a heartbeat loss and after an EMCY in one capture, a DAQ timeout on the first request,
+Ctrl-C inside the guard, Ctrl-C of ``hil run`` keeping the record (test_sigint.py adds the bench
+state after it).
 """
 
 from __future__ import annotations
 
 import math
+import time
 
 import pytest
 
-from drivers.errors import (DeviceFault, InjectionRangeError, InstrumentError, InstrumentTimeout,
-                            ProtocolError)
+from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
+                            InstrumentTimeout, ProtocolError)
 from drivers.modbus_daq import DeviceFailure
 from hil.bench import Bench
 from hil.config import default_sim_bench
@@ -127,6 +129,26 @@ def test_emcy_mid_sweep_keeps_the_finished_points(sim_bench, run_record, monkeyp
     measure_point(sim_bench, run_record, "sweep-3-again", point())
     assert run_record.tests[-1]["outcome"] in ("passed", "failed")
     assert run_record.tests[-1]["capture"]["sha256"]
+
+
+def test_heartbeat_lost_mid_sweep_keeps_the_record(sim_bench, run_record, monkeypatch):
+    """The drive's heartbeat stops during the 2nd point's capture (its SDO server still
+    answers): the loss is seen at the health check after the capture, so the raw data is kept;
+    the 1st point stays as it was. (test_safety.py checks the safe state for a loss before the
+    capture; this one checks the record.)"""
+    def silence(_):
+        sim_bench.simulated.drive.stop_heartbeat()
+        time.sleep(sim_bench.config.drive.heartbeat_timeout_s * 1.5)
+
+    wrap(monkeypatch, sim_bench.daq, "capture", on_call=2, after=silence)
+    measure_point(sim_bench, run_record, "hb-1", point())
+    with pytest.raises(HeartbeatLost) as caught:
+        measure_point(sim_bench, run_record, "hb-2", point())
+    assert_names(caught.value, "drive", "check health")
+    assert_safe(sim_bench)
+    assert_recorded_failure(sim_bench, run_record, "hb-2", caught.value, captured=True)
+    assert run_record.tests[0]["test_id"] == "hb-1"
+    assert run_record.tests[0]["outcome"] in ("passed", "failed")
 
 
 def test_sdo_abort_on_an_injection_write(sim_bench, run_record):
