@@ -14,6 +14,8 @@ import io
 import json
 import os
 import tempfile
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -76,9 +78,17 @@ class Capture:
             with np.load(path, allow_pickle=False) as npz:
                 header = json.loads(bytes(npz["__header__"]).decode())
                 channels = {key[3:]: npz[key] for key in npz.files if key.startswith("ch_")}
-        except (OSError, ValueError, KeyError, EOFError, json.JSONDecodeError) as exc:
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error,
+                NotImplementedError, UnicodeDecodeError) as exc:   # JSONDecodeError is a ValueError
             raise InputError(f"capture file {str(path)!r} is not a readable ripple-hil capture "
                              f"({type(exc).__name__}: {exc})") from None
+        if not isinstance(header, dict) or not all(
+                isinstance(header.get(key, {}), dict) for key in ("units", "meta")):
+            raise InputError(f"capture file {str(path)!r} has a damaged header (not a JSON object "
+                             "with 'units' and 'meta' objects)")
+        flat = [name for name, values in channels.items() if values.ndim != 1]
+        if flat:
+            raise InputError(f"capture file {str(path)!r}: channel(s) {flat} are not 1-D arrays")
         missing = [name for name in REQUIRED_CHANNELS if name not in channels]
         if missing:
             raise InputError(f"capture file {str(path)!r} lacks channel(s) {missing}")

@@ -7,16 +7,14 @@ record's, so the same record gives the same PDF.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-import numpy as np
 
-from hil.capture import atomic_write_bytes
+from hil.capture import Capture, atomic_write_bytes
 from hil.errors import InputError
 from hil.record import RECORD_FILE, capture_path, load_record, verify_captures
 from reports import figures
@@ -264,9 +262,8 @@ def _capture_meta(record_dir: Path, relative: str | None) -> dict:
     if path is None:
         return {}
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            return json.loads(bytes(npz["__header__"]).decode()).get("meta", {})
-    except (OSError, ValueError, KeyError):
+        return Capture.load(path).meta
+    except InputError:      # a damaged capture: the traceability table names the problem
         return {}
 
 

@@ -47,8 +47,10 @@ def build_pytest_args(args) -> list[str]:
     if unknown:
         raise InputError(f"--source {', '.join(unknown)} is not a test plan; allowed: "
                          f"{', '.join(modules)}")
-    if args.bench and not Path(args.bench).is_file():
-        raise InputError(f"--bench {args.bench!r}: no such file")
+    if args.bench:
+        from hil.config import load_bench
+
+        load_bench(args.bench)   # a bad bench file is a one-line error here, before pytest starts
     pytest_args = [str(modules[name]) for name in selected]
     pytest_args += ["-q", "-p", "no:cacheprovider", "--hil-progress", "--hil-seed", str(args.seed),
                     "--hil-record", args.record_dir, "--rootdir", str(modules[selected[0]].parent)]

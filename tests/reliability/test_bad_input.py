@@ -135,9 +135,6 @@ def test_bad_bench_file_stops_the_run_before_anything_starts(tmp_path):
     assert not (tmp_path / "records").exists()
 
 
-@pytest.mark.xfail(strict=True, reason="hil/commands/run.py: `hil run --bench BAD.toml` only "
-                   "checks that the file exists; the InputError surfaces through pytest (exit 4) "
-                   "instead of the CLI contract's one stderr line `hil run: error: ...` and exit 2")
 def test_hil_run_with_a_bad_bench_file_exits_2(tmp_path):
     path = write_bench(tmp_path / "bench.toml", edited("sim-bench", "limits", "current_a", 500.0))
     done = subprocess.run(HIL + ["run", "--bench", str(path), "--source", "baseline",
@@ -277,14 +274,11 @@ def _corrupt(kind: str, good: Path, target: Path) -> Path:
     return target
 
 
-CAPTURE_BUG = ("hil/capture.py Capture.load catches OSError/ValueError/KeyError/EOFError/"
-               "JSONDecodeError only: a damaged zip (zipfile.BadZipFile, NotImplementedError of "
-               "an unknown compression, zlib.error), a header that is not a JSON object "
-               "(AttributeError) or a 0-d channel (TypeError) escape as tracebacks")
+
+
 CORRUPTIONS = ["truncated", "bit-flips", "empty", "text", "missing", "header-not-json",
                "header-a-list", "no-header", "scalar-channel", "text-channel", "nan-torque",
                "lengths-differ", "bad-pole-pairs"]
-KNOWN_BROKEN = {"truncated", "bit-flips", "header-a-list", "scalar-channel"}
 
 
 @pytest.fixture(scope="module")
@@ -301,9 +295,7 @@ def good_capture(tmp_path_factory) -> Path:
     return path
 
 
-@pytest.mark.parametrize("kind", [
-    pytest.param(k, marks=pytest.mark.xfail(strict=True, reason=CAPTURE_BUG))
-    if k in KNOWN_BROKEN else k for k in CORRUPTIONS])
+@pytest.mark.parametrize("kind", CORRUPTIONS)
 def test_hil_analyze_refuses_a_corrupted_capture_on_one_line(tmp_path, capsys, good_capture,
                                                            kind):
     target = _corrupt(kind, good_capture, tmp_path / f"{kind}.npz")
@@ -369,9 +361,7 @@ def test_hil_report_refuses_a_corrupted_record_on_one_line(small_record, tmp_pat
 
 
 @pytest.mark.parametrize("damage", [
-    pytest.param("capture-truncated", marks=pytest.mark.xfail(strict=True, reason=(
-        "reports/build.py _capture_meta catches OSError/ValueError/KeyError only; a truncated "
-        "capture raises zipfile.BadZipFile and `hil report` dies with a traceback"))),
+    "capture-truncated",
     "capture-altered",
     "capture-deleted",
 ])
