@@ -12,6 +12,13 @@ RPDO1 = controlword 0x6040; TPDO1 = statusword 0x6041 + mode display 0x6061;
 TPDO2 = torque actual 0x6077 + velocity actual 0x606C; TPDO3 = position actual 0x6064.
 Commands: current command through 0x2100 ``current_command_a [mA]``, or target torque 0x6071 in
 per mille of the rated torque 0x6076; target velocity 0x60FF in rpm.
+
+Master-loss detection (CiA 301 / CiA 402): ``connect`` starts this master's own heartbeat
+(COB-ID 0x700 + ``master_node_id``, state byte 0x05, period ``heartbeat_timeout_s / 4``) and
+makes the drive consume it (0x1016:01 = ``master_node_id << 16`` | ``heartbeat_timeout_s`` in ms,
+verified by read-back). If this process dies, the drive performs its abort connection option
+0x6007 (default: disable voltage) and restores its injections to defaults. A clean ``close()``
+first writes 0x1016:01 = 0, so the drive stays as the bench left it, then stops the heartbeat.
 """
 
 from __future__ import annotations
@@ -40,6 +47,9 @@ logger = logging.getLogger(__name__)
 CIA402_PROFILE = 402
 VALUE_RANGE_ABORTS = (0x06090030, 0x06090031, 0x06090032)
 NMT_OPERATIONAL = 5
+CONSUMER_HEARTBEAT_INDEX = 0x1016
+HEARTBEAT_COB_BASE = 0x700
+DEFAULT_MASTER_NODE_ID = 0x7F
 
 _NEXT_COMMAND_TOWARDS_ENABLED = {
     sm.SWITCH_ON_DISABLED: sm.CW_SHUTDOWN,
@@ -55,9 +65,13 @@ class Cia402Drive:
 
     def __init__(self, settings: CanBusSettings, node_id: int = 5, eds_path=None, *,
                  sdo_timeout_s: float = 0.5, heartbeat_timeout_s: float = 0.5,
-                 instrument_name: str = "drive", tpdo_event_timer_ms: int = 10) -> None:
+                 instrument_name: str = "drive", tpdo_event_timer_ms: int = 10,
+                 master_node_id: int = DEFAULT_MASTER_NODE_ID) -> None:
         if not 1 <= int(node_id) <= 127:
             raise InputError(f"drive.node_id={node_id!r} is outside 1..127")
+        if not 1 <= int(master_node_id) <= 127 or int(master_node_id) == int(node_id):
+            raise InputError(f"drive master_node_id={master_node_id!r} is outside 1..127 or equals "
+                             f"the drive's node_id {node_id!r}")
         if not 0.01 <= sdo_timeout_s <= 10:
             raise InputError(f"drive sdo_timeout_s={sdo_timeout_s!r} is outside 0.01..10 s")
         if not 0.02 <= heartbeat_timeout_s <= 60:
@@ -72,6 +86,9 @@ class Cia402Drive:
         self.heartbeat_timeout_s = heartbeat_timeout_s
         self.instrument_name = instrument_name
         self.tpdo_event_timer_ms = tpdo_event_timer_ms
+        self.master_node_id = int(master_node_id)
+        self._master_heartbeat = None      # canopen PeriodicMessageTask of this master's heartbeat
+        self._drive_consumes_heartbeat = False
         self._knobs = injection_objects(eds_path)
         self._current_command = current_command_object(eds_path)
         self._lock = threading.RLock()
@@ -137,9 +154,9 @@ class Cia402Drive:
         except KeyError:
             raise InputError(f"object 0x{index:04X}:{subindex:02X} is not in the drive's EDS") from None
 
-    def _write_verified(self, index: int, value: int, action: str) -> None:
-        self.sdo_write(index, 0, value, action=action)
-        read_back = self.sdo_read(index, 0, action=f"{action}: read back")
+    def _write_verified(self, index: int, value: int, action: str, subindex: int = 0) -> None:
+        self.sdo_write(index, subindex, value, action=action)
+        read_back = self.sdo_read(index, subindex, action=f"{action}: read back")
         if read_back != value:
             raise self._error(ProtocolError, action, f"read back {read_back!r}, wrote {value!r}")
 
@@ -171,6 +188,7 @@ class Cia402Drive:
             node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO configuration allowed
             producer_ms = max(1, int(self.heartbeat_timeout_s * 1000 / 4))
             self._write_verified(0x1017, producer_ms, f"{action}: set producer heartbeat time")
+            self._start_master_heartbeat(action)
             self._configure_pdos(action)
             with self._heartbeat_update:
                 self._heartbeat_state = None  # wait for a heartbeat sent after the command
@@ -183,6 +201,45 @@ class Cia402Drive:
             self.close()
             raise
         return self
+
+    @property
+    def consumer_heartbeat_entry(self) -> int:
+        """The 0x1016:01 value written to the drive: master node id << 16 | timeout in ms."""
+        return self.master_node_id << 16 | round(self.heartbeat_timeout_s * 1000)
+
+    def _start_master_heartbeat(self, action: str) -> None:
+        """Produce this master's heartbeat, then make the drive consume it (0x1016:01, verified)."""
+        period_s = self.heartbeat_timeout_s / 4
+        try:
+            self._master_heartbeat = self.network.send_periodic(
+                HEARTBEAT_COB_BASE + self.master_node_id, bytes([NMT_OPERATIONAL]), period_s)
+        except can.CanError as exc:
+            raise self._error(InstrumentError, action,
+                              f"cannot start the master heartbeat: {exc}") from None
+        self._drive_consumes_heartbeat = True   # from here on close() clears 0x1016:01
+        self._write_verified(CONSUMER_HEARTBEAT_INDEX, self.consumer_heartbeat_entry,
+                             f"{action}: set the drive's consumer heartbeat 0x1016:01", subindex=1)
+
+    def _stop_master_heartbeat(self) -> None:
+        """Clean-close path: stop the drive consuming our heartbeat, then stop producing it.
+
+        If the drive cannot be told (bus or drive gone), the heartbeat stops anyway and the
+        drive takes its master-loss action (0x6007) — the safe outcome.
+        """
+        if self._drive_consumes_heartbeat:
+            self._drive_consumes_heartbeat = False
+            try:
+                self.sdo_write(CONSUMER_HEARTBEAT_INDEX, 1, 0,
+                               action="close: stop the drive's consumer heartbeat 0x1016:01")
+            except InstrumentError as exc:
+                logger.warning("%s: %s; the drive will take its master-loss action",
+                               self.instrument_name, exc)
+        task, self._master_heartbeat = self._master_heartbeat, None
+        if task is not None:
+            try:
+                task.stop()
+            except Exception:  # noqa: BLE001 - a broken bus has stopped it already
+                logger.debug("drive: stopping the master heartbeat failed", exc_info=True)
 
     def _configure_pdos(self, action: str) -> None:
         node = self.node
@@ -210,7 +267,13 @@ class Cia402Drive:
         self._controlword_pdo = node.rpdo[1]
 
     def close(self) -> None:
-        """Leave the drive as it is (the safety guard disables it first) and release the bus."""
+        """Leave the drive as it is (the safety guard disables it first) and release the bus.
+
+        The drive stops consuming this master's heartbeat before the heartbeat stops, so a
+        clean close does not trip the drive's master-loss action.
+        """
+        if self.network is not None:
+            self._stop_master_heartbeat()
         network, self.network, self.node = self.network, None, None
         self._rated_torque_cache_nm = None
         if network is not None:

@@ -16,6 +16,16 @@ Object dictionary: the shipped EDS (``drivers/data/ripple_drive.eds``). Behaviou
 * TPDOs (statusword, actual values) are sent on change, on their event timer or on SYNC; RPDOs
   are applied to the dictionary; a master's PDO remap takes effect (see ``can_pdo``).
 * Heartbeat producer from 0x1017; EMCY on ``raise_fault`` and on fault reset (code 0x0000).
+* Master-loss detection: a heartbeat consumer per 0x1016 entry (``can_heartbeat``). On a
+  timeout the drive sends EMCY 0x8130 (heartbeat error), performs the abort connection option
+  0x6007 (0 none, 1 fault, 2 disable voltage = default, 3 quick stop) and restores every
+  injection to its default. The CiA 402 state (statusword) changes at once; the twin is told
+  (``twin.disable()``, ``twin.restore_defaults()``) by a worker thread as soon as the twin's
+  lock is free — a long DAQ capture may hold it. A real drive's gates go off at once; in the
+  simulation the capture already running finishes with the old settings. Until the twin has
+  taken the defaults, the injection objects read their defaults (the drive's parameters are
+  already reset) and every object write first waits for the twin to take them. When the
+  heartbeat comes back the drive sends EMCY 0x0000.
 """
 
 from __future__ import annotations
@@ -31,6 +41,8 @@ from drivers import canopen_402 as sm
 from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  current_command_object, injection_objects, load_dictionary)
 from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
+from drivers.simulated.can_heartbeat import (CONSUMER_HEARTBEAT_INDEX, HeartbeatConsumer,
+                                             check_consumer_write, consumer_entries)
 from drivers.simulated.can_node import ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode
 from drivers.simulated.can_pdo import PdoEngine, is_pdo_config_index, validate_mapping_entry
 from hil.motor import TABLE_I
@@ -38,6 +50,15 @@ from hil.motor import TABLE_I
 logger = logging.getLogger(__name__)
 
 _STATUS_CACHE_S = 0.001
+
+EMCY_HEARTBEAT_ERROR = 0x8130  # CiA 301: life guard error or heartbeat error
+ABORT_CONNECTION_OPTION_INDEX = 0x6007
+ABORT_OPTION_NONE, ABORT_OPTION_FAULT, ABORT_OPTION_DISABLE_VOLTAGE, ABORT_OPTION_QUICK_STOP = 0, 1, 2, 3
+
+
+def _gates_go_off(old_state: str, new_state: str) -> bool:
+    """True if the transition old → new switches the power stage off."""
+    return old_state == sm.OPERATION_ENABLED or new_state in (sm.FAULT, sm.QUICK_STOP_ACTIVE)
 
 
 def _error_register_for(code: int) -> int:
@@ -68,6 +89,11 @@ class SimulatedDrive:
         self._error_register = 0
         self._heartbeat_stopped = False
         self._status_cache: tuple[float, dict] | None = None
+        self._master_lost = False            # heartbeat error active (cleared when it resumes)
+        self._twin_loss_pending = False      # master-loss action not yet applied to the twin
+        self._twin_loss_disables = False     # ... and it includes twin.disable()
+        self._twin_loss_lock = threading.Lock()
+        self.heartbeat_consumer: HeartbeatConsumer | None = None
         self.network: canopen.Network | None = None
         self.node: DriveLocalNode | None = None
         self.pdo: PdoEngine | None = None
@@ -89,6 +115,9 @@ class SimulatedDrive:
                              is_operational=lambda: self.node.nmt.state == "OPERATIONAL")
         self.pdo.reload()
         self.pdo.start()
+        self.heartbeat_consumer = HeartbeatConsumer(self.network, on_timeout=self._on_master_lost,
+                                                    on_resumed=self._on_master_back)
+        self.heartbeat_consumer.start()
         with self.twin.lock:
             self.twin.disable()
         self.node.nmt.send_command(0x81)  # INITIALISING: boot-up message
@@ -99,6 +128,8 @@ class SimulatedDrive:
         if self.network is None:
             return
         try:
+            if self.heartbeat_consumer is not None:
+                self.heartbeat_consumer.stop()
             self.twin.disable()
         finally:
             self.pdo.stop()
@@ -142,14 +173,15 @@ class SimulatedDrive:
                 self.node.nmt.start_heartbeat(period_ms)
 
     # -- state machine ----------------------------------------------------------------------
-    def _set_state(self, new_state: str) -> None:
+    def _set_state(self, new_state: str, *, tell_twin: bool = True) -> None:
+        """Change the CiA 402 state; ``tell_twin=False`` leaves the twin to the master-loss worker."""
         old_state, self._state = self._state, new_state
         if new_state == old_state:
             return
         logger.info("simulated drive %d: %s -> %s", self.node_id, old_state, new_state)
-        if new_state == sm.OPERATION_ENABLED:
+        if tell_twin and new_state == sm.OPERATION_ENABLED:
             self.twin.enable()
-        elif old_state == sm.OPERATION_ENABLED or new_state in (sm.FAULT, sm.QUICK_STOP_ACTIVE):
+        elif tell_twin and _gates_go_off(old_state, new_state):
             self.twin.disable()
         if old_state == sm.FAULT and new_state != sm.FAULT:
             self._error_code = 0
@@ -183,9 +215,11 @@ class SimulatedDrive:
                     del self.node.data_store[index]
             self._heartbeat_stopped = False
         self.pdo.reload()
+        self._configure_heartbeat_consumer()
 
     # -- object writes ----------------------------------------------------------------------
     def _validate_and_apply(self, index: int, subindex: int, od, data: bytes) -> None:
+        self._apply_master_loss_to_twin()  # a write after a master loss comes after its action
         value = od.decode_raw(data)
         if index == 0x6040:
             self._on_controlword(value)
@@ -215,6 +249,8 @@ class SimulatedDrive:
         elif 0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF:
             if subindex and not validate_mapping_entry(self.node, value):
                 raise SdoAbortedError(0x06040041)  # object cannot be mapped to the PDO
+        elif index == CONSUMER_HEARTBEAT_INDEX:
+            check_consumer_write(self.node, subindex, value)
 
     def _apply_twin_attribute(self, name: str, value: float) -> None:
         try:
@@ -227,6 +263,8 @@ class SimulatedDrive:
     def _after_store(self, index: int, subindex: int, od, data: bytes) -> None:
         if is_pdo_config_index(index):
             self.pdo.reload()
+        elif index == CONSUMER_HEARTBEAT_INDEX:
+            self._configure_heartbeat_consumer()
         elif index == 0x1017:
             heartbeat_ms = od.decode_raw(data)
             with self._lock:
@@ -271,6 +309,8 @@ class SimulatedDrive:
             return self._per_mille_of_rated(self._status()["torque_em_nm"])
         if index in self._knobs:
             knob = self._knobs[index]
+            if self._twin_loss_pending:  # reset by the master-loss action; the twin is busy
+                return knob.default_count
             return knob.to_count(getattr(self.twin.injection, knob.knob))
         if index == RESTORE_DEFAULTS_INDEX:
             return 1  # CiA 301 convention: "restores on command"
@@ -287,3 +327,76 @@ class SimulatedDrive:
         if index == 0x1018 and subindex == 4:
             return self.serial_number
         return None
+
+    # -- master-loss detection (heartbeat consumer 0x1016, abort connection option 0x6007) ---
+    def _configure_heartbeat_consumer(self) -> None:
+        self.heartbeat_consumer.configure(consumer_entries(self.node))
+
+    @property
+    def master_lost(self) -> bool:
+        """True from a heartbeat-consumer timeout until that producer's heartbeat comes back."""
+        with self._lock:
+            return self._master_lost
+
+    def _state_after_master_loss(self, option: int) -> str:
+        """The CiA 402 state the abort connection option code 0x6007 leads to."""
+        if option == ABORT_OPTION_FAULT:
+            return sm.FAULT
+        if option == ABORT_OPTION_DISABLE_VOLTAGE:
+            return sm.device_transition(self._state, sm.CW_DISABLE_VOLTAGE, self._controlword)
+        if option == ABORT_OPTION_QUICK_STOP:
+            return sm.device_transition(self._state, sm.CW_QUICK_STOP, self._controlword)
+        return self._state
+
+    def _on_master_lost(self, producer_id: int) -> None:
+        """Heartbeat-consumer timeout: EMCY 0x8130, the 0x6007 action, injections to defaults.
+
+        The statusword changes here at once; the twin takes the action in a worker thread when
+        its lock is free (a real drive's gates go off at once).
+        """
+        option = self.node.stored_value(ABORT_CONNECTION_OPTION_INDEX)
+        register = _error_register_for(EMCY_HEARTBEAT_ERROR)
+        with self._lock:
+            self._master_lost = True
+            self._error_code = EMCY_HEARTBEAT_ERROR
+            self._error_register = register
+        logger.warning("simulated drive %d: master (node %d) lost; abort connection option %d",
+                       self.node_id, producer_id, option)
+        self.node.emcy.send(EMCY_HEARTBEAT_ERROR, register, bytes([producer_id]))
+        with self._lock:
+            new_state = self._state_after_master_loss(option)
+            self._twin_loss_disables = new_state != sm.OPERATION_ENABLED or (
+                self._twin_loss_pending and self._twin_loss_disables)
+            self._twin_loss_pending = True
+            self._set_state(new_state, tell_twin=False)
+        self.pdo.notify_change()
+        threading.Thread(target=self._apply_master_loss_to_twin, name="sim-drive-master-loss",
+                         daemon=True).start()
+
+    def _apply_master_loss_to_twin(self) -> None:
+        """Give the twin a pending master-loss action (waits for the twin's lock).
+
+        Takes only the twin's lock, never the node's, so statusword reads and the state machine
+        keep working while a capture holds the twin.
+        """
+        if not self._twin_loss_pending:
+            return
+        with self._twin_loss_lock:
+            if not self._twin_loss_pending:
+                return
+            with self.twin.lock:
+                if self._twin_loss_disables:
+                    self.twin.disable()
+                self.twin.restore_defaults()
+                self._twin_loss_pending = False
+        logger.info("simulated drive %d: master-loss action applied to the twin", self.node_id)
+
+    def _on_master_back(self, producer_id: int) -> None:
+        """The lost producer's heartbeat is back: EMCY 0x0000 unless the drive is in FAULT."""
+        with self._lock:
+            self._master_lost = False
+            if self._state in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+                return   # cleared by the master's fault reset
+            self._error_code = 0
+            self._error_register = 0
+        self.node.emcy.reset()
