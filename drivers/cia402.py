@@ -208,17 +208,21 @@ class Cia402Drive:
         return self.master_node_id << 16 | round(self.heartbeat_timeout_s * 1000)
 
     def _start_master_heartbeat(self, action: str) -> None:
-        """Produce this master's heartbeat, then make the drive consume it (0x1016:01, verified)."""
-        period_s = self.heartbeat_timeout_s / 4
-        try:
-            self._master_heartbeat = self.network.send_periodic(
-                HEARTBEAT_COB_BASE + self.master_node_id, bytes([NMT_OPERATIONAL]), period_s)
-        except can.CanError as exc:
-            raise self._error(InstrumentError, action,
-                              f"cannot start the master heartbeat: {exc}") from None
+        """Make the drive consume this master's heartbeat (0x1016:01, verified), then produce it.
+
+        The drive monitors from the first heartbeat it receives (CiA 301); the periodic task
+        sends its first frame at once, so monitoring starts before ``connect`` returns.
+        """
         self._drive_consumes_heartbeat = True   # from here on close() clears 0x1016:01
         self._write_verified(CONSUMER_HEARTBEAT_INDEX, self.consumer_heartbeat_entry,
                              f"{action}: set the drive's consumer heartbeat 0x1016:01", subindex=1)
+        try:
+            self._master_heartbeat = self.network.send_periodic(
+                HEARTBEAT_COB_BASE + self.master_node_id, bytes([NMT_OPERATIONAL]),
+                self.heartbeat_timeout_s / 4)
+        except can.CanError as exc:
+            raise self._error(InstrumentError, action,
+                              f"cannot start the master heartbeat: {exc}") from None
 
     def _stop_master_heartbeat(self) -> None:
         """Clean-close path: stop the drive consuming our heartbeat, then stop producing it.
@@ -231,7 +235,7 @@ class Cia402Drive:
             try:
                 self.sdo_write(CONSUMER_HEARTBEAT_INDEX, 1, 0,
                                action="close: stop the drive's consumer heartbeat 0x1016:01")
-            except InstrumentError as exc:
+            except (InstrumentError, RuntimeError) as exc:  # RuntimeError: bus already closed
                 logger.warning("%s: %s; the drive will take its master-loss action",
                                self.instrument_name, exc)
         task, self._master_heartbeat = self._master_heartbeat, None
