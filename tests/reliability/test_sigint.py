@@ -125,11 +125,6 @@ def test_long_point(measure):
 '''
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "drivers/simulated/drive_node.py + drivers/cia402.py: the drive has no master-loss "
-    "detection (no heartbeat consumer 0x1016 / life guarding, and the master produces no "
-    "heartbeat), so a test process killed mid-capture (SIGKILL, crash, PC power loss) leaves "
-    "the drive OPERATION ENABLED with its injections applied"))
 def test_killed_test_process_leaves_the_drive_disabled(tmp_path):
     bench_file = tmp_path / "sim.toml"
     plan = tmp_path / "test_long_point.py"
