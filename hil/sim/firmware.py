@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from hil.sim.layout import (P_ADC_FS, P_ENC_CPR, P_ENC_DECIM, P_HALL, P_IA_GAIN, P_IA_OFFSET,
@@ -112,11 +113,50 @@ def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb):
     return output, candidate
 
 
+#: rows of the firmware's angle cache (direct-mapped on the sine-table index; a power of two)
+ANGLE_CACHE_ROWS = 4096
+A_INDEX, A_SIN_A, A_COS_A, A_SIN_B, A_SIN_C, A_COS_B, A_COS_C = range(7)
+
+
+def new_angle_cache(params):
+    """An empty angle cache for ``firmware_step`` (see ``angle_values``)."""
+    cache = np.empty((ANGLE_CACHE_ROWS, 7))
+    cache[:, A_INDEX] = -1.0
+    return cache
+
+
 @njit(cache=True)
-def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, lsb, adc_half):
+def angle_values(index, table_size, lsb, cache):
+    """The sine-table entries of ``index`` and the other phases' values derived from them.
+
+    Remembered in ``cache`` (row = index modulo its size; column 0 holds the index or -1), so
+    each is computed once per run; values are identical either way.
+    """
+    row = int(index) & (cache.shape[0] - 1)
+    if cache[row, A_INDEX] != index:
+        angle = TWO_PI * index / table_size
+        s_a = qfix(math.sin(angle), lsb)                          # table entries
+        c_a = qfix(math.cos(angle), lsb)
+        half = qfix(0.5, lsb)                                     # other phases by identities
+        root3_2 = qfix(SIN_120, lsb)
+        cache[row, A_SIN_A] = s_a
+        cache[row, A_COS_A] = c_a
+        cache[row, A_SIN_B] = qfix(-qfix(half * s_a, lsb) - qfix(root3_2 * c_a, lsb), lsb)
+        cache[row, A_SIN_C] = qfix(-qfix(half * s_a, lsb) + qfix(root3_2 * c_a, lsb), lsb)
+        cache[row, A_COS_B] = qfix(-qfix(half * c_a, lsb) + qfix(root3_2 * s_a, lsb), lsb)
+        cache[row, A_COS_C] = qfix(-qfix(half * c_a, lsb) - qfix(root3_2 * s_a, lsb), lsb)
+        cache[row, A_INDEX] = index
+    return (cache[row, A_SIN_A], cache[row, A_COS_A], cache[row, A_SIN_B], cache[row, A_SIN_C],
+            cache[row, A_COS_B], cache[row, A_COS_C])
+
+
+@njit(cache=True)
+def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, lsb, adc_half,
+                  angle_cache):
     """Run the current loop once; return the compare values (counts) for the next period.
 
-    ``lsb``: word resolution (``word_lsb``); ``adc_half``: 2^(ADC bits − 1).
+    ``lsb``: word resolution (``word_lsb``); ``adc_half``: 2^(ADC bits − 1); ``angle_cache``:
+    from ``new_angle_cache``, for one run at one ``lsb``.
     """
     full_scale = params[P_ADC_FS]
     sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_half)
@@ -129,15 +169,7 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
 
     table_size = params[P_TABLE_SIZE]
     index = math.floor(firmware_angle_fraction(theta_m, params) * table_size) % table_size
-    angle = TWO_PI * index / table_size
-    s_a = qfix(math.sin(angle), lsb)                              # table entries
-    c_a = qfix(math.cos(angle), lsb)
-    half = qfix(0.5, lsb)                                         # other phases by identities
-    root3_2 = qfix(SIN_120, lsb)
-    s_b = qfix(-qfix(half * s_a, lsb) - qfix(root3_2 * c_a, lsb), lsb)   # sin(θ − 2π/3)
-    s_c = qfix(-qfix(half * s_a, lsb) + qfix(root3_2 * c_a, lsb), lsb)   # sin(θ + 2π/3)
-    c_b = qfix(-qfix(half * c_a, lsb) + qfix(root3_2 * s_a, lsb), lsb)   # cos(θ − 2π/3)
-    c_c = qfix(-qfix(half * c_a, lsb) - qfix(root3_2 * s_a, lsb), lsb)   # cos(θ + 2π/3)
+    s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, lsb, angle_cache)
 
     two_thirds = qfix(2.0 / 3.0, lsb)                             # eq (11)
     i_q = qfix(two_thirds * (qfix(i_a * s_a, lsb) + qfix(i_b * s_b, lsb)

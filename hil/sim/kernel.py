@@ -31,7 +31,7 @@ from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs
 from hil.sim.electrical import (B_ECOS, B_ESIN, B_GAIN, BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS,
                                 evaluate, exp_small, harmonic_table, impedance_angles,
                                 period_basis, sincos_small, spread)
-from hil.sim.firmware import adc_read, firmware_step
+from hil.sim.firmware import ANGLE_CACHE_ROWS, A_INDEX, adc_read, firmware_step
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
                             C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_BITS, P_ADC_FS,
@@ -251,6 +251,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     u = np.zeros(3)
     v_integral = np.zeros(3)
     edges = np.zeros(20)
+    angle_cache = np.empty((ANGLE_CACHE_ROWS, 7))
+    angle_cache[:, A_INDEX] = -1.0
     tiny = 1e-12 * period
 
     while state[S_TIME] < end_s:
@@ -267,7 +269,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         # firmware at the valley: its compare values apply from the next period on
         if enabled:
             ca, cb, cc = firmware_step(cur[0], cur[1], theta_m0, params, state, counts_top,
-                                       max_compare, lsb, adc_half)
+                                       max_compare, lsb, adc_half, angle_cache)
         else:
             ca, cb, cc = -1.0, -1.0, -1.0
             state[S_INT_D] = 0.0
