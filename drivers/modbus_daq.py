@@ -30,7 +30,8 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 
 from drivers.daq_register_map import RegisterMap, load_register_map
-from drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout, LimitError
+from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
+                            ProtocolError)
 from hil.capture import Capture
 from hil.errors import InputError
 
@@ -158,6 +159,9 @@ class ModbusDaq:
         if response.isError():
             code = getattr(response, "exception_code", 0)
             raise exception_error(self.name, action, code)
+        asked, got = kwargs.get("count"), getattr(response, "registers", None)
+        if asked is not None and got is not None and len(got) != asked:
+            raise ProtocolError(self.name, action, f"asked for {asked} registers, got {len(got)}")
         return response
 
     def read_registers(self, *names: str) -> dict:

@@ -136,21 +136,26 @@ class Bench:
                              f"(bench limits.speed_rpm)")
 
     def check_capture(self, capture: Capture) -> None:
-        """Raise LimitError if the captured data shows a current, torque or speed past a limit."""
+        """Raise LimitError if the captured data shows a current, torque, speed or temperature
+        past its limit. Speed comes from the rotor angle; temperature is checked when the DAQ
+        captures a ``temperature_c`` channel (the shipped register map has none)."""
         limits = self.config.limits
-        for name in ("ia_a", "ib_a"):
-            if name in capture:
-                peak = float(np.max(np.abs(capture[name])))
-                if peak > limits.current_a:
-                    raise LimitError("daq", "check captured data",
-                                     f"|{name}| reached {peak:.1f} A > limits.current_a = "
-                                     f"{limits.current_a:g} A")
-        if "torque_nm" in capture:
-            peak = float(np.max(np.abs(capture["torque_nm"])))
-            if peak > limits.torque_nm:
+        peaks = {name: float(np.max(np.abs(capture[name])))
+                 for name in ("ia_a", "ib_a", "torque_nm", "temperature_c") if name in capture}
+        if "rotor_angle_mech_rad" in capture and len(capture) > 1:
+            angle = np.unwrap(capture["rotor_angle_mech_rad"])
+            speed_rpm = np.diff(angle) / np.diff(capture["time_s"]) * 60.0 / (2.0 * np.pi)
+            peaks["speed_rpm"] = float(np.max(np.abs(speed_rpm)))
+        checks = (("ia_a", limits.current_a, "A", "current_a"),
+                  ("ib_a", limits.current_a, "A", "current_a"),
+                  ("torque_nm", limits.torque_nm, "N·m", "torque_nm"),
+                  ("speed_rpm", limits.speed_rpm, "rpm", "speed_rpm"),
+                  ("temperature_c", limits.temperature_c, "°C", "temperature_c"))
+        for name, limit, unit, key in checks:
+            if name in peaks and peaks[name] > limit:
                 raise LimitError("daq", "check captured data",
-                                 f"|torque| reached {peak:.3f} N·m > limits.torque_nm = "
-                                 f"{limits.torque_nm:g} N·m")
+                                 f"|{name}| reached {peaks[name]:.4g} {unit} > limits.{key} = "
+                                 f"{limit:g} {unit}")
 
     # ------------------------------------------------------------------ safety
     def check_health(self) -> None:

@@ -84,6 +84,11 @@ class DriveConfig:
     eds: Path | None = _key(None, "path")  # None: the EDS shipped with the drivers
     sdo_timeout_s: float = _key(0.5, "float", lo=0.01, hi=10.0)
     heartbeat_timeout_s: float = _key(1.0, "float", lo=0.05, hi=30.0)
+    #: The drive's closed current-loop bandwidth and loop delay at its default PWM frequency,
+    #: from its firmware documentation: the dead-time and PWM-resolution predictions need them
+    #: (the loop rejects those voltage disturbances). None: not stated.
+    current_loop_bandwidth_hz: float | None = _key(None, "float", lo=1.0, hi=50_000.0)
+    current_loop_delay_s: float | None = _key(None, "float", lo=0.0, hi=0.01)
 
 
 @dataclass(frozen=True)

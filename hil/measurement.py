@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 
 from hil.analysis import ANALYSES, DecisionRule, RippleResult, Verdict, decide, run_analysis
 from hil.bench import Bench
@@ -220,9 +220,3 @@ def _add_safely(record: RunRecord, entry: dict) -> None:
         record.add_test(entry)
     except Exception:  # noqa: BLE001 - the original exception is what the user must see
         pass
-
-
-def plan_to_dict(plan: PointPlan) -> dict:
-    data = asdict(plan)
-    data["rule"] = asdict(plan.rule)
-    return data

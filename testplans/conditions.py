@@ -19,7 +19,9 @@ CLOSED_FORM_RULE = DecisionRule(rel_tol=0.20, abs_tol_pu=0.002)
 #: Worst-case bounds (eq 14 → 10/2^(n-1)): pass when measured + guard band ≤ bound.
 BOUND_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.0, upper_bound=True, check_signature=False)
 #: Physically derived estimate where the paper's form is a per-event step (dead time): 30 %.
-DERIVED_ESTIMATE_RULE = DecisionRule(rel_tol=0.30, abs_tol_pu=0.002)
+#: The absolute part is the bench's own floor (baseline ≈ 0.06 % ± 0.09 %), since these
+#: predictions are small (0.2–0.9 %).
+DERIVED_ESTIMATE_RULE = DecisionRule(rel_tol=0.30, abs_tol_pu=0.001)
 #: The bench's own ripple with nothing injected must stay below this (pu of mean torque), so
 #: that the smallest injected ripple of the sweeps (≈ 2 %) stands clear of it.
 BASELINE_CEILING_PU = 0.01
@@ -52,13 +54,20 @@ PWM_RESOLUTION_SWEEP = [{"pwm_period_counts": c} for c in (32, 64, 128)]
 #: PWM switching frequency sweep (paper eqs 29-31); the capture samples the currents fast.
 PWM_SWITCHING_SWEEP = [{"pwm_frequency_hz": f} for f in (10_000.0, 20_000.0, 40_000.0)]
 DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (1e-6, 2e-6, 4e-6)]
-#: The drive's current-loop bandwidth, Hz, from its firmware documentation (the simulated drive
-#: tunes its PI to 0.08·f_pwm = 1.6 kHz at 20 kHz). The dead-time disturbance is a voltage the
-#: loop rejects, so the derived estimate needs it; the paper's eq 38 ignores the loop.
-DRIVE_CURRENT_LOOP_BANDWIDTH_HZ = 1600.0
-#: The drive's current-loop delay, s: one PWM period of computation plus half a period of
-#: sampling (the simulated drive's firmware; from the firmware documentation on a real one).
-DRIVE_CURRENT_LOOP_DELAY_S = 1.5 / 20_000.0
+def current_loop(bench) -> dict:
+    """The drive's current-loop bandwidth and delay from the bench file's ``[drive]`` table.
+
+    The dead-time and PWM-resolution expectations need them (the loop rejects those voltage
+    disturbances); a bench file that does not state them cannot run those plans.
+    """
+    from hil.errors import InputError
+
+    drive = bench.config.drive
+    if drive.current_loop_bandwidth_hz is None or drive.current_loop_delay_s is None:
+        raise InputError("bench file [drive] current_loop_bandwidth_hz and current_loop_delay_s "
+                         "are needed by this plan (from the drive firmware's documentation)")
+    return {"current_loop_bandwidth_hz": drive.current_loop_bandwidth_hz,
+            "current_loop_delay_s": drive.current_loop_delay_s}
 
 
 def point(op, source: str, injection: dict, rule: DecisionRule, **overrides):

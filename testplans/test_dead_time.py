@@ -3,7 +3,7 @@
 The paper's eq 38 is a per-event current step (Δi_q = (2/3)·V_dc·T_d/L_s) read as a pk-pk
 ripple; it ignores the current loop that rejects the disturbance. The plan judges against the
 physically derived average-voltage-error model of hil.model.dead_time (the same source, with the
-PI loop's rejection) and records the paper's figure beside it (prediction.extras).
+rejection of the drive's current loop, whose bandwidth and delay the bench file states) and records the paper's figure beside it (prediction.extras).
 """
 
 import pytest
@@ -14,11 +14,9 @@ pytestmark = pytest.mark.ripple_source("dead_time")
 
 
 @pytest.mark.parametrize("injection", c.DEAD_TIME_SWEEP, ids=c.sweep_id)
-def test_dead_time(measure, operating_point, injection):
+def test_dead_time(measure, bench, operating_point, injection):
     plan = c.point(operating_point, "dead_time", injection, c.DERIVED_ESTIMATE_RULE,
-                   prediction_params={"model": "average_voltage",
-                                      "current_loop_bandwidth_hz": c.DRIVE_CURRENT_LOOP_BANDWIDTH_HZ,
-                                      "current_loop_delay_s": c.DRIVE_CURRENT_LOOP_DELAY_S},
+                   prediction_params={"model": "average_voltage", **c.current_loop(bench)},
                    expectation="judged against the average-voltage-error model with the current "
                                "loop's rejection; the paper's eq 38 per-event step is recorded "
                                "for comparison only")

@@ -11,6 +11,7 @@ import numpy as np
 from hil.analysis import (DEFAULT_MAX_ORDER, PK_PK_METHODS, InstrumentUncertainty, RippleResult,
                           analyze_capture)
 from hil.capture import Capture
+from hil.errors import InputError
 
 
 def register(subparsers) -> None:
@@ -44,6 +45,8 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.order is not None and not 1 <= args.order <= args.max_order:
+        raise InputError(f"--order {args.order} is outside 1..{args.max_order} (--max-order)")
     instruments = InstrumentUncertainty(
         transducer_accuracy_class_pct=args.transducer_class_pct,
         transducer_full_scale_nm=args.transducer_full_scale_nm, daq_lsb_nm=args.daq_lsb_nm)

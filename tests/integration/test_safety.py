@@ -128,3 +128,13 @@ def test_second_ctrl_c_during_make_safe_does_not_skip_steps(sim_bench, monkeypat
     monkeypatch.undo()
     assert_safe(sim_bench)
     assert "interrupted by Ctrl-C" in sim_bench.safe_state_reports[-1].failures[0]
+
+
+def test_speed_over_its_limit_in_the_data(sim_bench, run_record, monkeypatch):
+    sim_bench.config = sim_bench.config.with_overrides({"limits": {"speed_rpm": 600.0}})
+    measure_point(sim_bench, run_record, "speed-within-limit", plan())     # 500 rpm: fine
+    # a dyno that runs faster than the check before the command allowed: the data must catch it
+    monkeypatch.setattr(sim_bench, "check_command", lambda **kwargs: None)
+    with pytest.raises(LimitError, match="speed_rpm"):
+        measure_point(sim_bench, run_record, "speed-over-limit", plan(speed_rpm=700.0))
+    assert_safe(sim_bench)

@@ -1,8 +1,13 @@
-"""Fixtures of the reliability suite: the integration suite's simulated bench and run record.
+"""Fixtures of the reliability suite (the simulated bench and run record: tests/conftest.py)."""
 
-Reused, not copied: ``sim_bench`` (a freshly opened simulated bench over the real stacks:
-CANopen on a virtual bus, Modbus TCP on 127.0.0.1, serial pty) and ``run_record`` (a run record
-in a temporary folder) come from ``tests/integration/conftest.py``.
-"""
+from pathlib import Path
 
-from integration.conftest import run_record, sim_bench  # noqa: F401 - pytest fixtures
+import pytest
+
+from .faults import record_factory
+
+
+@pytest.fixture(scope="module")
+def small_record(tmp_path_factory) -> Path:
+    """A small realistic run record (synthetic captures through the real analysis)."""
+    return record_factory().write_record(tmp_path_factory.mktemp("rec"))

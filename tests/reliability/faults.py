@@ -3,6 +3,10 @@ leave behind (a typed error naming instrument and step, a safe bench, an honest 
 
 from __future__ import annotations
 
+import importlib.util
+import shutil
+from pathlib import Path
+
 from drivers.errors import InstrumentError
 from hil.measurement import PointPlan
 from hil.record import verify_captures
@@ -62,3 +66,19 @@ def assert_recorded_failure(bench, record, test_id: str, error: InstrumentError,
     assert verify_captures(record.path, record.data) == []
     assert record.data["pending_captures"] == []
     return entry
+
+
+def record_factory():
+    """tests/reports/record_factory.py, loaded by path (the test folders are not packages)."""
+    path = Path(__file__).parents[1] / "reports" / "record_factory.py"
+    spec = importlib.util.spec_from_file_location("reliability_record_factory", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def copy_record(small_record: Path, tmp_path: Path) -> Path:
+    """A copy of a record folder that a test may damage."""
+    folder = tmp_path / "record"
+    shutil.copytree(small_record, folder)
+    return folder

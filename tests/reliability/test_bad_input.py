@@ -5,8 +5,6 @@ clear error (naming the key / knob / file and what is allowed) and change nothin
 from __future__ import annotations
 
 import datetime as dt
-import importlib.util
-import shutil
 import subprocess
 import sys
 import tomllib
@@ -25,7 +23,7 @@ from hil.measurement import measure_point
 from hil.sim import DriveTwin
 from integration.test_safety import assert_safe
 
-from .faults import point
+from .faults import copy_record, point
 
 HIL = [sys.executable, "-m", "hil"]
 TODAY = dt.date(2026, 11, 21)
@@ -313,25 +311,6 @@ def test_hil_analyze_reads_the_good_capture(capsys, good_capture):
     import json
     result = json.loads(capsys.readouterr().out)
     assert result["dominant_order"] == 2
-
-
-def _record_factory():
-    path = Path(__file__).parents[1] / "reports" / "record_factory.py"
-    spec = importlib.util.spec_from_file_location("reliability_record_factory", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-@pytest.fixture(scope="module")
-def small_record(tmp_path_factory) -> Path:
-    return _record_factory().write_record(tmp_path_factory.mktemp("rec"))
-
-
-def copy_record(small_record: Path, tmp_path: Path) -> Path:
-    folder = tmp_path / "record"
-    shutil.copytree(small_record, folder)
-    return folder
 
 
 @pytest.mark.parametrize("damage, words", [

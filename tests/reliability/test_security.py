@@ -26,7 +26,7 @@ from hil.errors import InputError
 from hil.record import CAPTURE_DIR, RunRecord, capture_path, safe_test_name, verify_captures
 from hil.simbench import SimulatedBench
 
-from .test_bad_input import copy_record, small_record  # noqa: F401 - fixture
+from .faults import copy_record
 
 REPO = Path(__file__).resolve().parents[2]
 PRODUCT_PACKAGES = ("hil", "drivers", "fixtures", "reports", "testplans", "benchmarks")

@@ -1,4 +1,4 @@
-"""Fixtures of the bench-level integration tests: a simulated bench over the real stacks."""
+"""Fixtures shared by the test folders: a simulated bench over the real stacks, a run record."""
 
 import pytest
 
