@@ -37,12 +37,16 @@ def transducer_gain_error(config: DriveConfig, rng: np.random.Generator) -> floa
 
 def name_channels(out: np.ndarray, config: DriveConfig, gain_error_pu: float,
                   rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Engine output rows -> standard channels; adds the transducer reading ``torque_nm``."""
-    channels = {name: out[row].copy() for row, (name, _) in ENGINE_CHANNELS.items()}
+    """Engine output rows -> standard channels; adds the transducer reading ``torque_nm``.
+
+    The engine's channels are rows of ``out`` (views, not copies: ``out`` belongs to the result).
+    """
+    channels = {name: out[row] for row, (name, _) in ENGINE_CHANNELS.items()}
     channels["encoder_counts"] = out[L.C_COUNTS].astype(np.int64)
-    noise = rng.normal(0.0, config.transducer.noise_rms_nm, out.shape[1]) \
-        if config.transducer.noise_rms_nm > 0 else 0.0
-    channels["torque_nm"] = (1.0 + gain_error_pu) * out[L.C_TORQUE_SHAFT_FILTERED] + noise
+    torque = (1.0 + gain_error_pu) * out[L.C_TORQUE_SHAFT_FILTERED]
+    if config.transducer.noise_rms_nm > 0:
+        torque += rng.normal(0.0, config.transducer.noise_rms_nm, out.shape[1])
+    channels["torque_nm"] = torque
     channels["dc_bus_v"] = np.full(out.shape[1], config.motor.parameters.dc_bus_v)
     return channels
 
