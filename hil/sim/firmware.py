@@ -70,7 +70,19 @@ def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
         code = 0.0
     elif code > 2.0 * half - 1.0:
         code = 2.0 * half - 1.0
-    return (code - half) / half
+    return (code - half) * (1.0 / half)                  # exact: half is a power of two
+
+
+@njit(cache=True)
+def _modulo(value, modulus):
+    """``value % modulus`` (Python sign convention) for integer-valued floats, |value| < 2^53 and
+    modulus > 0: exact, and cheaper than the library fmod."""
+    remainder = value - math.floor(value / modulus) * modulus
+    if remainder < 0.0:
+        remainder += modulus
+    elif remainder >= modulus:
+        remainder -= modulus
+    return remainder
 
 
 @njit(cache=True)
@@ -83,12 +95,12 @@ def firmware_angle_fraction(theta_m, params):
     pole_pairs = params[P_POLE_PAIRS]
     if params[P_HALL] != 0.0:
         sector = math.floor(pole_pairs * theta_m / (math.pi / 3.0))
-        return (sector % 6.0) / 6.0
+        return _modulo(sector, 6.0) / 6.0
     cpr = params[P_ENC_CPR]
     counts = math.floor(theta_m * cpr / TWO_PI)
     decimation = params[P_ENC_DECIM]
     used = math.floor(counts / decimation) * decimation
-    return ((used * pole_pairs) % cpr) / cpr
+    return _modulo(used * pole_pairs, cpr) / cpr
 
 
 @njit(cache=True)
@@ -168,7 +180,7 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
     i_c = qfix(-i_a - i_b, lsb)                                   # eq (17)
 
     table_size = params[P_TABLE_SIZE]
-    index = math.floor(firmware_angle_fraction(theta_m, params) * table_size) % table_size
+    index = _modulo(math.floor(firmware_angle_fraction(theta_m, params) * table_size), table_size)
     s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, lsb, angle_cache)
 
     two_thirds = qfix(2.0 / 3.0, lsb)                             # eq (11)

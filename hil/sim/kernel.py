@@ -251,6 +251,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     u = np.zeros(3)
     v_integral = np.zeros(3)
     edges = np.zeros(20)
+    seg_gate = np.zeros((20, 3), np.int64)
     angle_cache = np.empty((ANGLE_CACHE_ROWS, 7))
     angle_cache[:, A_INDEX] = -1.0
     tiny = 1e-12 * period
@@ -309,6 +310,12 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
         edges[n_edges] = period
         n_edges += 1
         _sort(edges, n_edges)
+        for e in range(n_edges - 1):                  # gate states of every segment
+            middle = 0.5 * (edges[e] + edges[e + 1])
+            for x in range(3):
+                seg_gate[e, x] = LOW if gates_off else _leg_state(
+                    middle, t_on[x], t_off[x], dead, compare[x], counts_top,
+                    state[S_HIGH_END + x] != 0.0)
 
         j_period = j
         v_integral[:] = 0.0
@@ -328,11 +335,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
             seg_end = edges[e + 1]
             if seg_end - edges[e] <= tiny:
                 continue
-            middle = 0.5 * (edges[e] + seg_end)
             for x in range(3):
-                gate[x] = LOW if gates_off else _leg_state(middle, t_on[x], t_off[x], dead,
-                                                           compare[x], counts_top,
-                                                           state[S_HIGH_END + x] != 0.0)
+                gate[x] = seg_gate[e, x]
             while seg_end - tau > tiny:
                 # ---- leg voltages; diodes decide dead legs; zero-current dead legs may clamp
                 clamped = 0
@@ -404,14 +408,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                         if gate[x] == DEAD:
                             dead_legs |= 1 << x
                     while e_last < n_edges - 2:
-                        next_start = edges[e_last + 1]
-                        next_end = edges[e_last + 2]
-                        middle = 0.5 * (next_start + next_end)
                         same = True
                         for x in range(3):
-                            state_x = LOW if gates_off else _leg_state(
-                                middle, t_on[x], t_off[x], dead, compare[x], counts_top,
-                                state[S_HIGH_END + x] != 0.0)
+                            state_x = seg_gate[e_last + 1, x]
                             if state_x == HIGH or (state_x == DEAD and cur[x] < 0.0):
                                 level = vdc
                             elif state_x == LOW or (state_x == DEAD and cur[x] > 0.0):
@@ -542,11 +541,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                 if e_last > e:                        # continue after the merged segments
                     e = e_last
                     seg_end = edges[e + 1]
-                    middle = 0.5 * (edges[e] + seg_end)
                     for x in range(3):
-                        gate[x] = LOW if gates_off else _leg_state(
-                            middle, t_on[x], t_off[x], dead, compare[x], counts_top,
-                            state[S_HIGH_END + x] != 0.0)
+                        gate[x] = seg_gate[e, x]
                 torque_a = torque_b
                 f_a = fb_a
                 f_b = fb_b
