@@ -147,6 +147,8 @@ def test_killed_test_process_leaves_the_drive_disabled(tmp_path):
         time.sleep(3 * config.drive.heartbeat_timeout_s)   # any master-loss timeout has passed
         state, knobs = read_drive_raw(config)
         assert state == sm.SWITCH_ON_DISABLED, f"drive left {state} with injections {knobs}"
+        defaults = {name: obj.default_count for name, obj in injection_objects().items()}
+        assert knobs == defaults, "the lost master's injections were not restored"
     finally:
         for process in (run, server):
             if process is not None and process.poll() is None:
