@@ -31,7 +31,7 @@ MAX_HARMONICS = 5          # fundamental + up to 4 harmonics
 BASIS_COLUMNS = 6
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def sincos_small(x):
     """(sin x, cos x); Taylor series to x^12 for |x| <= 0.5 (error < 1e-13), libm beyond."""
     if abs(x) > 0.5:
@@ -44,7 +44,7 @@ def sincos_small(x):
     return s, c
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def exp_small(x):
     """exp(x); Taylor series to x^12 for |x| <= 0.5 (error < 1e-13 relative), libm beyond."""
     if abs(x) > 0.5:
@@ -54,7 +54,7 @@ def exp_small(x):
             1.0 + x / 11.0 * (1.0 + x / 12.0)))))))))))
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def spread(order, s, c):
     """sin(α − order·x·2π/3) for phases x = a, b, c, from s = sin α and c = cos α."""
     shift = order % 3
@@ -67,7 +67,7 @@ def spread(order, s, c):
     return s, lead, lag
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def harmonic_table(params, orders, amplitudes, phases):
     """Fill the EMF harmonic set (fundamental first); returns how many entries are used."""
     orders[0] = 1.0
@@ -87,7 +87,7 @@ def harmonic_table(params, orders, amplitudes, phases):
 B_GAIN, B_FSIN, B_FCOS, B_EMF, B_ESIN, B_ECOS = 0, 1, 2, 3, 4, 5
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def impedance_angles(params, omega_m, orders, amplitudes, count, lag):
     """Per harmonic: forced-response gain (A) and sin/cos of the impedance angle ∠(R + j·h·ωe·L)
     into ``lag[k] = (gain, sin, cos)``; they change only with the speed."""
@@ -106,7 +106,7 @@ def impedance_angles(params, omega_m, orders, amplitudes, count, lag):
         lag[k, 2] = resistance / magnitude
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis):
     """Per harmonic: EMF amplitude and forced-response gain with their angles at θe0."""
     for k in range(count):
@@ -120,7 +120,7 @@ def period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis
         basis[k, B_FCOS] = c * lag[k, 2] + s * lag[k, 1]
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def evaluate(tau, omega_e, orders, count, basis):
     """At τ into the period: forced currents i_e (A) and EMF per speed k_x (V·s/rad), a/b/c.
 

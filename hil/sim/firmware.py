@@ -29,7 +29,7 @@ TWO_PI = 2.0 * math.pi
 SIN_120 = math.sqrt(3.0) / 2.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def qfix(x, lsb):
     """Truncate ``x`` (per unit) to a saturating signed fraction of resolution ``lsb``
     (2^(1-n) for an n-bit word, see ``word_lsb``); lsb 0 = floating point, unchanged."""
@@ -57,7 +57,7 @@ def quantise_gain(gain: float, bits: int) -> float:
     return math.floor(gain / 2.0 ** exponent / lsb) * lsb * 2.0 ** exponent
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
     """Sensor (gain, offset) then an ADC of 2·``half`` codes over ±full scale; per unit of FS.
 
@@ -73,7 +73,7 @@ def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
     return (code - half) * (1.0 / half)                  # exact: half is a power of two
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _modulo(value, modulus):
     """``value % modulus`` (Python sign convention) for integer-valued floats, |value| < 2^53 and
     modulus > 0: exact, and cheaper than the library fmod."""
@@ -85,7 +85,7 @@ def _modulo(value, modulus):
     return remainder
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def firmware_angle_fraction(theta_m, params):
     """The firmware's electrical angle as a fraction of a revolution (θ_d of eq 4).
 
@@ -103,7 +103,7 @@ def firmware_angle_fraction(theta_m, params):
     return _modulo(used * pole_pairs, cpr) / cpr
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb):
     """One PI step with conditional integration (anti-windup); returns (output, integrator)."""
     error = qfix(reference - measured, lsb)
@@ -137,7 +137,7 @@ def new_angle_cache(params):
     return cache
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def angle_values(index, table_size, lsb, cache):
     """The sine-table entries of ``index`` and the other phases' values derived from them.
 
@@ -162,7 +162,7 @@ def angle_values(index, table_size, lsb, cache):
             cache[row, A_COS_B], cache[row, A_COS_C])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, lsb, adc_half,
                   angle_cache):
     """Run the current loop once; return the compare values (counts) for the next period.
@@ -214,7 +214,7 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
             _compare(v_c + zero_sequence, counts_top, max_compare))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _compare(leg_voltage_pu, counts_top, max_compare):
     """Compare value (integer counts, truncated) for a leg voltage in per unit of V_dc.
 

@@ -50,7 +50,7 @@ MODE_FREE, MODE_ONE_CLAMPED, MODE_ZERO = 0, 1, 2
 BISECTIONS = 36
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dyno_speed(params, state, time_s, period_s):
     """Mechanical speed (rad/s) the dyno imposes over the period starting at ``time_s``."""
     command = params[P_SPEED_CMD] * RPM
@@ -72,7 +72,7 @@ def dyno_speed(params, state, time_s, period_s):
     return omega
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _stepping_angle(time_s, params, speed):
     step = params[P_STEP_ANGLE]
     dwell = params[P_DWELL]
@@ -83,7 +83,7 @@ def _stepping_angle(time_s, params, speed):
     return cycles * step + moving
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _sort(values, count):
     """In-place insertion sort of values[:count] (a handful of switching instants)."""
     for i in range(1, count):
@@ -95,7 +95,7 @@ def _sort(values, count):
         values[j + 1] = v
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
     """Gate state of a leg at τ within the period (centre-aligned, dead time after each edge).
 
@@ -121,7 +121,7 @@ def _leg_state(tau, t_on, t_off, dead, compare, counts_top, high_before):
     return LOW
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance):
     """Exact phase currents of a sub-segment, given the forced response i_e at that instant and
     decay = exp(−R·(τ − τa)/L) since the sub-segment start τa (see module electrical)."""
@@ -150,7 +150,7 @@ def _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance):
     return ia, -ia, 0.0
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _currents_at(tau, tau_a, mode, clamped, k, x0, u, omega_e, orders, count, basis,
                  resistance, inductance):
     """``_currents`` at an arbitrary τ of the sub-segment (evaluates the forced response)."""
@@ -159,7 +159,7 @@ def _currents_at(tau, tau_a, mode, clamped, k, x0, u, omega_e, orders, count, ba
     return _currents(mode, clamped, k, x0, u, fa, fb, fc, decay, resistance)
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _cogging_basis(params, theta_m0, cogging):
     """Rows (mechanical order, amplitude N·m, sin, cos of the cogging angle at θm0)."""
     for c in range(int(params[P_N_COG])):
@@ -171,7 +171,7 @@ def _cogging_basis(params, theta_m0, cogging):
         cogging[c, 3] = math.cos(angle)
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _shaft_torque(tau, omega_m, k_a, k_b, k_c, ia, ib, ic, n_cogging, cogging):
     """(electromagnetic Σ e_x·i_x/ω_m, shaft = electromagnetic + cogging) in N·m at τ."""
     electromagnetic = k_a * ia + k_b * ib + k_c * ic
@@ -182,14 +182,14 @@ def _shaft_torque(tau, omega_m, k_a, k_b, k_c, ia, ib, ic, n_cogging, cogging):
     return electromagnetic, total
 
 
-@njit(cache=True, fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _filter(y0, x0, slope, h, tau_f):
     """First-order low-pass output after h seconds of the input x0 + slope·t (exact)."""
     decay = exp_small(-h / tau_f)
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
-@njit(cache=True, fastmath=FAST_MATH, nogil=True)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH, nogil=True)
 def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
 
@@ -566,7 +566,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     return committed
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@njit(cache=True, error_model="numpy", parallel=True, nogil=True)
 def run_batch(params, states, record_start_s, sample_dt_s, outs, end_s):
     """``run_drive`` for many parameter sets (rows) in parallel over all cores."""
     for b in prange(params.shape[0]):
