@@ -130,13 +130,6 @@ ANGLE_CACHE_ROWS = 4096
 A_INDEX, A_SIN_A, A_COS_A, A_SIN_B, A_SIN_C, A_COS_B, A_COS_C = range(7)
 
 
-def new_angle_cache(params):
-    """An empty angle cache for ``firmware_step`` (see ``angle_values``)."""
-    cache = np.empty((ANGLE_CACHE_ROWS, 7))
-    cache[:, A_INDEX] = -1.0
-    return cache
-
-
 @njit(cache=True, error_model="numpy")
 def angle_values(index, table_size, lsb, cache):
     """The sine-table entries of ``index`` and the other phases' values derived from them.
@@ -168,7 +161,7 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
     """Run the current loop once; return the compare values (counts) for the next period.
 
     ``lsb``: word resolution (``word_lsb``); ``adc_half``: 2^(ADC bits − 1); ``angle_cache``:
-    from ``new_angle_cache``, for one run at one ``lsb``.
+    ``ANGLE_CACHE_ROWS`` × 7, column ``A_INDEX`` set to -1, for one run at one ``lsb``.
     """
     full_scale = params[P_ADC_FS]
     sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_half)
