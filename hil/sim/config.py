@@ -148,9 +148,11 @@ class DynoModel:
 class TransducerModel:
     """In-line shaft torque transducer: first-order bandwidth, white noise, accuracy class.
 
-    The accuracy class (per cent of reading) becomes a fixed gain error drawn uniformly in
-    ±class/100 from the seed, as an uncalibrated unit on a bench; the noise is Gaussian with
-    ``noise_rms_nm`` per output sample.
+    The accuracy class becomes a fixed gain error drawn uniformly in ±class/100 of the reading
+    from the seed, as an uncalibrated unit on a bench; below full scale that error lies inside
+    the ±class % of full scale that the uncertainty budget (hil.analysis) assumes, so the budget
+    is conservative for the simulated unit. The noise is Gaussian with ``noise_rms_nm`` per
+    output sample.
     """
 
     bandwidth_hz: float = 1000.0
