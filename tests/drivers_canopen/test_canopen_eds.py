@@ -43,10 +43,8 @@ def test_every_contract_knob_is_one_eds_object_with_the_contract_range():
 
 
 def test_eds_agrees_with_the_sim_injection_ranges():
-    try:
-        from hil.sim import Injection
-    except ImportError:
-        pytest.skip("hil.sim.Injection has not landed yet")
+    from hil.sim import Injection
+
     ranges = Injection.ranges()
     objects = injection_objects()
     assert set(ranges) == set(objects)

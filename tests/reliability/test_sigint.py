@@ -53,6 +53,17 @@ def recorded_points(records) -> int:
     return 0
 
 
+def stop_processes(*processes) -> None:
+    """Terminate whatever is still running (None entries skipped); kill what does not stop."""
+    for process in processes:
+        if process is not None and process.poll() is None:
+            process.terminate()
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                process.kill()
+
+
 def read_drive_raw(config) -> tuple[str, dict[str, int]]:
     """CiA 402 state and every injection knob's raw count, by SDO upload only."""
     settings = CanBusSettings(interface=config.drive.interface, channel=config.drive.channel,
@@ -105,13 +116,7 @@ def test_sigint_mid_sweep_leaves_the_bench_safe(tmp_path):
             assert daq.status()["state"] in ("idle", "disarmed")
             assert daq.dyno_speed_rpm() == 0.0
     finally:
-        for process in (run, server):
-            if process is not None and process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    process.kill()
+        stop_processes(run, server)
 
 
 LONG_POINT_PLAN = '''
@@ -150,10 +155,4 @@ def test_killed_test_process_leaves_the_drive_disabled(tmp_path):
         defaults = {name: obj.default_count for name, obj in injection_objects().items()}
         assert knobs == defaults, "the lost master's injections were not restored"
     finally:
-        for process in (run, server):
-            if process is not None and process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=30)
-                except subprocess.TimeoutExpired:
-                    process.kill()
+        stop_processes(run, server)
