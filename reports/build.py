@@ -25,6 +25,10 @@ from reports.document import ReportPDF
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
+#: Short header labels so the budget table's headings fit their columns without breaking words.
+BUDGET_LABELS = {"sensitivity": "sens. coeff.", "sensitivity_unit": "sens. unit",
+                 "contribution_pu": "contrib. (pu)", "combination": "combined",
+                 "distribution": "distribution"}
 BUDGET_WIDTHS = {"value": 16, "unit": 11, "distribution": 24, "divisor": 12, "sensitivity": 15,
                  "sensitivity_unit": 16, "contribution_pu": 18, "combination": 16}
 #: Captures larger than this in total are listed with their hashes but not attached.
@@ -330,7 +334,7 @@ def _budget(pdf: ReportPDF, entry: dict) -> None:
     columns = known + [c for c in dict.fromkeys(k for row in rows for k in row)
                        if c not in known]
     widths = tuple(BUDGET_WIDTHS.get(c, 0) for c in columns)
-    pdf.grid([c.replace("_", " ") for c in columns],
+    pdf.grid([BUDGET_LABELS.get(c, c.replace("_", " ")) for c in columns],
              [[fmt(row.get(c)) for c in columns] for row in rows], widths=widths, size=7)
     scalars = [(k.replace("_", " "), fmt(v)) for k, v in uncertainty.items()
                if not isinstance(v, (list, dict))]

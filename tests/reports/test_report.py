@@ -92,7 +92,7 @@ def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
     assert "every capture named in the record is present and its SHA-256 matches" in text
     assert "SDO abort 0x06090030" in text                # the errored test's reason
     assert "ideal current regulation" in text.lower()     # the paper's assumption, stated
-    assert "Uncertainty budget" in text and "contributionpu" in squeezed
+    assert "Uncertainty budget" in text and "contrib.(pu)" in squeezed
     assert "throughhil.analysis.run_analysis(" in squeezed  # dead_time: capture re-analysed
     assert "Warning: analysing the raw capture again" not in text
 
