@@ -208,9 +208,35 @@ def deviations(record: dict, sources: list[SourceSection],
                            f"decision: {point.decision}"
                            + (f" ({reason})." if (reason := (point.entry.get("verdict") or {})
                                                   .get("reason")) else "."))
+    out += _expectations(sources)
     for text, users in assumptions.items():
         out.append(f"Paper's assumption ({', '.join(users)}): {text}")
     return out
+
+
+def _expectations(sources) -> list[str]:
+    """Where a plan judged against another expectation than the paper's form: its note, and the
+    paper's own figure beside the measured one for every such point."""
+    notes: dict[str, list[str]] = {}
+    out = []
+    for section in sources:
+        for point in section.points:
+            if point.outcome in ("error", "skipped"):
+                continue
+            for note in point.entry.get("notes") or []:
+                users = notes.setdefault(str(note), [])
+                if section.name not in users:
+                    users.append(section.name)
+            prediction = point.entry.get("prediction") or {}
+            model = (prediction.get("inputs") or {}).get("model")
+            paper = (prediction.get("extras") or {}).get("paper_pk_pk_pu")
+            if model not in (None, "paper") and paper is not None \
+                    and point.measured_pu is not None:
+                out.append(f"'{point.test_id}' ({section.name}): judged against the '{model}' "
+                           f"form ({fmt_pct(point.predicted_pu)}); the paper's own form gives "
+                           f"{fmt_pct(paper)} (its per-unit base), measured "
+                           f"{fmt_pct(point.measured_pu)}.")
+    return [f"Plan's expectation ({', '.join(users)}): {note}" for note, users in notes.items()] + out
 
 
 def status_text(status: str | None) -> str:
