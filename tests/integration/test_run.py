@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from pypdf import PdfReader
 
 from hil.record import load_record, verify_captures
 
@@ -28,6 +29,7 @@ def only_record(root: Path) -> Path:
 def test_hil_run_records_every_point_and_writes_the_report(tmp_path):
     report = tmp_path / "report.pdf"
     done = subprocess.run(HIL + ["run", "--source", "baseline", "--source", "dc_offset",
+                                 "--source", "dead_time",
                                  "--record-dir", str(tmp_path / "records"), "-o", str(report)],
                           capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
@@ -38,9 +40,13 @@ def test_hil_run_records_every_point_and_writes_the_report(tmp_path):
     assert record["status"] == "complete"
     assert [t["source"] for t in record["tests"]].count("dc_offset") == 5
     assert all(t["verdict"]["decision"] == "pass" for t in record["tests"])
+    dead_time = [t for t in record["tests"] if t["source"] == "dead_time"]
+    assert len(dead_time) == 3 and all(t["notes"] for t in dead_time)
     assert record["decision_rule"]["closed_form"]["rel_tol"] == 0.2
     assert verify_captures(folder, record) == []
-    assert report.read_bytes().startswith(b"%PDF")
+    text = " ".join(page.extract_text() for page in PdfReader(report).pages).replace("\n", " ")
+    assert "Plan's expectation (dead_time)" in text
+    assert "the paper's own form gives" in text      # its eq 38 figure beside the measured one
 
 
 def test_unknown_source_is_a_one_line_error(tmp_path):
