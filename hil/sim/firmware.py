@@ -11,25 +11,30 @@ Arithmetic is float64, or n-bit fixed point when ``word_length_bits`` > 0: every
 signed Q(n-1) fraction of its base (currents: the ADC full scale; voltages: the dc bus) and every
 product and sum is truncated toward -inf as a two's-complement DSP does (the error model of eqs
 12-14). Gains larger than one are stored as an n-bit mantissa with a power-of-two shift.
+
+Every function here is compiled with ``fastmath=False`` stated explicitly, so its arithmetic is
+IEEE-exact however it is compiled: numba lets a function that does not state ``fastmath`` inherit
+the flags of the (fast-math) engine it is first compiled inside, which made truncation decisions
+depend on which function happened to be compiled first.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
-from hil.sim.layout import (P_ADC_FS, P_ENC_CPR, P_ENC_DECIM, P_HALL, P_IA_GAIN, P_IA_OFFSET,
-                            P_IB_GAIN, P_IB_OFFSET, P_ID_CMD, P_IQ_CMD, P_KI_TS_PU, P_KP_PU,
-                            P_MODULATION, P_POLE_PAIRS, P_TABLE_SIZE, S_INT_D, S_INT_Q,
-                            S_ISENSE_A, S_ISENSE_B)
+from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_DEAD_TIME, P_ENC_CPR, P_ENC_DECIM, P_HALL,
+                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_ID_CMD, P_IQ_CMD,
+                            P_KI_TS_PU, P_KP_PU, P_MODULATION, P_POLE_PAIRS, P_PWM_COUNTS,
+                            P_PWM_FREQ, P_TABLE_SIZE, P_WORD_BITS, S_INT_D, S_INT_Q, S_ISENSE_A,
+                            S_ISENSE_B)
 
 TWO_PI = 2.0 * math.pi
 SIN_120 = math.sqrt(3.0) / 2.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def qfix(x, lsb):
     """Truncate ``x`` (per unit) to a saturating signed fraction of resolution ``lsb``
     (2^(1-n) for an n-bit word, see ``word_lsb``); lsb 0 = floating point, unchanged."""
@@ -57,7 +62,32 @@ def quantise_gain(gain: float, bits: int) -> float:
     return math.floor(gain / 2.0 ** exponent / lsb) * lsb * 2.0 ** exponent
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
+def firmware_constants(params):
+    """(word resolution as ``word_lsb``, ADC half range 2^(bits − 1), largest compare value
+    (counts) whose pulse still ends a dead time before the period end) of one run.
+
+    Wider pulses are dropped to full-on (see ``_compare``): no dead time, max = counter top.
+    """
+    bits = params[P_WORD_BITS]
+    lsb = 0.0 if bits == 0.0 else 2.0 ** (1.0 - bits)
+    adc_half = 2.0 ** (params[P_ADC_BITS] - 1.0)
+    counts_top = params[P_PWM_COUNTS]
+    dead = params[P_DEAD_TIME]
+    max_compare = counts_top
+    if dead > 0.0:
+        period = 1.0 / params[P_PWM_FREQ]
+        max_compare = float(math.floor(counts_top * (1.0 - 2.0 * dead / period)))
+    return lsb, adc_half, max_compare
+
+
+@njit(cache=True, error_model="numpy", fastmath=False)
+def encoder_count(theta_m, cpr):
+    """Encoder position (counts, truncated toward −inf) of the mechanical angle ``theta_m``."""
+    return math.floor(theta_m * cpr / TWO_PI)
+
+
+@njit(cache=True, error_model="numpy", fastmath=False)
 def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
     """Sensor (gain, offset) then an ADC of 2·``half`` codes over ±full scale; per unit of FS.
 
@@ -73,7 +103,7 @@ def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
     return (code - half) * (1.0 / half)                  # exact: half is a power of two
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def _modulo(value, modulus):
     """``value % modulus`` (Python sign convention) for integer-valued floats, |value| < 2^53 and
     modulus > 0: exact, and cheaper than the library fmod."""
@@ -85,7 +115,7 @@ def _modulo(value, modulus):
     return remainder
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def firmware_angle_fraction(theta_m, params):
     """The firmware's electrical angle as a fraction of a revolution (θ_d of eq 4).
 
@@ -97,13 +127,13 @@ def firmware_angle_fraction(theta_m, params):
         sector = math.floor(pole_pairs * theta_m / (math.pi / 3.0))
         return _modulo(sector, 6.0) / 6.0
     cpr = params[P_ENC_CPR]
-    counts = math.floor(theta_m * cpr / TWO_PI)
+    counts = encoder_count(theta_m, cpr)
     decimation = params[P_ENC_DECIM]
     used = math.floor(counts / decimation) * decimation
     return _modulo(used * pole_pairs, cpr) / cpr
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb):
     """One PI step with conditional integration (anti-windup); returns (output, integrator)."""
     error = qfix(reference - measured, lsb)
@@ -130,7 +160,7 @@ ANGLE_CACHE_ROWS = 4096
 A_INDEX, A_SIN_A, A_COS_A, A_SIN_B, A_SIN_C, A_COS_B, A_COS_C = range(7)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def angle_values(index, table_size, lsb, cache):
     """The sine-table entries of ``index`` and the other phases' values derived from them.
 
@@ -155,7 +185,7 @@ def angle_values(index, table_size, lsb, cache):
             cache[row, A_COS_B], cache[row, A_COS_C])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, lsb, adc_half,
                   angle_cache):
     """Run the current loop once; return the compare values (counts) for the next period.
@@ -207,7 +237,7 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
             _compare(v_c + zero_sequence, counts_top, max_compare))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def _compare(leg_voltage_pu, counts_top, max_compare):
     """Compare value (integer counts, truncated) for a leg voltage in per unit of V_dc.
 

@@ -18,6 +18,13 @@ the shaft torque interpolated linearly within each segment (at most half a PWM p
 20 kHz against its 159 µs time constant at 1 kHz; coarser at the lowest PWM frequencies); gates
 off means zero current (valid while the line-to-line EMF peak is below V_dc, i.e. below
 ~2000 rpm for Table I, else the diodes would rectify).
+
+Floating-point flags: only the electrical solution (``hil.sim.electrical``'s sin/cos/exp series
+and forced response, the current, torque and filter updates here and the loop itself) runs under
+LLVM fast-math (``FAST_MATH``). Every other compiled function states ``fastmath=False``: numba
+gives a function that states nothing the flags of the function it is first compiled inside, so
+the firmware's truncation decisions (``hil.sim.firmware``), the dyno profile and the per-period
+basis would otherwise depend on compile order. Instructions keep their own flags when inlined.
 """
 
 from __future__ import annotations
@@ -31,15 +38,16 @@ from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs
 from hil.sim.electrical import (B_ECOS, B_ESIN, B_GAIN, BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS,
                                 evaluate, exp_small, harmonic_table, impedance_angles,
                                 period_basis, sincos_small, spread)
-from hil.sim.firmware import ANGLE_CACHE_ROWS, A_INDEX, adc_read, firmware_step
+from hil.sim.firmware import (ANGLE_CACHE_ROWS, A_INDEX, adc_read, encoder_count,
+                              firmware_constants, firmware_step)
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
-                            C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_BITS, P_ADC_FS,
+                            C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_FS,
                             P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
                             P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L,
                             P_MERGE_SEGMENTS, P_N_COG, P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS,
                             P_PWM_FREQ, P_R, P_RAMP, P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC,
-                            P_WORD_BITS, S_CMP_A, S_CMP_B, S_CMP_C, S_HIGH_END, S_IA, S_IB, S_IC,
+                            S_CMP_A, S_CMP_B, S_CMP_C, S_HIGH_END, S_IA, S_IB, S_IC,
                             S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M,
                             S_THETA_M, S_TIME, S_TR_Y)
 
@@ -50,7 +58,7 @@ MODE_FREE, MODE_ONE_CLAMPED, MODE_ZERO = 0, 1, 2
 BISECTIONS = 36
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def dyno_speed(params, state, time_s, period_s):
     """Mechanical speed (rad/s) the dyno imposes over the period starting at ``time_s``."""
     command = params[P_SPEED_CMD] * RPM
@@ -72,7 +80,7 @@ def dyno_speed(params, state, time_s, period_s):
     return omega
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=False)
 def _stepping_angle(time_s, params, speed):
     step = params[P_STEP_ANGLE]
     dwell = params[P_DWELL]
@@ -208,15 +216,10 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     counts_top = params[P_PWM_COUNTS]
     dead = params[P_DEAD_TIME]
     # a pulse must end a dead time before the period does; wider ones become full-on (no edge)
-    max_compare = counts_top
-    if dead > 0.0:
-        max_compare = math.floor(counts_top * (1.0 - 2.0 * dead / period))
+    lsb, adc_half, max_compare = firmware_constants(params)
     enabled = params[P_ENABLED] != 0.0
     tau_f = params[P_TR_TAU]
     cpr = params[P_ENC_CPR]
-    bits = int(params[P_WORD_BITS])
-    lsb = 0.0 if bits == 0 else 2.0 ** (1 - bits)
-    adc_half = 2.0 ** (params[P_ADC_BITS] - 1)
     merge = params[P_MERGE_SEGMENTS] != 0.0
 
     orders = np.zeros(MAX_HARMONICS)
@@ -490,7 +493,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     d_a, d_b, d_c = spread(1, cos_e, -sin_e)      # cos(θe − x·2π/3)
                     out[C_TIME, j] = t_sample
                     out[C_THETA_M, j] = theta_m
-                    out[C_COUNTS, j] = math.floor(theta_m * cpr / TWO_PI)
+                    out[C_COUNTS, j] = encoder_count(theta_m, cpr)
                     out[C_IA, j] = sa
                     out[C_IB, j] = sb
                     out[C_IC, j] = sc
@@ -566,7 +569,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     return committed
 
 
-@njit(cache=True, error_model="numpy", parallel=True, nogil=True)
+@njit(cache=True, error_model="numpy", fastmath=False, parallel=True, nogil=True)
 def run_batch(params, states, record_start_s, sample_dt_s, outs, end_s):
     """``run_drive`` for many parameter sets (rows) in parallel over all cores."""
     for b in prange(params.shape[0]):
