@@ -87,7 +87,7 @@ def harmonic_table(params, orders, amplitudes, phases):
 B_GAIN, B_FSIN, B_FCOS, B_EMF, B_ESIN, B_ECOS = 0, 1, 2, 3, 4, 5
 
 
-@njit(cache=True, error_model="numpy", fastmath=False)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def impedance_angles(params, omega_m, orders, amplitudes, count, lag):
     """Per harmonic: forced-response gain (A) and sin/cos of the impedance angle ∠(R + j·h·ωe·L)
     into ``lag[k] = (gain, sin, cos)``; they change only with the speed."""
@@ -106,7 +106,7 @@ def impedance_angles(params, omega_m, orders, amplitudes, count, lag):
         lag[k, 2] = resistance / magnitude
 
 
-@njit(cache=True, error_model="numpy", fastmath=False)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis):
     """Per harmonic: EMF amplitude and forced-response gain with their angles at θe0."""
     for k in range(count):

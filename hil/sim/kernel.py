@@ -19,12 +19,13 @@ the shaft torque interpolated linearly within each segment (at most half a PWM p
 off means zero current (valid while the line-to-line EMF peak is below V_dc, i.e. below
 ~2000 rpm for Table I, else the diodes would rectify).
 
-Floating-point flags: only the electrical solution (``hil.sim.electrical``'s sin/cos/exp series
-and forced response, the current, torque and filter updates here and the loop itself) runs under
-LLVM fast-math (``FAST_MATH``). Every other compiled function states ``fastmath=False``: numba
-gives a function that states nothing the flags of the function it is first compiled inside, so
-the firmware's truncation decisions (``hil.sim.firmware``), the dyno profile and the per-period
-basis would otherwise depend on compile order. Instructions keep their own flags when inlined.
+Floating-point flags: only the electrical solution (``hil.sim.electrical``'s per-period basis,
+sin/cos/exp series and forced response, the current, torque and filter updates here and the
+loop itself) runs under LLVM fast-math (``FAST_MATH``). Every other compiled function states
+``fastmath=False``: numba gives a function that states nothing the flags of the function it is
+first compiled inside, so the firmware's truncation decisions (``hil.sim.firmware``) and the
+dyno profile would otherwise depend on compile order. Instructions keep their own flags when
+inlined, so the firmware stays exact inside the fast-math loop.
 """
 
 from __future__ import annotations
