@@ -132,6 +132,20 @@ def _json_clean(value):
     return value
 
 
+def spectrum_fields(amplitude: np.ndarray, phase: np.ndarray, per_rev: np.ndarray,
+                    named_order: int | None) -> dict:
+    """The :class:`RippleResult` fields that follow from an order spectrum (orders 1..len):
+    RMS of the AC part, amplitudes, phases and their standard uncertainty from the
+    revolution-to-revolution coefficients ``per_rev``, the dominant and the named order."""
+    return {"rms_ac_nm": float(np.sqrt(np.sum(amplitude ** 2) / 2.0)),
+            "orders": np.arange(1, len(amplitude) + 1), "amplitude_nm": amplitude,
+            "phase_rad": phase,
+            "amplitude_u_nm": amplitude_standard_uncertainty(per_rev)[1:],
+            "dominant_order": int(np.argmax(amplitude)) + 1, "named_order": named_order,
+            "named_amplitude_nm": None if named_order is None else float(amplitude[named_order - 1]),
+            "named_phase_rad": None if named_order is None else float(phase[named_order - 1])}
+
+
 def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAULT_MAX_ORDER,
                    named_order: int | None = None, rated_torque_nm: float | None = None,
                    instruments: InstrumentUncertainty | None = None,
@@ -183,13 +197,7 @@ def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAUL
         mean_torque_nm=mean, pk_pk_nm=pk_pk, pk_pk_pu=pk_pk_pu,
         pk_pk_rated_pu=None if rated_torque_nm is None else pk_pk / rated_torque_nm,
         rated_torque_nm=rated_torque_nm,
-        rms_ac_nm=float(np.sqrt(np.sum(amplitude ** 2) / 2.0)),
-        orders=np.arange(1, max_order + 1), amplitude_nm=amplitude, phase_rad=phase,
-        amplitude_u_nm=amplitude_standard_uncertainty(per_rev)[1:],
-        dominant_order=int(np.argmax(amplitude)) + 1, pk_pk_method=pk_pk_method,
-        named_order=named_order,
-        named_amplitude_nm=None if named_order is None else float(amplitude[named_order - 1]),
-        named_phase_rad=None if named_order is None else float(phase[named_order - 1]),
+        **spectrum_fields(amplitude, phase, per_rev, named_order), pk_pk_method=pk_pk_method,
         revolutions=revs.revolutions, samples_per_rev=revs.samples_per_rev, max_order=max_order,
         direction=travel.direction, angle_grid_rad=revs.angle_grid_rad,
         sync_average_nm=sync_average,

@@ -62,12 +62,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from hil.analysis.angle import TWO_PI, TravelAngle, check_finite, check_time, travel_angle
-from hil.analysis.metrics import RippleResult
+from hil.analysis.metrics import RippleResult, spectrum_fields
 from hil.analysis.resample import (interpolation_response, resample_revolutions,
                                    samples_per_revolution)
 from hil.analysis.spectrum import order_coefficients, reconstruct
-from hil.analysis.uncertainty import (COVERAGE_FACTOR, BudgetRow, UncertaintyBudget,
-                                      amplitude_standard_uncertainty, type_a)
+from hil.analysis.uncertainty import COVERAGE_FACTOR, BudgetRow, UncertaintyBudget, type_a
 from hil.capture import Capture
 from hil.errors import InputError
 from hil.motor import MotorParameters
@@ -160,13 +159,8 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
     named = ENVELOPE_ORDER if ENVELOPE_ORDER <= max_order else None
     return RippleResult(
         mean_torque_nm=mean_nm, pk_pk_nm=peak_nm, pk_pk_pu=pk_pk_pu, pk_pk_rated_pu=None,
-        rated_torque_nm=None, rms_ac_nm=float(np.sqrt(np.sum(amplitude ** 2) / 2.0)),
-        orders=np.arange(1, max_order + 1), amplitude_nm=amplitude, phase_rad=phase,
-        amplitude_u_nm=amplitude_standard_uncertainty(per_rev)[1:],
-        dominant_order=int(np.argmax(amplitude)) + 1, pk_pk_method=PK_PK_METHOD,
-        named_order=named,
-        named_amplitude_nm=None if named is None else float(amplitude[named - 1]),
-        named_phase_rad=None if named is None else float(phase[named - 1]),
+        rated_torque_nm=None, **spectrum_fields(amplitude, phase, per_rev, named),
+        pk_pk_method=PK_PK_METHOD,
         revolutions=env_revs.revolutions, samples_per_rev=env_revs.samples_per_rev,
         max_order=int(max_order), direction=travel.direction,
         angle_grid_rad=env_revs.angle_grid_rad,
