@@ -212,9 +212,18 @@ class LabInfo:
     operator: str = _key("", "str")
 
 
+@dataclass(frozen=True)
+class RequirementsRef:
+    """``[requirements]``: the user's requirements file ([[requirement]] tables, see
+    :mod:`hil.requirements`), judged on every run of this bench unless ``--requirements`` is given."""
+
+    file: Path | None = _key(None, "path")
+
+
 _SECTIONS: dict[str, type] = {"drive": DriveConfig, "daq": DaqConfig, "torque": TorqueConfig,
-                              "limits": Limits, "operating_point": OperatingPoint, "lab": LabInfo}
-_TOP_KEYS = ("simulated", "motor", *_SECTIONS, "instrument")
+                              "limits": Limits, "operating_point": OperatingPoint, "lab": LabInfo,
+                              "requirements": RequirementsRef}
+_TOP_KEYS = ("simulated", "motor", *_SECTIONS, "instrument", "simulation")
 
 
 # --------------------------------------------------------------------------- the bench
@@ -233,10 +242,14 @@ class BenchConfig:
     operating_point: OperatingPoint
     instruments: tuple[InstrumentEntry, ...]
     lab: LabInfo
+    requirements: RequirementsRef = field(default_factory=RequirementsRef)
     source: str | None = field(default=None, compare=False)  # bench file path, or a label
     sha256: str | None = field(default=None, compare=False)  # of the file bytes (or canonical JSON)
     raw: dict = field(default_factory=dict, repr=False, compare=False)
     base_dir: Path | None = field(default=None, repr=False, compare=False)
+    #: ``[simulation.defects]``: test-only defects of the simulated drive (``hil.sim.defects``
+    #: field names -> values, validated); empty on a real bench and by default
+    sim_defects: dict = field(default_factory=dict)
 
     @classmethod
     def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,
@@ -258,8 +271,10 @@ class BenchConfig:
                     for name, section_cls in _SECTIONS.items()}
         motor, motor_identity = _parse_motor(d.get("motor", {}), ctx)
         instruments = _parse_instruments(d.get("instrument", []), ctx)
+        sim_defects = _parse_simulation(d.get("simulation", {}), ctx)
         bench = cls(simulated=simulated, motor=motor, motor_identity=motor_identity,
                     instruments=instruments, source=source, raw=_plain(d),
+                    sim_defects=sim_defects,
                     sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
                     base_dir=ctx.base_dir, **sections)
         bench._check(ctx)
@@ -333,6 +348,8 @@ class BenchConfig:
         for name in _SECTIONS:
             out[name] = _section_to_dict(getattr(self, name))
         out["instrument"] = [_section_to_dict(entry) for entry in self.instruments]
+        if self.sim_defects:
+            out["simulation"] = {"defects": dict(self.sim_defects)}
         return out
 
     def with_overrides(self, changes: dict) -> "BenchConfig":
@@ -516,6 +533,28 @@ def _parse_instruments(entries: Any, ctx: _Context) -> tuple[InstrumentEntry, ..
             ctx.fail(f"instrument: role {role!r} appears {roles.count(role)} times; "
                      f"each role is one instrument")
     return parsed
+
+
+def _parse_simulation(table: Any, ctx: _Context) -> dict:
+    """``[simulation]``: only ``defects`` (test-only, ``hil.sim.defects``), only when simulated."""
+    if not isinstance(table, dict):
+        ctx.fail(f"simulation must be a table ([simulation]), got {type(table).__name__}")
+    _reject_unknown(table.keys(), ("defects",), "simulation", ctx)
+    defects = table.get("defects", {})
+    if not isinstance(defects, dict):
+        ctx.fail(f"simulation.defects must be a table ([simulation.defects]), "
+                 f"got {type(defects).__name__}")
+    if not defects:
+        return {}
+    if not ctx.simulated:
+        ctx.fail("simulation.defects are test-only defects of the simulated drive; they are "
+                 "allowed only with simulated = true")
+    from hil.sim.defects import DriveDefects   # only here: hil.sim loads the compiled engine
+
+    try:
+        return DriveDefects.from_dict(defects).to_dict()
+    except InputError as exc:
+        ctx.fail(str(exc))
 
 
 # --------------------------------------------------------------------------- helpers

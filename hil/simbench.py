@@ -14,6 +14,14 @@ import uuid
 from hil.config import BenchConfig
 
 
+def twin_config(bench: BenchConfig):
+    """The ``hil.sim.DriveConfig`` of the drive a simulated bench file describes: its
+    ``[motor]`` nameplate (the twin's defaults otherwise)."""
+    from hil.sim import DriveConfig, MotorModel
+
+    return DriveConfig(motor=MotorModel(parameters=bench.motor))
+
+
 class SimulatedBench:
     """Start and stop the simulated drive, DAQ and torque transducer for ``config``.
 
@@ -26,10 +34,12 @@ class SimulatedBench:
         if not config.simulated:
             raise ValueError("SimulatedBench needs a bench file with simulated = true")
         from hil.sim import DriveTwin
+        from hil.sim.defects import DriveDefects
 
         self.config = config
         self.cross_process = cross_process
-        self.twin = DriveTwin(seed=seed)
+        self.twin = DriveTwin(twin_config(config), seed=seed,
+                              defects=DriveDefects.from_dict(config.sim_defects))
         self._started: list = []
         self.drive = None
         self.daq = None

@@ -26,6 +26,10 @@ def register(subparsers) -> None:
     parser.add_argument("--duration-s", type=float, default=None,
                         help="stop after this many seconds (default: until Ctrl-C / SIGTERM)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulated drive")
+    parser.add_argument("--defect", metavar="KEY=VALUE", action="append", default=[],
+                        help="test-only defect of the simulated drive (repeatable; overrides the "
+                        "bench file's [simulation.defects]), e.g. injection_scale=1.2, "
+                        "ignore_injection=dead_time_s,ia_offset_a, daq_drop_every_nth=10")
     parser.set_defaults(func=run)
 
 
@@ -56,6 +60,11 @@ def run(args) -> int:
     config = load_bench(args.bench) if args.bench else default_sim_bench()
     if not config.simulated:
         raise InputError(f"--bench {args.bench}: not a simulated bench (simulated = false)")
+    if args.defect:
+        from hil.sim.defects import parse_defect_option
+
+        defects = dict(parse_defect_option(text) for text in args.defect)
+        config = config.with_overrides({"simulation": {"defects": defects}})
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     simulated = SimulatedBench(config, seed=args.seed, cross_process=True)

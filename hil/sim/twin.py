@@ -16,6 +16,7 @@ import numpy as np
 
 from hil.sim import layout as L
 from hil.sim.config import DriveConfig, check_current_command, check_speed
+from hil.sim.defects import DriveDefects
 from hil.sim.engine import sample_count
 from hil.sim.injection import Injection
 from hil.sim.kernel import run_drive
@@ -24,11 +25,19 @@ from hil.sim.results import name_channels, transducer_gain_error
 
 
 class DriveTwin:
-    """Simulated drive under test on a speed-holding dyno (see COMMON.md for the contract)."""
+    """Simulated drive under test on a speed-holding dyno (see COMMON.md for the contract).
 
-    def __init__(self, config: DriveConfig | None = None, *, seed: int = 0) -> None:
+    ``defects`` (test-only, ``hil.sim.defects``): the drive reads back the commanded injection
+    (``injection``) but simulates ``defects.applied(injection)``; the transducer reading
+    ``torque_nm`` (which the DAQ and the serial transducer both serve) is scaled by
+    ``defects.transducer_scale``.
+    """
+
+    def __init__(self, config: DriveConfig | None = None, *, seed: int = 0,
+                 defects: DriveDefects | None = None) -> None:
         self.lock = threading.RLock()
         self._config = config if config is not None else DriveConfig()
+        self.defects = defects if defects is not None else DriveDefects()
         self._state = new_state()
         self._rng = np.random.default_rng(seed)
         self._gain_error_pu = transducer_gain_error(self._config, self._rng)
@@ -102,7 +111,11 @@ class DriveTwin:
             if not settle_s >= 0:
                 raise ValueError(f"settle_s must be >= 0, got {settle_s!r}")
             n = sample_count(duration_s, sample_rate_hz)
-            params = pack_params(self._config)
+            simulated = self._config
+            if self.defects.active:
+                simulated = replace(simulated,
+                                    injection=self.defects.applied(simulated.injection))
+            params = pack_params(simulated)
             dt = 1.0 / sample_rate_hz
             if settle_s > 0:
                 self._state = run_drive(params, self._state.copy(), self.time_s + settle_s, dt,
@@ -113,6 +126,8 @@ class DriveTwin:
                                     self.time_s + duration_s)
             self.time_s += duration_s
             channels = name_channels(out, self._config, self._gain_error_pu, self._rng)
+            if self.defects.transducer_scale != 1.0:
+                channels["torque_nm"] = channels["torque_nm"] * self.defects.transducer_scale
             if n:
                 self._latest = {name: float(channels[name][-1]) for name in
                                 ("torque_nm", "torque_em_nm", "speed_rpm", "ia_a", "ib_a",

@@ -1,0 +1,184 @@
+"""Test-only defects of the simulated drive, for mutation testing of the test plans.
+
+A real bench has none of these. Each one makes the simulated bench misbehave in a way a plan
+ought to notice (issue 13 item 3): the drive acknowledges an injection but does not apply it, or
+applies it mis-scaled; a current sensor carries an offset nobody injected; the firmware's word is
+shorter or longer than commanded; the torque transducer (and the DAQ's torque channel) reads
+scaled; the DAQ drops samples. ``DriveTwin(defects=...)`` applies them (see :meth:`applied`), the
+simulated DAQ server reads ``daq_drop_every_nth``; the bench file states them in
+``[simulation.defects]`` (allowed only with ``simulated = true``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+from hil.errors import InputError
+from hil.sim.injection import Injection
+
+#: knobs scaled by ``injection_scale`` when set away from their default (word length has its own
+#: defect; hall_mode is a switch, not a magnitude)
+SCALED_KNOBS = tuple(name for name in Injection.FIELDS
+                     if name not in ("hall_mode", "word_length_bits"))
+_INTEGER_KNOBS = ("encoder_decimation", "pwm_period_counts")
+
+
+@dataclass(frozen=True)
+class DriveDefects:
+    """Test-only defects of the simulated bench (mutation testing); a real bench has none."""
+
+    ignore_injection: tuple[str, ...] = ()  # knob names, or ("*",): acknowledged and read back, never applied
+    injection_scale: float = 1.0            # applied numeric injections x this (read-back shows the commanded value)
+    hidden_ia_offset_a: float = 0.0         # current-sensor offsets present with nothing injected, A
+    hidden_ib_offset_a: float = 0.0
+    word_length_offset_bits: int = 0        # firmware runs with (injected word length + this) bits
+    transducer_scale: float = 1.0           # torque transducer reading (and the DAQ torque channel) x this
+    daq_drop_every_nth: int = 0             # simulated DAQ silently drops every n-th sample (0 = never)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.ignore_injection, (list, str)):
+            object.__setattr__(self, "ignore_injection", _knob_names(self.ignore_injection))
+        self._validate()
+
+    # ---- construction ----------------------------------------------------------------------
+    @classmethod
+    def from_dict(cls, d: dict) -> "DriveDefects":
+        """Defects from a table (bench file ``[simulation.defects]``, CLI ``--defect`` pairs).
+
+        ``ignore_injection`` may be a list of knob names or one comma-separated string. Any bad
+        key or value raises InputError naming it and what is allowed.
+        """
+        if not isinstance(d, dict):
+            raise InputError(f"simulation.defects must be a table, got {type(d).__name__}")
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(d) - set(names))
+        if unknown:
+            raise InputError(f"unknown simulated-drive defect(s) {unknown}; allowed: "
+                             f"{', '.join(names)}")
+        values = dict(d)
+        if "ignore_injection" in values:
+            values["ignore_injection"] = _knob_names(values["ignore_injection"])
+        for name in ("injection_scale", "hidden_ia_offset_a", "hidden_ib_offset_a",
+                     "transducer_scale"):
+            if name in values:
+                values[name] = _number(name, values[name])
+        for name in ("word_length_offset_bits", "daq_drop_every_nth"):
+            if name in values:
+                values[name] = _integer(name, values[name])
+        return cls(**values)
+
+    def to_dict(self) -> dict:
+        """Only the fields that differ from their default (empty: no defect)."""
+        out = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if value != f.default:
+                out[f.name] = list(value) if isinstance(value, tuple) else value
+        return out
+
+    @property
+    def active(self) -> bool:
+        return bool(self.to_dict())
+
+    def describe(self) -> str:
+        """One line for a record or report page: ``"injection_scale=1.2, daq_drop_every_nth=10"``."""
+        return ", ".join(f"{key}={','.join(value) if isinstance(value, list) else value}"
+                         for key, value in self.to_dict().items())
+
+    # ---- what the drive applies -------------------------------------------------------------
+    def applied(self, commanded: Injection) -> Injection:
+        """The injection the defective drive actually runs with, given the commanded one.
+
+        Order: ignored knobs fall back to their defaults; knobs set away from their default are
+        scaled by ``injection_scale`` (integers rounded, all clipped to the knob's range); the
+        hidden sensor offsets are added (clipped to ±20 A); a non-zero word length is moved by
+        ``word_length_offset_bits`` (clipped to 6..32 bits; floating point stays floating).
+        """
+        if not self.active:
+            return commanded
+        ranges = Injection.ranges()
+        values = commanded.as_dict()
+        ignored = Injection.FIELDS if "*" in self.ignore_injection else self.ignore_injection
+        for name in ignored:
+            values[name] = ranges[name].default
+        if self.injection_scale != 1.0:
+            for name in SCALED_KNOBS:
+                low, high, default, _ = ranges[name]
+                if values[name] != default:
+                    scaled = values[name] * self.injection_scale
+                    if name in _INTEGER_KNOBS:
+                        scaled = int(round(scaled))
+                    values[name] = min(max(scaled, low), high)
+        for name, hidden in (("ia_offset_a", self.hidden_ia_offset_a),
+                             ("ib_offset_a", self.hidden_ib_offset_a)):
+            low, high, _, _ = ranges[name]
+            values[name] = min(max(values[name] + hidden, low), high)
+        if values["word_length_bits"] and self.word_length_offset_bits:
+            values["word_length_bits"] = int(min(max(
+                values["word_length_bits"] + self.word_length_offset_bits, 6), 32))
+        return replace(commanded, **values)
+
+    # ---- checks ------------------------------------------------------------------------------
+    def _validate(self) -> None:
+        for name in self.ignore_injection:
+            if name != "*" and name not in Injection.FIELDS:
+                raise InputError(f"simulation.defects.ignore_injection: unknown knob {name!r}; "
+                                 f"allowed: '*' or {', '.join(Injection.FIELDS)}")
+        for name, low, high in (("injection_scale", 0.0, 10.0), ("transducer_scale", 0.0, 10.0)):
+            value = getattr(self, name)
+            if not low < value <= high:
+                raise InputError(f"simulation.defects.{name} = {value!r} is out of range; "
+                                 f"allowed > {low:g} and <= {high:g}")
+        for name in ("hidden_ia_offset_a", "hidden_ib_offset_a"):
+            value = getattr(self, name)
+            if not -20.0 <= value <= 20.0:
+                raise InputError(f"simulation.defects.{name} = {value!r} A is out of range; "
+                                 f"allowed -20..20 A")
+        if not -16 <= self.word_length_offset_bits <= 16:
+            raise InputError(f"simulation.defects.word_length_offset_bits = "
+                             f"{self.word_length_offset_bits!r} is out of range; allowed -16..16")
+        if self.daq_drop_every_nth != 0 and not 2 <= self.daq_drop_every_nth <= 1_000_000:
+            raise InputError(f"simulation.defects.daq_drop_every_nth = "
+                             f"{self.daq_drop_every_nth!r} is out of range; allowed 0 (never) "
+                             f"or 2..1000000")
+
+
+def parse_defect_option(text: str) -> tuple[str, object]:
+    """``"KEY=VALUE"`` of a ``--defect`` / ``--hil-sim-defect`` option -> (key, value).
+
+    VALUE is read as a TOML value where it is one (``1.05``, ``10``, ``true``), else as a string
+    (``ignore_injection=dead_time_s,ia_offset_a``); :meth:`DriveDefects.from_dict` checks it.
+    """
+    import tomllib
+
+    key, sep, raw = text.partition("=")
+    key, raw = key.strip(), raw.strip()
+    if not sep or not key or not raw:
+        raise InputError(f"defect {text!r} must be written KEY=VALUE, e.g. injection_scale=1.2")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def _knob_names(value) -> tuple[str, ...]:
+    if isinstance(value, str):
+        value = [part.strip() for part in value.split(",") if part.strip()]
+    if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+        raise InputError(f"simulation.defects.ignore_injection = {value!r} must be a list of "
+                         f"knob names (or \"*\")")
+    return tuple(value)
+
+
+def _number(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"simulation.defects.{name} = {value!r} must be a finite number")
+    return float(value)
+
+
+def _integer(name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise InputError(f"simulation.defects.{name} = {value!r} must be an integer")
+    return value
