@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 from hil.analysis import ANALYSES, DecisionRule, RippleResult, Verdict, decide, run_analysis
@@ -26,6 +27,8 @@ BASELINE = "baseline"
 DEFAULT_REVOLUTIONS = 8
 #: Angle-grid points per period of the highest analysed order (the analysis needs >= 8).
 POINTS_PER_PERIOD = 10
+#: What a recorded point is for (the record contract's ``kind``).
+KINDS = ("measurement", "self_check", "ripple_map", "diagnosis", "other")
 
 
 @dataclass(frozen=True)
@@ -50,11 +53,18 @@ class PointPlan:
     analysis: str = "torque"
     settle_s: float = 0.05
     sample_rate_hz: float | None = None
-    rule: DecisionRule = field(default_factory=DecisionRule)
+    rule: DecisionRule | None = field(default_factory=DecisionRule)
     prediction_params: dict = field(default_factory=dict)
     expectation: str | None = None
+    kind: str = "measurement"
+    requirements: tuple = ()
+    #: ``checks(capture, result, plan, bench) -> list[dict]``: bench self-checks on this point's
+    #: capture (:mod:`hil.selfcheck`); recorded as the entry's ``checks``, any failure fails it.
+    checks: Callable | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise InputError(f"kind={self.kind!r}; allowed: {', '.join(KINDS)}")
         if self.revolutions < 2:
             raise InputError(f"revolutions={self.revolutions} must be >= 2 (type A needs scatter)")
         if self.analysis not in ANALYSES:
@@ -83,61 +93,119 @@ class PointPlan:
 
 @dataclass
 class PointOutcome:
-    """Everything one point produced; ``entry`` is what went into the run record."""
+    """Everything one point produced; ``entry`` is what went into the run record.
+
+    ``verdict`` is the model-validation verdict (None for a point without one);
+    ``requirements`` the requirement verdicts (dicts, :func:`hil.requirements.judge`).
+    """
 
     test_id: str
     result: RippleResult
-    prediction: Prediction
-    verdict: Verdict
-    predicted_pk_pk_pu_of_mean: float
+    prediction: Prediction | None
+    verdict: Verdict | None
+    predicted_pk_pk_pu_of_mean: float | None
     entry: dict
+    requirements: list = field(default_factory=list)
+    checks: list = field(default_factory=list)
+
+    @property
+    def failed_requirements(self) -> list[dict]:
+        return [r for r in self.requirements if not r["accepted"]]
+
+    @property
+    def failed_checks(self) -> list[dict]:
+        return [c for c in self.checks if not c["passed"]]
+
+    @property
+    def passed(self) -> bool:
+        """The model verdict (if any) passes, every requirement is accepted, every self-check
+        holds."""
+        return ((self.verdict is None or self.verdict.guarded_pass)
+                and not self.failed_requirements and not self.failed_checks)
 
     def summary(self) -> str:
-        return (f"{self.test_id}: measured {self.result.pk_pk_pu:.4f} pu "
+        text = (f"{self.test_id}: measured {self.result.pk_pk_pu:.4f} pu "
                 f"(U={self.result.uncertainty.expanded_pu:.4f}, dominant order "
-                f"{self.result.dominant_order}) vs predicted {self.predicted_pk_pk_pu_of_mean:.4f} pu "
-                f"(order {self.prediction.order}) -> {self.verdict.decision}: {self.verdict.reason}")
+                f"{self.result.dominant_order})")
+        if self.verdict is not None:
+            text += (f" vs predicted {self.verdict.predicted_pk_pk_pu:.4f} pu of the nameplate "
+                     f"torque (order {self.prediction.order}) -> {self.verdict.decision}: "
+                     f"{self.verdict.reason}")
+        for req in self.requirements:
+            text += f"; {req['statement']}"
+        for item in self.failed_checks:
+            text += (f"; self-check {item['name']} FAILED: {item['measured']:.4g} vs "
+                     f"{item['expected']:.4g} ± {item['tolerance']:.2g} {item['unit']}")
+        return text
 
 
 def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, *,
-                  nodeid: str | None = None) -> PointOutcome:
-    """Run one point on ``bench`` and record it; raises after recording if anything fails."""
+                  nodeid: str | None = None, requirements=()) -> PointOutcome:
+    """Run one point on ``bench`` and record it; raises after recording if anything fails.
+
+    The model verdict compares pk-pk per unit of the *nameplate* mean torque K_t·I·cos φ (the
+    paper's base, :attr:`hil.model.OperatingPoint.mean_torque_nm`) on both sides, so that a weak
+    drive or a transducer scale error cannot move the prediction; the variant per unit of the
+    measured mean torque is recorded beside it. ``requirements`` (the run's) and
+    ``plan.requirements`` are judged when they apply to this point.
+    """
+    from hil.requirements import applicable, check_unique, judge
+
     started = utc_now()
     entry = {"test_id": test_id, "nodeid": nodeid or test_id, "source": plan.source,
-             "started_utc": started, "injection": dict(plan.injection),
+             "kind": plan.kind, "started_utc": started, "injection": dict(plan.injection),
              "operating_point": {"speed_rpm": plan.speed_rpm, "current_a": plan.current_a,
                                  "current_angle_rad": plan.current_angle_rad,
                                  "dc_bus_v": bench.config.motor.dc_bus_v},
              "notes": [plan.expectation] if plan.expectation else []}
     pole_pairs = bench.config.motor.pole_pairs
+    chosen = applicable(tuple(requirements) + tuple(plan.requirements), source=plan.source,
+                        speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                        injection=plan.injection)
+    prediction = verdict = predicted_pu = nameplate_nm = None
     try:
+        check_unique(chosen)
         bench.check_command(current_a=plan.current_a, speed_rpm=plan.speed_rpm)
         capture = _acquire(bench, record, test_id, plan, pole_pairs)
         settings = analysis_settings(plan, bench)
         result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
-        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                            current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
-        prediction = _predict(plan, op)
-        # Same base on both sides: the prediction in N·m over the *measured* mean torque.
-        predicted_pu = prediction.pk_pk_nm / abs(result.mean_torque_nm)
-        order = int(round(prediction.order)) if prediction.order is not None else None
-        if order is not None and order > plan.max_order:
-            raise InputError(f"{test_id}: predicted order {order} is above max_order "
-                             f"{plan.max_order}; raise the plan's max_order")
-        verdict = decide(result, predicted_pu, order, plan.rule)
+        if plan.rule is not None:
+            op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                                current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
+            prediction = _predict(plan, op)
+            nameplate_nm = op.mean_torque_nm
+            predicted_pu = prediction.pk_pk_nm / nameplate_nm
+            order = int(round(prediction.order)) if prediction.order is not None else None
+            if order is not None and order > plan.max_order:
+                raise InputError(f"{test_id}: predicted order {order} is above max_order "
+                                 f"{plan.max_order}; raise the plan's max_order")
+            verdict = decide(result, predicted_pu, order, plan.rule,
+                             base_scale=abs(result.mean_torque_nm) / nameplate_nm)
+        judged = [judge(req, result) for req in chosen]
+        checks = plan.checks(capture, result, plan, bench) if plan.checks else None
     except BaseException as exc:
         entry.update(outcome="error", error=f"{type(exc).__name__}: {exc}")
         _add_safely(record, entry)
         raise
+    accepted = ((verdict is None or verdict.guarded_pass) and all(r["accepted"] for r in judged)
+                and all(c["passed"] for c in checks or ()))
+    if checks is not None:
+        entry["checks"] = checks
     entry.update(
-        outcome="passed" if verdict.guarded_pass else "failed",
+        outcome="passed" if accepted else "failed",
         measured=result.to_dict() | {"analysis_settings": settings},
-        prediction=_thinned(prediction.to_dict()) | {"pk_pk_pu_of_measured_mean": predicted_pu},
         uncertainty=result.uncertainty.to_dict(),
-        verdict=verdict.to_dict(),
+        requirements=judged,
+        verdict=verdict.to_dict() if verdict is not None else None,
     )
+    if prediction is not None:
+        entry["prediction"] = _thinned(prediction.to_dict()) | {
+            "pk_pk_pu_of_nameplate_mean": predicted_pu,
+            "nameplate_mean_torque_nm": nameplate_nm,
+            "pk_pk_pu_of_measured_mean": prediction.pk_pk_nm / abs(result.mean_torque_nm)}
     record.add_test(entry)
-    return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry)
+    return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry, judged,
+                        checks or [])
 
 
 def analysis_settings(plan: PointPlan, bench: Bench) -> dict:

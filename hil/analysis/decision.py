@@ -104,14 +104,21 @@ class Verdict:
 
 
 def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: int | None = None,
-           rule: DecisionRule | None = None) -> Verdict:
-    """Compare ``measured.pk_pk_pu`` (with its expanded U) and spectrum with a prediction."""
+           rule: DecisionRule | None = None, *, base_scale: float = 1.0) -> Verdict:
+    """Compare ``measured.pk_pk_pu`` (with its expanded U) and spectrum with a prediction.
+
+    ``base_scale`` re-expresses the measured pk-pk and its U per unit of another base torque
+    (``|measured mean| / base``), e.g. the nameplate mean torque K_t·I·cos φ that the prediction
+    is stated in; 1 keeps the measured mean torque as the base.
+    """
     rule = rule or DecisionRule()
+    if not (math.isfinite(base_scale) and base_scale > 0):
+        raise InputError(f"base_scale must be a finite number > 0, got {base_scale!r}")
     if not (math.isfinite(predicted_pk_pk_pu) and predicted_pk_pk_pu >= 0):
         raise InputError(f"predicted_pk_pk_pu must be a finite number >= 0, "
                          f"got {predicted_pk_pk_pu!r}")
-    value = measured.pk_pk_pu
-    expanded = measured.uncertainty.expanded_pu
+    value = measured.pk_pk_pu * base_scale
+    expanded = measured.uncertainty.expanded_pu * base_scale
     if not (math.isfinite(value) and math.isfinite(expanded)):
         raise InputError(f"the measurement has no finite pk_pk_pu ({value!r}) or expanded "
                          f"uncertainty ({expanded!r}); a verdict needs >= 2 revolutions and a "
