@@ -58,8 +58,8 @@ class Capture:
         buffer = io.BytesIO()
         arrays = {f"ch_{name}": np.asarray(values) for name, values in self.channels.items()}
         header = json.dumps({"units": self.units, "meta": self.meta}, sort_keys=True, default=str)
-        np.savez_compressed(buffer, __header__=np.frombuffer(header.encode(), dtype=np.uint8),
-                            **arrays)
+        # stored, not deflated: sampled noise does not compress (issue 17 item 3)
+        np.savez(buffer, __header__=np.frombuffer(header.encode(), dtype=np.uint8), **arrays)
         return buffer.getvalue()
 
     def save(self, path: str | os.PathLike) -> str:

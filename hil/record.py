@@ -1,11 +1,18 @@
 """Run records: one folder per run, ``record.json`` plus ``captures/<test-id>.npz``.
 
-The record is written test by test and every write is atomic (temp file + rename), so a crash or
-Ctrl-C keeps each finished test. A test's raw capture is saved *before* it is analysed
-(:meth:`RunRecord.save_capture`); until its test entry is added, the capture is listed under
-``pending_captures`` so its SHA-256 is never lost. ``status`` is ``running`` until
-:meth:`RunRecord.finish` sets ``complete``, ``interrupted`` or ``failed``; a record left
-``running`` was cut short. Schema: ``"format": "ripple-hil-record/1"`` (see the fields below).
+Writing costs O(new data) and survives a crash (issue 17 item 3): :meth:`RunRecord.create` writes
+``record.json`` once with the run's header (status ``running``, no tests); every later change —
+a capture saved, a test entry, an outcome, a section — is one line appended (and fsynced) to
+``journal.jsonl``; :meth:`RunRecord.finish` writes the whole ``record.json`` once, seals it with
+``record.sha256`` and removes the journal. :func:`load_record` replays a journal it finds, so a
+run killed mid-way reads back with every event it had written and status ``running``.
+
+A test's raw capture is saved *before* it is analysed (:meth:`RunRecord.save_capture`); until its
+test entry is added, the capture is listed under ``pending_captures`` so its SHA-256 is never lost.
+Every pytest outcome has an entry (``passed``, ``failed``, ``error``, ``skipped``, ``xfailed``,
+``xpassed``, ``not run``), whether or not the test measured. ``status`` is ``running`` until
+:meth:`RunRecord.finish` sets one of :data:`FINAL_STATUSES`: ``complete`` only when every
+selected test ran to its end on a live bench. Schema: ``"format": "ripple-hil-record/2"``.
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ import hashlib
 import importlib.metadata
 import json
 import math
+import os
 import platform
 import re
 import secrets
@@ -30,18 +38,38 @@ from hil.capture import Capture, atomic_write_bytes
 from hil.config import BenchConfig
 from hil.errors import HilError, InputError
 
-FORMAT = "ripple-hil-record/1"
+FORMAT = "ripple-hil-record/2"
+#: Formats :func:`load_record` reads (version 1: record.json rewritten per test, no seal).
+READABLE_FORMATS = (FORMAT, "ripple-hil-record/1")
 RECORD_FILE = "record.json"
+JOURNAL_FILE = "journal.jsonl"
+SEAL_FILE = "record.sha256"
 CAPTURE_DIR = "captures"
-STATUSES = ("running", "complete", "interrupted", "failed")
+#: ``complete``: every selected test ran to its end on a live bench; ``interrupted``: Ctrl-C;
+#: ``aborted``: the bench was lost (``run.abort`` says which instrument and when); ``stopped``:
+#: pytest stopped early (-x / --maxfail); ``partial-selection``: some collected points were
+#: deselected (-k, -m, --deselect); ``failed``: the session itself failed (internal error).
+STATUSES = ("running", "complete", "interrupted", "aborted", "stopped", "partial-selection",
+            "failed")
 FINAL_STATUSES = STATUSES[1:]
-OUTCOMES = ("passed", "failed", "error", "skipped")
+OUTCOMES = ("passed", "failed", "error", "skipped", "xfailed", "xpassed", "not run")
+#: Outcomes that make a statement of conformity impossible to give as PASS.
+BAD_OUTCOMES = ("failed", "error", "xpassed")
+KINDS = ("measurement", "self_check", "ripple_map", "diagnosis", "other")
+PHASES = ("setup", "call", "teardown")
 #: Distributions whose versions every record lists.
 PACKAGES = ("numpy", "scipy", "numba", "python-can", "canopen", "pymodbus", "pyserial",
             "matplotlib", "fpdf2", "pytest")
-_TEST_KEYS = ("test_id", "nodeid", "source", "started_utc", "finished_utc", "outcome",
-              "injection", "operating_point", "capture", "measured", "prediction",
-              "uncertainty", "verdict", "notes", "error")
+_TEST_KEYS = ("test_id", "nodeid", "source", "kind", "started_utc", "finished_utc", "outcome",
+              "phase", "message", "injection", "operating_point", "capture", "measured",
+              "prediction", "uncertainty", "verdict", "requirements", "checks", "notes", "error")
+#: Test-entry fields that :meth:`RunRecord.update_test` may change after the entry is added.
+_UPDATABLE_KEYS = ("outcome", "phase", "message", "kind", "requirements", "checks", "notes",
+                   "finished_utc", "error")
+#: Top-level keys that :meth:`RunRecord.set_section` must not replace.
+_RESERVED = ("format", "record_id", "created_utc", "finished_utc", "status", "software", "bench",
+             "instruments", "tests", "pending_captures", "calibration_overrides",
+             "decision_rule")
 _INSTRUMENT_KEYS = ("role", "model", "serial_number", "range", "accuracy_class", "resolution",
                     "calibration_date", "calibration_due")
 
@@ -163,15 +191,18 @@ class RunRecord:
         self.path = Path(path)
         self.data = data
         self._lock = threading.RLock()
+        self._journal = None
 
     # ------------------------------------------------------------------ create / open
     @classmethod
     def create(cls, root: str | Path, bench: BenchConfig, instruments: list[dict], *,
-               decision_rule: dict | None = None, name: str | None = None) -> "RunRecord":
-        """Start a record in ``root/<name or record_id>`` and write its first ``record.json``.
+               decision_rule: dict | None = None, name: str | None = None,
+               sections: dict | None = None) -> "RunRecord":
+        """Start a record in ``root/<name or record_id>`` and write its header ``record.json``.
 
         ``instruments``: identities as queried from the instruments (see
-        :func:`instrument_table`). ``decision_rule`` may also be set later, before the first test.
+        :func:`instrument_table`). ``decision_rule`` may also be set later, before the first test;
+        ``sections``: top-level sections known at the start (``run``, ``lab``, ``sim_defects``).
         """
         record_id = new_record_id()
         folder = Path(root) / (safe_test_name(name) if name else record_id)
@@ -190,11 +221,16 @@ class RunRecord:
             "instruments": instrument_table(bench, instruments),
             "calibration_overrides": [],
             "decision_rule": to_jsonable(decision_rule or {}),
+            "requirements_source": None,
+            "sim_defects": {},
             "tests": [],
             "pending_captures": [],
         }
+        for key, value in (sections or {}).items():
+            _check_section_name(key)
+            data[key] = to_jsonable(value)
         record = cls(folder, data)
-        record._write()
+        _write_json(folder / RECORD_FILE, data)
         return record
 
     @classmethod
@@ -230,6 +266,11 @@ class RunRecord:
     def tests(self) -> list[dict]:
         return self.data["tests"]
 
+    def test(self, test_id: str) -> dict | None:
+        """The entry of ``test_id``, or None if it has none yet."""
+        with self._lock:
+            return next((t for t in self.data["tests"] if t["test_id"] == test_id), None)
+
     # ------------------------------------------------------------------ writing
     def set_decision_rule(self, rule: dict) -> None:
         """Store the decision rule; refused once a test is recorded (agreed before measuring)."""
@@ -238,8 +279,15 @@ class RunRecord:
             if self.data["tests"]:
                 raise HilError("record: the decision rule must be agreed before the first test "
                                f"is recorded; {len(self.data['tests'])} test(s) already are")
-            self.data["decision_rule"] = to_jsonable(rule)
-            self._write()
+            self._apply({"event": "decision_rule", "rule": to_jsonable(rule)})
+
+    def set_section(self, name: str, data: dict) -> None:
+        """Store a top-level section (``diagnosis``, ``run``, ``requirements_source``, …);
+        a later call for the same name replaces it."""
+        _check_section_name(name)
+        with self._lock:
+            self._require_running()
+            self._apply({"event": "section", "name": name, "data": to_jsonable(data)})
 
     def add_calibration_override(self, role: str, serial_number: str, due: str | date,
                                  reason: str, by: str) -> None:
@@ -248,10 +296,9 @@ class RunRecord:
             raise InputError("record: a calibration override needs a reason and a name (by)")
         with self._lock:
             self._require_running()
-            self.data["calibration_overrides"].append(to_jsonable(
+            self._apply({"event": "override", "override": to_jsonable(
                 {"role": role, "serial_number": serial_number, "due": due, "reason": reason,
-                 "by": by}))
-            self._write()
+                 "by": by})})
 
     def save_capture(self, test_id: str, capture: Capture) -> dict:
         """Write the raw capture of ``test_id`` to ``captures/`` now, before any analysis.
@@ -271,47 +318,49 @@ class RunRecord:
             info = {"file": relative, "sha256": sha256, "n_samples": len(capture),
                     "sample_rate_hz": to_jsonable(capture.meta.get("sample_rate_hz",
                                                                    _rate_from_time(capture)))}
-            self.data["pending_captures"].append({"test_id": test_id, **info})
-            self._write()
+            self._apply({"event": "capture", "capture": {"test_id": test_id, **info}})
         return info
 
     def add_test(self, entry: dict) -> dict:
-        """Append one test's entry and rewrite ``record.json`` atomically.
+        """Append one test's entry (one journal line).
 
-        ``entry`` needs ``test_id`` and ``outcome`` (passed | failed | error | skipped); the
-        other keys of the schema default to null/empty. A capture saved for this ``test_id``
-        and not named in ``entry['capture']`` is attached. Sub-dicts are stored as given
-        (numpy values converted). Returns the stored entry.
+        ``entry`` needs ``test_id`` and ``outcome`` (one of :data:`OUTCOMES`); the other keys of
+        the schema default to null/empty. A capture saved for this ``test_id`` and not named in
+        ``entry['capture']`` is attached. Sub-dicts are stored as given (numpy values
+        converted). Returns the stored entry.
         """
         if not isinstance(entry, dict):
             raise InputError(f"record: a test entry must be a dict, got {type(entry).__name__}")
-        unknown = sorted(set(entry) - set(_TEST_KEYS))
-        if unknown:
-            raise InputError(f"record: unknown test entry key(s) {unknown}; allowed: "
-                             f"{', '.join(_TEST_KEYS)}")
+        _check_keys(entry, _TEST_KEYS, "test entry")
         test_id = entry.get("test_id")
         safe_test_name(test_id)  # validates
-        if entry.get("outcome") not in OUTCOMES:
-            raise InputError(f"record: test {test_id!r} outcome = {entry.get('outcome')!r}; "
-                             f"allowed: {', '.join(OUTCOMES)}")
+        _check_fields(test_id, {"outcome": entry.get("outcome")} | entry)
         with self._lock:
             self._require_running()
-            if any(test["test_id"] == test_id for test in self.data["tests"]):
+            if self.test(test_id) is not None:
                 raise HilError(f"record: test {test_id!r} is already recorded")
             stored = {key: None for key in _TEST_KEYS} | {"notes": []}
             stored |= to_jsonable(entry)
             stored["finished_utc"] = stored["finished_utc"] or utc_now()
-            pending = self.data["pending_captures"]
-            for item in [p for p in pending if p["test_id"] == test_id]:
-                pending.remove(item)
-                if stored["capture"] is None:
-                    stored["capture"] = {k: v for k, v in item.items() if k != "test_id"}
-            self.data["tests"].append(stored)
-            self._write()
-        return stored
+            self._apply({"event": "test", "entry": stored})
+        return self.test(test_id)
+
+    def update_test(self, test_id: str, **fields: Any) -> dict:
+        """Change fields of a recorded entry (``outcome``, ``phase``, ``message``, ``kind``,
+        ``requirements``, ``checks``, ``notes``, ``finished_utc``, ``error``): e.g. a user
+        assertion after ``measure()`` failed the test that the measurement had recorded."""
+        _check_keys(fields, _UPDATABLE_KEYS, "updatable test field")
+        _check_fields(test_id, fields)
+        with self._lock:
+            self._require_running()
+            if self.test(test_id) is None:
+                raise HilError(f"record: test {test_id!r} is not recorded; add it first")
+            self._apply({"event": "update", "test_id": test_id, "fields": to_jsonable(fields)})
+        return self.test(test_id)
 
     def finish(self, status: str = "complete") -> None:
-        """Close the record with ``complete``, ``interrupted`` or ``failed``."""
+        """Close the record with one of :data:`FINAL_STATUSES`: write the whole ``record.json``
+        once, seal it (``record.sha256``), remove the journal."""
         if status not in FINAL_STATUSES:
             raise InputError(f"record: finish status = {status!r}; allowed: "
                              f"{', '.join(FINAL_STATUSES)}")
@@ -319,29 +368,102 @@ class RunRecord:
             self._require_running()
             self.data["status"] = status
             self.data["finished_utc"] = utc_now()
-            self._write()
+            raw = _write_json(self.path / RECORD_FILE, self.data)
+            atomic_write_bytes(self.path / SEAL_FILE,
+                               f"{hashlib.sha256(raw).hexdigest()}  {RECORD_FILE}\n".encode())
+            self._close_journal()
+            journal = self.path / JOURNAL_FILE
+            if journal.exists():
+                journal.unlink()
 
     def verify_captures(self) -> list[str]:
         """Problems with the capture files the record names (missing, altered, outside)."""
         return verify_captures(self.path, self.data)
 
+    # ------------------------------------------------------------------ internals
     def _require_running(self) -> None:
         if self.data["status"] != "running":
             raise HilError(f"record {self.record_id}: already finished "
                            f"({self.data['status']}); it cannot be changed")
 
-    def _write(self) -> None:
-        text = json.dumps(self.data, indent=2, allow_nan=False) + "\n"
-        atomic_write_bytes(self.path / RECORD_FILE, text.encode("utf-8"))
+    def _apply(self, event: dict) -> None:
+        """Append ``event`` to the journal (flushed and fsynced), then apply it in memory."""
+        line = json.dumps(event, allow_nan=False, separators=(",", ":")) + "\n"
+        if self._journal is None:
+            self._journal = open(self.path / JOURNAL_FILE, "a", encoding="utf-8")
+        self._journal.write(line)
+        self._journal.flush()
+        os.fsync(self._journal.fileno())
+        apply_event(self.data, event)
+
+    def _close_journal(self) -> None:
+        if self._journal is not None:
+            self._journal.close()
+            self._journal = None
+
+
+def apply_event(data: dict, event: dict) -> None:
+    """Apply one journal event to a record dict (the writer and :func:`load_record` share it)."""
+    kind = event.get("event")
+    if kind == "capture":
+        data["pending_captures"].append(event["capture"])
+    elif kind == "test":
+        stored = dict(event["entry"])
+        pending = data["pending_captures"]
+        for item in [p for p in pending if p.get("test_id") == stored["test_id"]]:
+            pending.remove(item)
+            if stored.get("capture") is None:
+                stored["capture"] = {k: v for k, v in item.items() if k != "test_id"}
+        data["tests"].append(stored)
+    elif kind == "update":
+        entry = next(t for t in data["tests"] if t["test_id"] == event["test_id"])
+        entry.update(event["fields"])
+    elif kind == "section":
+        data[event["name"]] = event["data"]
+    elif kind == "override":
+        data["calibration_overrides"].append(event["override"])
+    elif kind == "decision_rule":
+        data["decision_rule"] = event["rule"]
+    else:
+        raise InputError(f"record journal: unknown event {kind!r}")
+
+
+def _check_keys(entry: dict, allowed: tuple[str, ...], what: str) -> None:
+    unknown = sorted(set(entry) - set(allowed))
+    if unknown:
+        raise InputError(f"record: unknown {what} key(s) {unknown}; allowed: "
+                         f"{', '.join(allowed)}")
+
+
+def _check_fields(test_id: str, fields: dict) -> None:
+    for key, allowed in (("outcome", OUTCOMES), ("kind", KINDS), ("phase", PHASES)):
+        if key in fields and not (fields[key] is None and key != "outcome") \
+                and fields[key] not in allowed:
+            raise InputError(f"record: test {test_id!r} {key} = {fields[key]!r}; allowed: "
+                             f"{', '.join(allowed)}")
+
+
+def _check_section_name(name: str) -> None:
+    if not isinstance(name, str) or not re.fullmatch(r"[a-z][a-z0-9_]*", name) \
+            or name in _RESERVED:
+        raise InputError(f"record: section name {name!r} must be a lower-case identifier and "
+                         f"not one of {', '.join(_RESERVED)}")
+
+
+def _write_json(path: Path, data: dict) -> bytes:
+    raw = (json.dumps(data, indent=1, allow_nan=False) + "\n").encode("utf-8")
+    atomic_write_bytes(path, raw)
+    return raw
 
 
 # ---------------------------------------------------------------------- reading
 
 def load_record(path: str | Path) -> dict:
-    """Read and check a record (folder or ``record.json``): format, status and test entries.
+    """Read and check a record (folder or ``record.json``), replaying an unfinished run's
+    journal: format, status and test entries.
 
-    Capture hashes are checked by :func:`verify_captures`, not here (reading every capture is
-    slow for long runs).
+    Capture hashes and the seal are checked by :func:`verify_record`, not here (reading every
+    capture is slow for long runs).
     """
     folder = _record_folder(path)
     file = folder / RECORD_FILE
@@ -353,13 +475,18 @@ def load_record(path: str | Path) -> dict:
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"record {str(folder)!r}: {RECORD_FILE} is not valid JSON "
                          f"({exc})") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
+    if not isinstance(data, dict) or data.get("format") not in READABLE_FORMATS:
         found = data.get("format") if isinstance(data, dict) else type(data).__name__
         raise InputError(f"record {str(folder)!r}: format = {found!r}; expected {FORMAT!r}")
     for key in ("record_id", "created_utc", "status", "software", "bench", "instruments",
                 "tests"):
         if key not in data:
             raise InputError(f"record {str(folder)!r}: {RECORD_FILE} lacks {key!r}")
+    data.setdefault("pending_captures", [])
+    data.setdefault("calibration_overrides", [])
+    data.setdefault("decision_rule", {})
+    if data["status"] == "running":
+        _replay_journal(folder, data)
     if data["status"] not in STATUSES:
         raise InputError(f"record {str(folder)!r}: status = {data['status']!r}; allowed: "
                          f"{', '.join(STATUSES)}")
@@ -370,10 +497,51 @@ def load_record(path: str | Path) -> dict:
                 test.get("outcome") not in OUTCOMES:
             raise InputError(f"record {str(folder)!r}: tests[{index}] needs a test_id and an "
                              f"outcome in {OUTCOMES}")
-    data.setdefault("pending_captures", [])
-    data.setdefault("calibration_overrides", [])
-    data.setdefault("decision_rule", {})
     return data
+
+
+def _replay_journal(folder: Path, data: dict) -> None:
+    """Apply every complete line of an unfinished run's journal (a torn last line is dropped:
+    the process died while writing it)."""
+    try:
+        text = (folder / JOURNAL_FILE).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"record {str(folder)!r}: cannot read {JOURNAL_FILE}: {exc}") from None
+    lines = text.split("\n")
+    for number, line in enumerate(lines[:-1], start=1):   # the last piece has no newline
+        try:
+            event = json.loads(line)
+            apply_event(data, event)
+        except (json.JSONDecodeError, KeyError, StopIteration, TypeError, AttributeError) as exc:
+            raise InputError(f"record {str(folder)!r}: {JOURNAL_FILE} line {number} is damaged "
+                             f"({type(exc).__name__})") from None
+
+
+def verify_record(folder: str | Path, data: dict | None = None) -> list[str]:
+    """Every integrity problem of a record: its seal (a finished record's ``record.json`` must
+    hash to ``record.sha256``) and every capture it names (:func:`verify_captures`)."""
+    folder = _record_folder(folder)
+    data = data if data is not None else load_record(folder)
+    return verify_seal(folder, data) + verify_captures(folder, data)
+
+
+def verify_seal(folder: str | Path, data: dict) -> list[str]:
+    """Problems with the seal of a finished record (none for a running or format-1 record)."""
+    folder = _record_folder(folder)
+    if data.get("status") == "running" or data.get("format") != FORMAT:
+        return []
+    seal = folder / SEAL_FILE
+    try:
+        expected = seal.read_text(encoding="ascii").split()[0]
+    except (OSError, UnicodeDecodeError, IndexError):
+        return [f"{RECORD_FILE} is not sealed: {SEAL_FILE} is missing or unreadable"]
+    digest = _sha256_file(folder / RECORD_FILE)
+    if digest != expected:
+        return [f"{RECORD_FILE} has SHA-256 {digest}, its seal {SEAL_FILE} says {expected}: "
+                f"the record was changed after the run finished"]
+    return []
 
 
 def verify_captures(folder: str | Path, data: dict | None = None) -> list[str]:

@@ -16,8 +16,8 @@ import pytest
 from hil.capture import Capture
 from hil.config import default_sim_bench
 from hil.errors import HilError, InputError
-from hil.record import (FORMAT, RunRecord, load_record, safe_test_name, to_jsonable,
-                        verify_captures)
+from hil.record import (FORMAT, JOURNAL_FILE, SEAL_FILE, RunRecord, load_record,
+                        safe_test_name, to_jsonable, verify_captures, verify_record)
 
 IDENTITIES = [{"role": "drive", "identity": {"vendor_id": 0x1234, "product_code": np.uint32(7),
                                              "serial_number": "SIM-DRIVE-1",
@@ -171,7 +171,7 @@ def test_load_record_rejects_foreign_files(tmp_path: Path):
     with pytest.raises(InputError, match="not valid JSON"):
         load_record(tmp_path)
     (tmp_path / "record.json").write_text(json.dumps({"format": "other/1"}))
-    with pytest.raises(InputError, match="format = 'other/1'; expected 'ripple-hil-record/1'"):
+    with pytest.raises(InputError, match="format = 'other/1'; expected 'ripple-hil-record/2'"):
         load_record(tmp_path)
 
 
@@ -227,3 +227,74 @@ def test_to_jsonable_handles_result_objects():
             return {"amplitude_nm": np.array([0.1, np.inf])}
     assert to_jsonable({"r": Result(), "p": Path("/x"), "c": 1 + 2j}) == {
         "r": {"amplitude_nm": [0.1, None]}, "p": "/x", "c": {"re": 1.0, "im": 2.0}}
+
+
+def test_writes_are_appends_and_the_summary_is_written_once(record: RunRecord):
+    """O(new data): record.json keeps its header while tests are added; each event is one
+    journal line; finish writes record.json once, seals it and removes the journal."""
+    header = (record.path / "record.json").read_bytes()
+    journal = record.path / JOURNAL_FILE
+    sizes = []
+    for i in range(4):
+        record.add_test({"test_id": f"t{i}", "outcome": "passed", "measured": {"x": [0.5] * 50}})
+        sizes.append(journal.stat().st_size)
+    assert (record.path / "record.json").read_bytes() == header
+    steps = np.diff(sizes)
+    assert np.all(np.abs(steps - steps[0]) <= 2)               # constant per test, not growing
+    assert len(journal.read_text().splitlines()) == 4
+    assert [t["test_id"] for t in load_record(record.path)["tests"]] == ["t0", "t1", "t2", "t3"]
+    record.finish("complete")
+    assert not journal.exists() and (record.path / SEAL_FILE).is_file()
+    assert json.loads((record.path / "record.json").read_text())["tests"][3]["measured"]["x"][0] \
+        == 0.5
+    assert verify_record(record.path) == []
+
+
+def test_every_pytest_outcome_and_later_updates(record: RunRecord):
+    for outcome in ("passed", "failed", "error", "skipped", "xfailed", "xpassed", "not run"):
+        record.add_test({"test_id": outcome, "outcome": outcome, "phase": "call",
+                         "kind": "other", "message": f"{outcome} because"})
+    record.update_test("passed", outcome="failed", message="AssertionError: user limit")
+    with pytest.raises(InputError, match="unknown updatable test field key"):
+        record.update_test("passed", measured={})
+    with pytest.raises(InputError, match="phase = 'run'"):
+        record.update_test("passed", phase="run")
+    with pytest.raises(HilError, match="not recorded"):
+        record.update_test("ghost", outcome="failed")
+    data = load_record(record.path)
+    entry = next(t for t in data["tests"] if t["test_id"] == "passed")
+    assert entry["outcome"] == "failed" and entry["message"] == "AssertionError: user limit"
+    assert [t["outcome"] for t in data["tests"]][1:] == ["failed", "error", "skipped", "xfailed",
+                                                         "xpassed", "not run"]
+
+
+def test_sections_are_stored_and_reserved_names_refused(record: RunRecord):
+    record.set_section("diagnosis", {"ranked": [{"source": "dc_offset", "share": np.float64(0.7)}]})
+    record.set_section("run", {"selection": {"deselected": 3}})
+    record.set_section("run", {"selection": {"deselected": 2}})
+    for bad in ("tests", "status", "Bad-Name"):
+        with pytest.raises(InputError, match="section name"):
+            record.set_section(bad, {})
+    data = load_record(record.path)
+    assert data["diagnosis"]["ranked"][0]["share"] == 0.7
+    assert data["run"] == {"selection": {"deselected": 2}}
+    record.finish("aborted")
+    assert load_record(record.path)["run"]["selection"]["deselected"] == 2
+
+
+def test_a_changed_record_json_breaks_its_seal(record: RunRecord):
+    record.add_test({"test_id": "t", "outcome": "failed"})
+    record.finish("complete")
+    path = record.path / "record.json"
+    path.write_text(path.read_text().replace('"failed"', '"passed"'))
+    problems = verify_record(record.path)
+    assert len(problems) == 1 and "changed after the run finished" in problems[0]
+    (record.path / SEAL_FILE).unlink()
+    assert "not sealed" in verify_record(record.path)[0]
+
+
+def test_a_torn_last_journal_line_is_dropped(record: RunRecord):
+    record.add_test({"test_id": "kept", "outcome": "passed"})
+    with open(record.path / JOURNAL_FILE, "a") as handle:
+        handle.write('{"event": "test", "entry": {"test_id": "half')
+    assert [t["test_id"] for t in load_record(record.path)["tests"]] == ["kept"]
