@@ -181,7 +181,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                                  f"{plan.max_order}; raise the plan's max_order")
             verdict = decide(result, predicted_pu, order, plan.rule,
                              base_scale=abs(result.mean_torque_nm) / nameplate_nm)
-        judged = [judge(req, result) for req in chosen]
+        judged = [judge(req, result, torque_accuracy_nm=_torque_accuracy_nm(bench))
+                  for req in chosen]
         checks = plan.checks(capture, result, plan, bench) if plan.checks else None
     except BaseException as exc:
         entry.update(outcome="error", error=f"{type(exc).__name__}: {exc}")
@@ -208,6 +209,13 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                         checks or [])
 
 
+def _torque_accuracy_nm(bench: Bench) -> float | None:
+    """The torque transducer's accuracy class in N·m (``% FS`` × full scale), if stated."""
+    entry = bench.config.instrument("torque")
+    pct = entry.accuracy_pct_fs() if entry is not None else None
+    return None if pct is None else pct / 100.0 * bench.config.torque.full_scale_nm
+
+
 def analysis_settings(plan: PointPlan, bench: Bench) -> dict:
     """The settings of ``hil.analysis.run_analysis`` for this point; recorded with the result."""
     settings = {"analysis": plan.analysis, "max_order": plan.max_order,
@@ -217,7 +225,10 @@ def analysis_settings(plan: PointPlan, bench: Bench) -> dict:
         return settings | {"pwm_frequency_hz": plan.injection.get("pwm_frequency_hz",
                                                                   DEFAULT_PWM_FREQUENCY_HZ),
                            "motor": {f.name: getattr(motor, f.name) for f in fields(motor)}}
-    return settings | {"named_order": plan.named_order or _order_of(plan, bench),
+    named = plan.named_order
+    if named is None and plan.rule is not None:
+        named = _order_of(plan, bench)
+    return settings | {"named_order": named,
                        "pk_pk_method": plan.pk_pk_method}
 
 

@@ -10,7 +10,9 @@ A requirement is the customer's specification line, e.g. "REQ-12: total ripple �
 * ``limit`` — ``{max = …}``, ``{min = …}`` or both, in the quantity's ``unit``;
 * where it applies — ``source`` (plan names, default every plan), ``speed_rpm`` and ``current_a``
   as a value or an inclusive ``[low, high]`` range, ``injected`` (``"none"``: only points with
-  nothing injected, the drive as it is; ``"any"``);
+  nothing injected, the drive as it is; ``"any"``), ``injection`` (a table of knob = value that
+  the point's injection must contain, e.g. ``{encoder_decimation = 100}`` for the production
+  encoder);
 * ``rule`` — ``"guarded"`` (ILAC-G8 guarded acceptance, guard band w = U, the default) or
   ``"simple"`` (ILAC-G8 simple acceptance: measured value against the limit, U reported);
 * ``demonstration`` — true for a line that exists to show the FAIL path (labelled in the report).
@@ -39,7 +41,7 @@ QUANTITIES = {"pk_pk_pct": "%", "order_amplitude_pct": "%", "rms_pct": "%",
 RULES = ("guarded", "simple")
 INJECTED = ("none", "any")
 _KEYS = {"id", "name", "quantity", "order", "limit", "unit", "source", "speed_rpm", "current_a",
-         "injected", "rule", "demonstration"}
+         "injected", "injection", "rule", "demonstration"}
 #: Decisions that accept the item under each rule (ILAC-G8: guarded acceptance accepts only when
 #: the measured value lies inside the limit by at least the guard band).
 ACCEPTED = {"guarded": ("pass",), "simple": ("pass", "conditional pass")}
@@ -59,6 +61,7 @@ class Requirement:
     speed_rpm: tuple[float, float] | None = None
     current_a: tuple[float, float] | None = None
     injected: str = "any"
+    injection: tuple[tuple[str, Any], ...] = ()
     rule: str = "guarded"
     demonstration: bool = False
     origin: str = field(default="plan", compare=False)
@@ -114,6 +117,7 @@ class Requirement:
                 parts.append(f"{low:g} {unit}" if low == high else f"{low:g}…{high:g} {unit}")
         if self.injected == "none":
             parts.append("nothing injected")
+        parts += [f"{knob} = {value}" for knob, value in self.injection]
         return ", ".join(parts) or "every point"
 
     def applies(self, *, source: str, speed_rpm: float, current_a: float,
@@ -122,6 +126,9 @@ class Requirement:
         if self.sources and source not in self.sources:
             return False
         if self.injected == "none" and injection:
+            return False
+        if any(knob not in injection or injection[knob] != value
+               for knob, value in self.injection):
             return False
         for span, value in ((self.speed_rpm, abs(speed_rpm)), (self.current_a, current_a)):
             if span is not None and not span[0] - 1e-9 <= value <= span[1] + 1e-9:
@@ -165,7 +172,9 @@ def requirement_from_dict(table: Any, *, origin: str = "plan") -> Requirement:
         order=table.get("order"), sources=sources,
         speed_rpm=_span(table.get("speed_rpm"), f"{where}: speed_rpm"),
         current_a=_span(table.get("current_a"), f"{where}: current_a"),
-        injected=table.get("injected", "any"), rule=table.get("rule", "guarded"),
+        injected=table.get("injected", "any"),
+        injection=_knobs(table.get("injection", {}), f"{where}: injection"),
+        rule=table.get("rule", "guarded"),
         demonstration=_flag(table.get("demonstration", False), f"{where}: demonstration"),
         origin=origin)
 
@@ -199,14 +208,16 @@ def check_unique(requirements) -> None:
         seen.add(req.id)
 
 
-def measured_value(req: Requirement, result) -> tuple[float, float]:
+def measured_value(req: Requirement, result, *,
+                   torque_accuracy_nm: float | None = None) -> tuple[float, float]:
     """``(value, expanded U)`` of ``req.quantity`` from a :class:`hil.analysis.RippleResult`.
 
     pk-pk: the analysis' value and its expanded uncertainty (k = 2). Order amplitude and RMS:
     per unit of the measured mean torque, U = 2 × the type-A standard uncertainty of the order's
     amplitude (for RMS, of the root-sum-square of the orders' amplitudes) combined with the
-    relative part of the pk-pk budget's instrument contribution. Mean torque: in N·m, U from the
-    transducer's accuracy class recorded in the pk-pk budget when present, else type A only.
+    relative part of the pk-pk budget's instrument contribution. Mean torque: in N·m, U = 2 ×
+    the root-sum-square of the revolutions' type-A scatter and ``torque_accuracy_nm`` (the
+    transducer's accuracy class in N·m, read as a rectangular distribution: u = a/√3).
     """
     mean = abs(result.mean_torque_nm)
     if not mean > 0:
@@ -231,12 +242,13 @@ def measured_value(req: Requirement, result) -> tuple[float, float]:
     # mean torque: the type-A scatter of the revolutions' means, k = 2
     per_rev = result.revolution_matrix_nm.mean(axis=1)
     u = float(per_rev.std(ddof=1) / math.sqrt(len(per_rev))) if len(per_rev) > 1 else math.nan
-    return float(result.mean_torque_nm), 2.0 * u
+    u_class = (torque_accuracy_nm or 0.0) / math.sqrt(3.0)
+    return float(result.mean_torque_nm), 2.0 * math.hypot(u, u_class)
 
 
-def judge(req: Requirement, result) -> dict:
+def judge(req: Requirement, result, *, torque_accuracy_nm: float | None = None) -> dict:
     """The requirement's verdict on one measurement (the record contract's dict)."""
-    value, expanded = measured_value(req, result)
+    value, expanded = measured_value(req, result, torque_accuracy_nm=torque_accuracy_nm)
     if not (math.isfinite(value) and math.isfinite(expanded)):
         raise InputError(f"requirement {req.id}: the measurement gives no finite "
                          f"{req.quantity} ({value!r} ± {expanded!r})")
@@ -282,6 +294,12 @@ def _span(value: Any, where: str) -> tuple[float, float] | None:
             raise InputError(f"{where} = {value!r}: low > high")
         return (low, high)
     raise InputError(f"{where} = {value!r} must be a number or [low, high]")
+
+
+def _knobs(value: Any, where: str) -> tuple[tuple[str, Any], ...]:
+    if not isinstance(value, dict):
+        raise InputError(f"{where} must be a table of knob = value, got {value!r}")
+    return tuple(sorted(value.items()))
 
 
 def _flag(value: Any, where: str) -> bool:

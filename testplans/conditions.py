@@ -70,7 +70,7 @@ def current_loop(bench) -> dict:
             "current_loop_delay_s": drive.current_loop_delay_s}
 
 
-def point(op, source: str, injection: dict, rule: DecisionRule, **overrides):
+def point(op, source: str, injection: dict, rule: DecisionRule | None, **overrides):
     """A :class:`hil.measurement.PointPlan` at the bench's operating point ``op`` (overridable)."""
     from hil.measurement import PointPlan
 
@@ -83,3 +83,50 @@ def sweep_id(injection: dict) -> str:
     """A readable pytest id for one injection, e.g. ``dead_time_s=1e-06``."""
     return ",".join(f"{key}={value:g}" if isinstance(value, float) else f"{key}={value}"
                     for key, value in injection.items())
+
+
+# ---------------------------------------------------------------------------- bench self-check
+#: Torque scale: measured mean torque vs nameplate K_t·I·cos φ. 3 %: the transducer's class
+#: (0.1 % FS of 5 N·m ≈ 0.5 % of the ≈ 1 N·m mean) plus a nameplate K_t tolerance of ±2 % (a
+#: typical EMF-constant tolerance of a production PMSM). A 5 % transducer scale error fails it.
+SELF_CHECK_TORQUE_TOL_PU = 0.03
+#: DAQ phase-current fundamentals vs the commanded peak current: 2 % (channel gain class 0.5 %,
+#: the current loop's steady-state error at the self-check point well below 1 %).
+SELF_CHECK_CURRENT_TOL_PU = 0.02
+#: Speed from the encoder over the DAQ time base vs the dyno setpoint: 0.5 % (a dropped sample in
+#: ten makes 11 %).
+SELF_CHECK_SPEED_TOL_PU = 0.005
+
+
+def self_check_point(op):
+    """The self-check point: the bench's operating point, nothing injected, checks attached."""
+    from hil import selfcheck
+
+    def checks(capture, result, plan, bench):
+        from hil.model import OperatingPoint
+
+        nameplate = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                                   current_angle_rad=plan.current_angle_rad,
+                                   motor=bench.config.motor).mean_torque_nm
+        pole_pairs = bench.config.motor.pole_pairs
+        return [selfcheck.torque_scale(capture, nameplate, SELF_CHECK_TORQUE_TOL_PU),
+                *selfcheck.current_channels(capture, plan.current_a, pole_pairs,
+                                            SELF_CHECK_CURRENT_TOL_PU),
+                selfcheck.speed(capture, plan.speed_rpm, SELF_CHECK_SPEED_TOL_PU),
+                selfcheck.sampling(capture, plan.capture_duration_s(pole_pairs),
+                                   plan.capture_rate_hz(pole_pairs))]
+
+    return point(op, "self_check", {}, None, kind="self_check", checks=checks)
+
+
+# ---------------------------------------------------------------------------- ripple map
+#: The drive as it is (nothing injected) over speed × current. Speeds stay below 1500 rpm, where
+#: the Table I motor at 20 A needs well under the SVPWM voltage limit V_dc/√3 (hil.model).
+RIPPLE_MAP_SPEEDS_RPM = (250.0, 750.0, 1500.0)
+RIPPLE_MAP_CURRENTS_A = (5.0, 10.0, 20.0)
+RIPPLE_MAP_GRID = [(n, i) for n in RIPPLE_MAP_SPEEDS_RPM for i in RIPPLE_MAP_CURRENTS_A]
+
+
+def ripple_map_id(cell) -> str:
+    speed_rpm, current_a = cell
+    return f"{speed_rpm:g}rpm-{current_a:g}A"

@@ -34,6 +34,9 @@ def register(subparsers) -> None:
                         help="PDF report path (default: report.pdf in the record folder)")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
     parser.add_argument("--seed", type=int, default=0, help="simulated bench seed (default 0)")
+    parser.add_argument("--requirements", metavar="SPEC.toml",
+                        help="the user's ripple requirements, judged on every point they apply "
+                             "to (e.g. hil/examples/requirements.toml)")
     parser.add_argument("-x", "--exitfirst", action="store_true", help="stop at the first failure")
     parser.add_argument("pytest_args", nargs="*", metavar="PYTEST_ARG",
                         help="extra pytest arguments (after --)")
@@ -58,6 +61,11 @@ def build_pytest_args(args) -> list[str]:
         pytest_args += ["--bench", args.bench]
     if not args.no_report:
         pytest_args += ["--hil-report", args.report]
+    if args.requirements:
+        from hil.requirements import load_requirements
+
+        load_requirements(args.requirements)    # a bad file: one-line error before pytest starts
+        pytest_args += ["--requirements", args.requirements]
     if args.exitfirst:
         pytest_args.append("-x")
     return pytest_args + list(args.pytest_args)

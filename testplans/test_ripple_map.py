@@ -1,0 +1,17 @@
+"""Ripple map: the drive as it is (nothing injected) over a grid of speed × current within the
+bench limits. No model verdict: each cell records pk-pk, RMS and the order spectrum; the user's
+requirements (e.g. "≤ 3 % everywhere below 1500 rpm") judge it. The report draws the map."""
+
+import pytest
+
+from testplans import conditions as c
+
+pytestmark = pytest.mark.ripple_source("ripple_map")
+
+
+@pytest.mark.parametrize("cell", c.RIPPLE_MAP_GRID, ids=c.ripple_map_id)
+def test_ripple_map(measure, operating_point, cell):
+    speed_rpm, current_a = cell
+    outcome = measure(c.point(operating_point, "ripple_map", {}, None, kind="ripple_map",
+                              speed_rpm=speed_rpm, current_a=current_a))
+    assert outcome.passed, outcome.summary()
