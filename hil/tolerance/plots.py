@@ -1,0 +1,35 @@
+"""Histogram of the worst-point pk-pk ripple with the limit, as PNG and SVG (matplotlib, Agg)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from hil.tolerance.spec import ToleranceSpec
+
+
+def plot_histogram(ripple_pu: np.ndarray, spec: ToleranceSpec, folder: Path) -> dict[str, str]:
+    """Write ``histogram.png`` and ``histogram.svg`` in ``folder``; return their paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    worst = 100.0 * np.asarray(ripple_pu).max(axis=1)
+    limit = spec.requirement.limit_pct
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.hist(worst, bins=80, color="#4477aa")
+    ax.axvline(limit, color="#cc3311", linestyle="--", label=f"limit {limit:g} %")
+    passed = np.mean(worst <= limit)
+    ax.set_xlabel("pk-pk torque ripple, % of the mean torque (worst operating point)")
+    ax.set_ylabel("drives")
+    ax.set_title(f"{worst.size:,} drives: yield {100 * passed:.2f} %")
+    ax.legend()
+    fig.tight_layout()
+    paths = {}
+    for ext in ("png", "svg"):
+        path = folder / f"histogram.{ext}"
+        fig.savefig(path, dpi=120)
+        paths[ext] = str(path)
+    plt.close(fig)
+    return paths
