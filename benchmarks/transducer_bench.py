@@ -3,7 +3,7 @@
 Run: ``.venv/bin/python benchmarks/transducer_bench.py`` (prints one line per figure). The
 simulated transducer is backed by the real ``hil.sim.DriveTwin`` (each reading advances it one
 sample period). Figures: polled ``read()`` and pipelined ``stream(n)``, on an unpaced pty (the
-software limit) and paced to a real line's baud rate (the line limit).
+software limit) and paced to the family's published default baud rate (the line limit).
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import time
 
 from drivers.simulated.transducer_pty import SimulatedTransducer
 from drivers.torque_transducer import SerialSettings, TorqueTransducer
+from drivers.transducer_dialects import LINE_SETTINGS
 from operating_twin import operating_twin  # benchmarks/, run as a script
 
 
@@ -30,13 +31,14 @@ def main() -> None:
     twin = operating_twin()
     n = args.samples
     for dialect in ("magtrol", "himmelstein"):
-        for baud in (None, 115200):
+        published = LINE_SETTINGS[dialect].default_baudrate      # Magtrol 19200, Himmelstein 38400
+        for baud in (None, published):
             line = "unpaced pty" if baud is None else f"pty paced at {baud} baud"
             count = n if baud is None else n // 10
             with SimulatedTransducer(twin, dialect=dialect, sample_rate_hz=10000.0,
                                      pace_baud=baud) as sim, \
-                    TorqueTransducer(SerialSettings(sim.port, baudrate=baud or 115200),
-                                     dialect=dialect, timeout_s=2.0) as tt:
+                    TorqueTransducer(SerialSettings(sim.port), dialect=dialect,
+                                     timeout_s=2.0) as tt:
                 tt.read()
                 rate(f"{dialect} {line}: polled read()",
                      lambda: [tt.read() for _ in range(count // 5)], count // 5)

@@ -9,11 +9,16 @@ InstrumentTimeout; an error message from the instrument (Himmelstein ``!...``, M
 ``A``) raises DeviceFault. Readings are returned in SI (``Reading.torque_nm``) whatever unit the
 instrument is set to.
 
+Line settings follow the dialect's published family defaults (``transducer_dialects.LINE_SETTINGS``:
+Magtrol 300..19200 baud, default 19200; Himmelstein 38400; both 8N1) unless stated; a rate the
+family does not publish is refused.
+
 ``stream(n)``: neither dialect has a free-running output in the command sets we follow, so a
 stream is ``n`` back-to-back readings requested in pipelined chunks (``STREAM_CHUNK`` requests
 written at once, then their answers read), which is as fast as the line allows. Himmelstein
-readings carry the device time stamp (10 kHz ticks, ``YC``); Magtrol readings have
-``time_s=None`` and a signed speed.
+readings by ``DC`` have neither speed nor time stamp (``timestamped=True`` reads ``YC``, an
+assumed layout, with the 10 kHz device time stamp); Magtrol readings have ``time_s=None`` and a
+signed speed.
 """
 
 from __future__ import annotations
@@ -24,8 +29,8 @@ from dataclasses import dataclass
 import serial
 
 from drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout, ProtocolError
-from drivers.transducer_dialects import (DIALECTS, TORQUE_UNIT_NM, DeviceReportedError,
-                                         DialectError, Reading)
+from drivers.transducer_dialects import (TORQUE_UNIT_NM, DeviceReportedError, DialectError,
+                                         Reading, make_dialect)
 from hil.errors import InputError
 
 __all__ = ["Reading", "SerialSettings", "TorqueTransducer"]
@@ -36,13 +41,13 @@ _NON_PRINTABLE = bytes(b for b in range(256) if not 0x20 <= b < 0x7F)
 
 @dataclass(frozen=True)
 class SerialSettings:
-    """Serial line of the transducer."""
+    """Serial line of the transducer; None = the dialect's published default."""
 
     port: str
-    baudrate: int = 115200
-    bytesize: int = 8
-    parity: str = "N"
-    stopbits: int = 1
+    baudrate: int | None = None
+    bytesize: int | None = None
+    parity: str | None = None
+    stopbits: int | None = None
 
 
 class TorqueTransducer:
@@ -50,21 +55,32 @@ class TorqueTransducer:
 
     def __init__(self, settings: SerialSettings, dialect: str = "magtrol",
                  timeout_s: float = 0.5, instrument_name: str = "torque",
-                 retries: int = 1) -> None:
-        if dialect not in DIALECTS:
-            raise InputError(f"torque dialect={dialect!r}; allowed {sorted(DIALECTS)}")
+                 retries: int = 1, dialect_options: dict | None = None) -> None:
+        self.dialect = make_dialect(dialect, dialect_options)
         if not timeout_s > 0:
             raise InputError(f"torque timeout_s={timeout_s} must be > 0")
         if not 0 <= retries <= 10:
             raise InputError(f"torque retries={retries} outside 0..10")
-        self.settings = settings
-        self.dialect = DIALECTS[dialect]()
+        self.settings = self._line_settings(settings)
         self.timeout_s = timeout_s
         self.name = instrument_name
         self.retries = retries
         self._serial: serial.Serial | None = None
         self._pending = bytearray()
         self._action = ""
+
+    def _line_settings(self, settings: SerialSettings) -> SerialSettings:
+        """``settings`` with the dialect's published defaults filled in; unpublished rates refused."""
+        line = self.dialect.line
+        baudrate = settings.baudrate if settings.baudrate is not None else line.default_baudrate
+        if baudrate not in line.baudrates:
+            raise InputError(f"torque baudrate={baudrate!r} is not published for the "
+                             f"{self.dialect.name} dialect; allowed {sorted(line.baudrates)}")
+        return SerialSettings(
+            settings.port, baudrate,
+            settings.bytesize if settings.bytesize is not None else line.bytesize,
+            settings.parity if settings.parity is not None else line.parity,
+            settings.stopbits if settings.stopbits is not None else line.stopbits)
 
     # ------------------------------------------------------------------ connection
     def connect(self) -> "TorqueTransducer":
@@ -105,7 +121,7 @@ class TorqueTransducer:
 
     def set_filter(self, code: int) -> None:
         """Set the instrument's filter code (dialect's table: ``dialect.filter_cutoff_hz``)."""
-        if code not in self.dialect.filter_cutoff_hz:
+        if self.dialect.filter_cutoff_hz and code not in self.dialect.filter_cutoff_hz:
             raise InputError(f"torque filter code={code!r} for {self.dialect.name}; allowed "
                              f"{sorted(self.dialect.filter_cutoff_hz)} (cutoffs Hz "
                              f"{self.dialect.filter_cutoff_hz})")

@@ -89,6 +89,18 @@ class DriveConfig:
     #: (the loop rejects those voltage disturbances). None: not stated.
     current_loop_bandwidth_hz: float | None = _key(None, "float", lo=1.0, hi=50_000.0)
     current_loop_delay_s: float | None = _key(None, "float", lo=0.0, hi=0.01)
+    #: How the firmware's current loop is built (what the simulated bench's twin runs; on a real
+    #: bench they document the firmware): PI designed in s ("continuous": Kp = L·ωc, Ki = R·ωc)
+    #: or pole-matched in z ("discrete"); dq decoupling (−ωe·L·i cross terms) and back-EMF
+    #: feed-forward on/off; computation delay from the current sample to the compare update in
+    #: PWM periods (0, 0.5, 1 or 1.5; the PWM adds half a period, so current_loop_delay_s =
+    #: (current_loop_delay_periods + 0.5) / f_pwm); inverse-Park angle advanced by ωe × that
+    #: delay (angle compensation) on/off.
+    current_loop_design: str = _key("continuous", "str", choices=("continuous", "discrete"))
+    current_loop_decoupling: bool = _key(False, "bool")
+    current_loop_emf_feedforward: bool = _key(False, "bool")
+    current_loop_delay_periods: float = _key(1.0, "float", choices=(0.0, 0.5, 1.0, 1.5))
+    current_loop_angle_compensation: bool = _key(False, "bool")
 
 
 @dataclass(frozen=True)
@@ -126,10 +138,24 @@ class TorqueConfig:
     """``[torque]``: the in-line torque transducer on a serial line, speaking ``dialect``."""
 
     serial_port: str | None = _key(None, "str", required=_REAL)
-    baudrate: int = _key(19200, "int", choices=SERIAL_BAUDRATES)
+    #: None: the dialect family's published default (Magtrol 19200, Himmelstein 38400), filled
+    #: in on load so the record states it; a rate the family does not publish is refused.
+    baudrate: int | None = _key(None, "int", lo=300, hi=921_600)
     dialect: str = _key("magtrol", "str", choices=TORQUE_DIALECTS)
     full_scale_nm: float = _key(5.0, "float", lo=0.01, hi=10_000.0, required=_REAL)
     timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
+
+    def __post_init__(self) -> None:
+        if self.baudrate is None:
+            from drivers.transducer_dialects import LINE_SETTINGS
+            object.__setattr__(self, "baudrate", LINE_SETTINGS[self.dialect].default_baudrate)
+
+    def _check(self, path: str, ctx: "_Context") -> None:
+        from drivers.transducer_dialects import LINE_SETTINGS
+        published = LINE_SETTINGS[self.dialect].baudrates
+        if self.baudrate not in published:
+            ctx.fail(f"{path}.baudrate = {self.baudrate} is not published for the "
+                     f"{self.dialect} dialect; allowed: {', '.join(map(str, sorted(published)))}")
 
 
 @dataclass(frozen=True)

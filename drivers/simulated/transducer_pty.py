@@ -1,14 +1,27 @@
 """Simulated serial torque transducer on a pseudo-terminal, backed by a ``hil.sim.DriveTwin``.
 
 ``os.openpty`` in raw mode; the simulator holds the master end, the driver opens ``sim.port``.
-It answers the Magtrol or the Himmelstein dialect (``drivers.transducer_dialects`` documents
-both). Readings come from the twin: every data request (Magtrol ``OD``, Himmelstein ``DC``,
-``XC``, ``YC``) advances the twin by ``1 / sample_rate_hz`` under its lock and reads its latest
-transducer torque (``status()["torque_nm"]``) and speed, so n readings cover n sample periods of
-simulated time, in the same run the DAQ captures from. The instrument's own digital filter is a
+It answers the Magtrol or the Himmelstein messages as their manuals print them
+(``drivers.transducer_dialects`` lists the sources). Readings come from the twin: every data
+request (Magtrol ``OD`` / ``OD1`` / ``OD2``, Himmelstein ``DC``, ``XC``, ``YC``) advances the twin
+by ``1 / sample_rate_hz`` under its lock and reads its latest transducer torque
+(``status()["torque_nm"]``) and speed, so n readings cover n sample periods of simulated time, in
+the same run the DAQ captures from. The instrument's own digital filter (Himmelstein ``FL``) is a
 first-order low-pass at the selected cutoff, run at ``sample_rate_hz``; then tare, unit and the
-wire format's resolution apply (Magtrol: 4 decimals of the readout unit; Himmelstein: 16-bit
-counts of ``rated_torque_nm / 30000`` and ``DC`` with 4 decimals).
+wire format's resolution apply.
+
+Magtrol models (``magtrol_model``): ``"DSP6001"`` answers ``OD`` as ``SxxxxxTxxxxxR`` (speed
+right-aligned in 5 characters, no leading zeros; torque in 5 characters with the decimal point
+placed for the rated torque in the readout unit, e.g. ``S 1725T22.60R``), ``UR#``;
+``"DSP7000"`` answers ``OD1`` / ``OD2`` as ``SxxxxxxTxxxxxR`` (6 speed characters; the transducer
+is on channel 1, channel 2 reads zero), ``TS1``/``TS2``, ``TR1``/``TR2``; ``"6400"`` answers
+``OD`` with the direction-input digit appended (``S 1725T22.60R1``). ``A`` replaces the direction
+letter while the torque exceeds the rated torque (alarm). Unknown commands answer nothing (the
+DSP6001/DSP7000 show "I/O ERROR" on the panel only). ``*IDN?`` answers
+``MAGTROL,<model>,<serial>,REV 1.04`` (the manuals give no layout: our choice).
+Himmelstein: ``DC`` answers the torque in display units with 6 significant digits (the manual's
+``1234.56``), ``YC`` the assumed ``<8 hex ticks>,<4 hex counts>``; counts are 16-bit, 30000
+counts = ``rated_torque_nm``.
 
 A pty ignores the baud rate; with ``pace_baud`` every byte written or read costs 10 bits of line
 time. Fault switches for tests: ``inject_garbage`` (bytes before the next answers),
@@ -28,14 +41,15 @@ import tty
 from abc import ABC, abstractmethod
 
 from drivers.transducer_dialects import (HIMMELSTEIN_FILTER_CUTOFF_HZ, HIMMELSTEIN_TICK_HZ,
-                                         LBF_IN_NM, MAGTROL_FILTER_CUTOFF_HZ,
-                                         MAGTROL_UNIT_CODES, TORQUE_UNIT_NM, float_to_hex,
-                                         hex_to_float)
+                                         LBF_IN_NM, MAGTROL_UNIT_CODES, TORQUE_UNIT_NM,
+                                         float_to_hex, hex_to_float)
 
 log = logging.getLogger(__name__)
 
 DEFAULT_GARBAGE = bytes([0x00, 0xFF, 0x13, 0x7F, 0xA5]) + b"~?%"
 FULL_SCALE_COUNTS = 30000
+MAGTROL_MODELS = ("DSP6001", "DSP7000", "6400")
+MAGTROL_TORQUE_CHARACTERS = 5
 
 
 class _LowPass:
@@ -88,37 +102,57 @@ class _Instrument(ABC):
         """The answer line to one command (None: the command has no answer)."""
 
 
+def magtrol_torque_field(value: float, full_scale: float,
+                         characters: int = MAGTROL_TORQUE_CHARACTERS) -> str:
+    """The fixed-length torque field: ``characters`` wide, the decimal point placed so the full
+    scale fits ([DSP6000] "the decimal point location depends on the ... torque range")."""
+    integer_digits = max(1, len(str(int(abs(full_scale)))))
+    decimals = max(0, characters - 1 - integer_digits)
+    return f"{value:{characters}.{decimals}f}"
+
+
 class _Magtrol(_Instrument):
     terminator = b"\r\n"
 
-    def __init__(self, *args) -> None:
+    def __init__(self, *args, model: str = "DSP6001", direction_input: bool = True) -> None:
         super().__init__(*args)
-        self.unit = "N.m"
+        if model not in MAGTROL_MODELS:
+            raise ValueError(f"magtrol_model={model!r}; allowed {MAGTROL_MODELS}")
+        self.model = model
+        self.direction_input = direction_input
+        self.unit = "oz.in"              # [6200] UR#: power-on default 0 = oz.in
         self.tare_on = False
-        self.filter.set_cutoff(MAGTROL_FILTER_CUTOFF_HZ[0])
+
+    @property
+    def data_commands(self) -> dict[str, int]:
+        """Data command -> channel (0: the channel with nothing connected)."""
+        return {"OD1": 1, "OD2": 0} if self.model == "DSP7000" else {"OD": 1}
+
+    def _od(self, channel: int) -> str:
+        torque, speed, _ = self.sample() if channel else (0.0, 0.0, 0.0)
+        net = torque - (self.tare_nm if self.tare_on and channel else 0.0)
+        full_scale = self.rated_torque_nm / TORQUE_UNIT_NM[self.unit]
+        torque_text = magtrol_torque_field(net / TORQUE_UNIT_NM[self.unit], full_scale)
+        direction = "A" if abs(torque) > self.rated_torque_nm else ("R" if speed >= 0 else "L")
+        speed_width = 6 if self.model == "DSP7000" else 5
+        digit = ("1" if speed >= 0 else "0") if self.direction_input else "0"
+        tail = digit if self.model == "6400" else ""
+        return f"S{round(abs(speed)):{speed_width}d}T{torque_text}{direction}{tail}"
 
     def handle(self, command: str) -> str | None:
         if command == "*IDN?":
-            return f"MAGTROL,DSP7000,{self.serial_number},REV 1.04"
-        if command == "OD":
-            torque, speed, _ = self.sample()
-            net = torque - (self.tare_nm if self.tare_on else 0.0)
-            direction = "A" if abs(torque) > self.rated_torque_nm else (
-                "R" if speed >= 0 else "L")
-            return f"S{round(abs(speed))}T{net / TORQUE_UNIT_NM[self.unit]:.4f}{direction}"
-        if command == "TS1":
-            self.tare_nm, self.tare_on = self.sample()[0], True
-        elif command == "TR1":
-            self.tare_on = False
-        elif command.startswith("UR") and command[2:].isdigit():
-            code = int(command[2:])
-            if code < len(MAGTROL_UNIT_CODES):
-                self.unit = MAGTROL_UNIT_CODES[code]
-        elif command.startswith("TF") and command[2:].isdigit():
-            code = int(command[2:])
-            if code in MAGTROL_FILTER_CUTOFF_HZ:
-                self.filter.set_cutoff(MAGTROL_FILTER_CUTOFF_HZ[code])
-        return None          # setting commands are silent; unknown ones only beep on the panel
+            return f"MAGTROL,{self.model},{self.serial_number},REV 1.04"
+        if command in self.data_commands:
+            return self._od(self.data_commands[command])
+        if self.model == "DSP7000" and command in ("TS1", "TR1", "TS2", "TR2"):
+            if command == "TS1":
+                self.tare_nm, self.tare_on = self.sample()[0], True
+            elif command == "TR1":
+                self.tare_on = False
+        elif self.model != "DSP7000" and command.startswith("UR") and command[2:].isdigit():
+            code = int(command[2:])                      # [6200]: out of range -> 0 (oz.in)
+            self.unit = MAGTROL_UNIT_CODES[code if code < len(MAGTROL_UNIT_CODES) else 0]
+        return None          # setting commands are silent; unknown ones only show on the panel
 
 
 class _Himmelstein(_Instrument):
@@ -130,7 +164,7 @@ class _Himmelstein(_Instrument):
         self.display_scaling = 1.0             # display units per lbf-in (native unit)
         self.unit_name = "lbf-in"
         self.tare_counts = 0
-        self.filter_code = 2
+        self.filter_code = 6                   # [MCRT]: factory default 10 Hz
         self.filter.set_cutoff(HIMMELSTEIN_FILTER_CUTOFF_HZ[self.filter_code])
 
     def _counts(self, torque_nm: float) -> int:
@@ -143,15 +177,16 @@ class _Himmelstein(_Instrument):
             torque, _, time_s = self.sample()
             counts = max(-32768, min(32767, self._counts(torque) - self.tare_counts))
             if name == "DC":
-                return f"{counts * self.scale_lbf_in * self.display_scaling:.4f}"
+                return f"{counts * self.scale_lbf_in * self.display_scaling:#.6g}".rstrip(".")
             if name == "XC":
                 return f"{counts & 0xFFFF:04X}"
             ticks = round(time_s * HIMMELSTEIN_TICK_HZ) & 0xFFFFFFFF
             return f"{ticks:08X},{counts & 0xFFFF:04X}"
         if not arg:
-            fixed = {"MD": "MCRT48200V", "SN": self.serial_number, "VR": "v1.2",
-                     "UN": self.unit_name, "TV": str(self.tare_counts),
-                     "FL": f"{self.filter_code:02d}", "DS": float_to_hex(self.display_scaling),
+            fixed = {"MD": "MCRT48200V", "SN": self.serial_number,
+                     "VR": "Model MCRT48200V v1.2", "UN": self.unit_name,
+                     "TV": str(self.tare_counts), "FL": f"{self.filter_code:02d}",
+                     "DS": float_to_hex(self.display_scaling),
                      "SC": float_to_hex(self.scale_lbf_in) * 2}
             if name in fixed:
                 return fixed[name]
@@ -187,14 +222,15 @@ class SimulatedTransducer:
 
     def __init__(self, twin, dialect: str = "magtrol", sample_rate_hz: float = 1000.0,
                  pace_baud: int | None = None, *, serial_number: str = "SIM-TQ-0001",
-                 rated_torque_nm: float = 5.0) -> None:
+                 rated_torque_nm: float = 5.0, magtrol_model: str = "DSP6001") -> None:
         if dialect not in _DEVICES:
             raise ValueError(f"dialect={dialect!r}; allowed {sorted(_DEVICES)}")
         if not sample_rate_hz > 0:
             raise ValueError(f"sample_rate_hz={sample_rate_hz} must be > 0")
         self.dialect = dialect
+        options = {"model": magtrol_model} if dialect == "magtrol" else {}
         self.instrument = _DEVICES[dialect](twin, float(sample_rate_hz), serial_number,
-                                            rated_torque_nm)
+                                            rated_torque_nm, **options)
         self.pace_baud = pace_baud
         self.fragment = False
         self._garbage: list[bytes] = []
