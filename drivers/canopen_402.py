@@ -68,42 +68,37 @@ def state_from_statusword(statusword: int) -> str:
 
 
 def device_transition(state: str, controlword: int, previous_controlword: int) -> str:
-    """The drive-side state after receiving ``controlword`` in ``state`` (CiA 402 transitions).
+    """The drive-side state after receiving ``controlword`` in ``state`` (CiA 402-2 state machine).
 
-    Fault reset acts on the rising edge of bit 7 only. Commands not allowed in a state leave it
-    unchanged. Transition numbers follow CiA 402-2 figure "state machine".
+    Device control commands (bits 7, 3..0; x = irrelevant) and the transitions they trigger:
+    shutdown 0xxx x110 (2, 6, 8); switch on 0xxx 0111 (3); switch on + enable operation
+    0xxx 1111 (3 + 4: from READY TO SWITCH ON straight to OPERATION ENABLED); disable voltage
+    0xxx xx0x (7, 9, 10, 12); quick stop 0xxx x01x (7, 10, 11); disable operation 0xxx 0111 (5);
+    enable operation 0xxx 1111 (4, 16); fault reset: rising edge of bit 7 (15). A command not
+    allowed in a state (e.g. 0x000F in SWITCH ON DISABLED, which needs shutdown first) leaves the
+    state unchanged; so does bit 7 outside FAULT. The automatic transitions (0, 1, 13, 14) are
+    not commands. QUICK STOP ACTIVE stays until disable voltage (12) or enable operation (16),
+    i.e. quick stop option codes 5..8 (no automatic 12 after the stop).
     """
-    if state in (FAULT, FAULT_REACTION_ACTIVE):
+    if state == FAULT:
         rising_reset = controlword & 0x80 and not previous_controlword & 0x80
-        return SWITCH_ON_DISABLED if state == FAULT and rising_reset else state  # 15
-    if controlword & 0x80:
-        return state  # fault reset outside FAULT: no effect
-    enable_voltage = controlword & 0x02
-    quick_stop_inactive = controlword & 0x04
-    if not enable_voltage:
-        return SWITCH_ON_DISABLED if state != NOT_READY else state  # 7, 9, 10, 12
-    if not quick_stop_inactive:  # quick stop command x01x
-        if state == OPERATION_ENABLED:
-            return QUICK_STOP_ACTIVE  # 11
-        if state in (READY_TO_SWITCH_ON, SWITCHED_ON):
-            return SWITCH_ON_DISABLED  # 7, 10
+        return SWITCH_ON_DISABLED if rising_reset else state  # 15
+    if state in (FAULT_REACTION_ACTIVE, NOT_READY) or controlword & 0x80:
         return state
-    low = controlword & 0x0F
-    if low & 0x01 == 0:  # shutdown xx110
+    switch_on, enable_voltage = controlword & 0x01, controlword & 0x02
+    quick_stop_inactive, enable_operation = controlword & 0x04, controlword & 0x08
+    if not enable_voltage:                                       # disable voltage
+        return SWITCH_ON_DISABLED                                # 7, 9, 10, 12
+    if not quick_stop_inactive:                                  # quick stop
+        if state == OPERATION_ENABLED:
+            return QUICK_STOP_ACTIVE                             # 11
+        return SWITCH_ON_DISABLED if state in (READY_TO_SWITCH_ON, SWITCHED_ON) else state  # 7, 10
+    if not switch_on:                                            # shutdown
         if state in (SWITCH_ON_DISABLED, SWITCHED_ON, OPERATION_ENABLED):
-            return READY_TO_SWITCH_ON  # 2, 6, 8
+            return READY_TO_SWITCH_ON                            # 2, 6, 8
         return state
-    if low == CW_SWITCH_ON:
-        if state == READY_TO_SWITCH_ON:
-            return SWITCHED_ON  # 3
-        if state == OPERATION_ENABLED:
-            return SWITCHED_ON  # 5
-        return state
-    if low == CW_ENABLE_OPERATION:
-        if state == SWITCHED_ON:
-            return OPERATION_ENABLED  # 4
-        if state == READY_TO_SWITCH_ON:
-            return SWITCHED_ON  # 3 (enable operation implies switch on first)
-        if state == QUICK_STOP_ACTIVE:
-            return OPERATION_ENABLED  # 16
+    if not enable_operation:                                     # switch on / disable operation
+        return SWITCHED_ON if state in (READY_TO_SWITCH_ON, OPERATION_ENABLED) else state  # 3, 5
+    if state in (READY_TO_SWITCH_ON, SWITCHED_ON, QUICK_STOP_ACTIVE):   # switch on + enable op.
+        return OPERATION_ENABLED                                 # 3 + 4, 4, 16
     return state

@@ -30,6 +30,8 @@ def test_statusword_decodes_to_its_state(state):
     (sm.QUICK_STOP_ACTIVE, sm.CW_DISABLE_VOLTAGE, sm.SWITCH_ON_DISABLED),    # 12
     (sm.QUICK_STOP_ACTIVE, sm.CW_ENABLE_OPERATION, sm.OPERATION_ENABLED),    # 16
     (sm.SWITCH_ON_DISABLED, sm.CW_ENABLE_OPERATION, sm.SWITCH_ON_DISABLED),  # not allowed
+    (sm.READY_TO_SWITCH_ON, sm.CW_ENABLE_OPERATION, sm.OPERATION_ENABLED),   # 3 + 4
+    (sm.SWITCH_ON_DISABLED, sm.CW_SWITCH_ON, sm.SWITCH_ON_DISABLED),         # not allowed
     (sm.FAULT, sm.CW_SHUTDOWN, sm.FAULT),                                    # only reset leaves
 ])
 def test_device_transitions(state, controlword, expected):
