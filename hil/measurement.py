@@ -271,13 +271,17 @@ def _predict(plan: PointPlan, op: OperatingPoint) -> Prediction:
     return predict(plan.source, op, **plan.injection, **plan.prediction_params)
 
 
-def _order_of(plan: PointPlan, bench: Bench) -> int | None:
+def predicted_order(plan: PointPlan, motor) -> int | None:
+    """The electrical order the plan's closed form predicts (None: no single order)."""
     op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                        current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
+                        current_angle_rad=plan.current_angle_rad, motor=motor)
     order = _predict(plan, op).order
-    if order is None or order > plan.max_order:
-        return None
-    return int(round(order))
+    return None if order is None else int(round(order))
+
+
+def _order_of(plan: PointPlan, bench: Bench) -> int | None:
+    order = predicted_order(plan, bench.config.motor)
+    return None if order is None or order > plan.max_order else order
 
 
 #: Most points of a predicted waveform kept in the record (0.5° electrical over a revolution).

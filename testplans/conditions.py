@@ -54,7 +54,7 @@ PWM_RESOLUTION_SWEEP = [{"pwm_period_counts": c} for c in (32, 64, 128)]
 #: PWM switching frequency sweep (paper eqs 29-31); the capture samples the currents fast.
 PWM_SWITCHING_SWEEP = [{"pwm_frequency_hz": f} for f in (10_000.0, 20_000.0, 40_000.0)]
 DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (1e-6, 2e-6, 4e-6)]
-def current_loop(bench) -> dict:
+def current_loop(config) -> dict:
     """The drive's current-loop bandwidth and delay from the bench file's ``[drive]`` table.
 
     The dead-time and PWM-resolution expectations need them (the loop rejects those voltage
@@ -62,7 +62,7 @@ def current_loop(bench) -> dict:
     """
     from hil.errors import InputError
 
-    drive = bench.config.drive
+    drive = config.drive
     if drive.current_loop_bandwidth_hz is None or drive.current_loop_delay_s is None:
         raise InputError("bench file [drive] current_loop_bandwidth_hz and current_loop_delay_s "
                          "are needed by this plan (from the drive firmware's documentation)")

@@ -8,6 +8,10 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("baseline")
 
 
-def test_baseline(measure, operating_point):
-    outcome = measure(c.point(operating_point, "baseline", {}, c.BASELINE_RULE))
+def plan(config):
+    return c.point(config.operating_point, "baseline", {}, c.BASELINE_RULE)
+
+
+def test_baseline(measure, bench):
+    outcome = measure(plan(bench.config))
     assert outcome.passed, outcome.summary()

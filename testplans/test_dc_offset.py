@@ -9,9 +9,13 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("dc_offset")
 
 
+def plan(config, offset_a_pu, offset_b_pu):
+    op = config.operating_point
+    injection = {"ia_offset_a": offset_a_pu * op.current_a, "ib_offset_a": offset_b_pu * op.current_a}
+    return c.point(op, "dc_offset", injection, c.CLOSED_FORM_RULE)
+
+
 @pytest.mark.parametrize("offset_a_pu, offset_b_pu", c.DC_OFFSET_SWEEP_PU)
-def test_dc_offset(measure, operating_point, offset_a_pu, offset_b_pu):
-    amplitude_a = operating_point.current_a
-    injection = {"ia_offset_a": offset_a_pu * amplitude_a, "ib_offset_a": offset_b_pu * amplitude_a}
-    outcome = measure(c.point(operating_point, "dc_offset", injection, c.CLOSED_FORM_RULE))
+def test_dc_offset(measure, bench, offset_a_pu, offset_b_pu):
+    outcome = measure(plan(bench.config, offset_a_pu, offset_b_pu))
     assert outcome.passed, outcome.summary()

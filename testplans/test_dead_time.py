@@ -13,12 +13,15 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("dead_time")
 
 
-@pytest.mark.parametrize("injection", c.DEAD_TIME_SWEEP, ids=c.sweep_id)
-def test_dead_time(measure, bench, operating_point, injection):
-    plan = c.point(operating_point, "dead_time", injection, c.DERIVED_ESTIMATE_RULE,
-                   prediction_params={"model": "average_voltage", **c.current_loop(bench)},
+def plan(config, injection):
+    return c.point(config.operating_point, "dead_time", injection, c.DERIVED_ESTIMATE_RULE,
+                   prediction_params={"model": "average_voltage", **c.current_loop(config)},
                    expectation="judged against the average-voltage-error model with the current "
                                "loop's rejection; the paper's eq 38 per-event step is recorded "
                                "for comparison only")
-    outcome = measure(plan)
+
+
+@pytest.mark.parametrize("injection", c.DEAD_TIME_SWEEP, ids=c.sweep_id)
+def test_dead_time(measure, bench, injection):
+    outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()

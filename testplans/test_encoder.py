@@ -11,12 +11,15 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("encoder")
 
 
-@pytest.mark.parametrize("injection", c.ENCODER_SWEEP, ids=c.sweep_id)
-def test_encoder_resolution(measure, operating_point, injection):
+def plan(config, injection):
     # The ripple is a staircase: its pk-pk is taken from the angle bins ("bins"), on a grid fine
     # enough for the 2.5° steps (order 144) to hold several bins per step.
-    outcome = measure(c.point(operating_point, "encoder", injection, c.CLOSED_FORM_RULE,
-                              speed_rpm=c.ENCODER_SPEED_RPM,
-                              current_angle_rad=c.ENCODER_CURRENT_ANGLE_RAD,
-                              max_order=360, pk_pk_method="bins", revolutions=4))
+    return c.point(config.operating_point, "encoder", injection, c.CLOSED_FORM_RULE,
+                   speed_rpm=c.ENCODER_SPEED_RPM, current_angle_rad=c.ENCODER_CURRENT_ANGLE_RAD,
+                   max_order=360, pk_pk_method="bins", revolutions=4)
+
+
+@pytest.mark.parametrize("injection", c.ENCODER_SWEEP, ids=c.sweep_id)
+def test_encoder_resolution(measure, bench, injection):
+    outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()

@@ -14,13 +14,16 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("pwm_resolution")
 
 
-@pytest.mark.parametrize("injection", c.PWM_RESOLUTION_SWEEP, ids=c.sweep_id)
-def test_pwm_resolution(measure, bench, operating_point, injection):
-    plan = c.point(operating_point, "pwm_resolution", injection, c.BOUND_RULE,
+def plan(config, injection):
+    return c.point(config.operating_point, "pwm_resolution", injection, c.BOUND_RULE,
                    prediction_params={"model": "closed_loop",
                                       "current_loop_bandwidth_hz":
-                                          c.current_loop(bench)["current_loop_bandwidth_hz"]},
+                                          c.current_loop(config)["current_loop_bandwidth_hz"]},
                    expectation="judged against the closed-loop bound; the paper's open-loop "
                                "eq 28 is recorded for comparison only")
-    outcome = measure(plan)
+
+
+@pytest.mark.parametrize("injection", c.PWM_RESOLUTION_SWEEP, ids=c.sweep_id)
+def test_pwm_resolution(measure, bench, injection):
+    outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()

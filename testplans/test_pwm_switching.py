@@ -55,12 +55,15 @@ EXPECTATION = ("judged against the switched-circuit torque ripple of the drive's
                "comparison only (prediction.extras.paper_pk_pk_pu)")
 
 
-@pytest.mark.parametrize("injection", c.PWM_SWITCHING_SWEEP, ids=c.sweep_id)
-def test_pwm_switching(measure, operating_point, injection):
-    plan = c.point(operating_point, "pwm_switching", injection, c.CLOSED_FORM_RULE,
+def plan(config, injection):
+    return c.point(config.operating_point, "pwm_switching", injection, c.CLOSED_FORM_RULE,
                    analysis="switching",
                    sample_rate_hz=SAMPLE_RATE_HZ[injection["pwm_frequency_hz"]],
                    revolutions=REVOLUTIONS,
                    max_order=MAX_ORDER, prediction_params=PREDICTION, expectation=EXPECTATION)
-    outcome = measure(plan)
+
+
+@pytest.mark.parametrize("injection", c.PWM_SWITCHING_SWEEP, ids=c.sweep_id)
+def test_pwm_switching(measure, bench, injection):
+    outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()

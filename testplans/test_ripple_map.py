@@ -9,9 +9,13 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("ripple_map")
 
 
-@pytest.mark.parametrize("cell", c.RIPPLE_MAP_GRID, ids=c.ripple_map_id)
-def test_ripple_map(measure, operating_point, cell):
+def plan(config, cell):
     speed_rpm, current_a = cell
-    outcome = measure(c.point(operating_point, "ripple_map", {}, None, kind="ripple_map",
-                              speed_rpm=speed_rpm, current_a=current_a))
+    return c.point(config.operating_point, "ripple_map", {}, None, kind="ripple_map",
+                   speed_rpm=speed_rpm, current_a=current_a)
+
+
+@pytest.mark.parametrize("cell", c.RIPPLE_MAP_GRID, ids=c.ripple_map_id)
+def test_ripple_map(measure, bench, cell):
+    outcome = measure(plan(bench.config, cell))
     assert outcome.passed, outcome.summary()

@@ -13,6 +13,10 @@ from testplans import conditions as c
 pytestmark = pytest.mark.ripple_source("self_check")
 
 
-def test_bench_self_check(measure, operating_point):
-    outcome = measure(c.self_check_point(operating_point))
+def plan(config):
+    return c.self_check_point(config.operating_point)
+
+
+def test_bench_self_check(measure, bench):
+    outcome = measure(plan(bench.config))
     assert outcome.passed, outcome.summary()

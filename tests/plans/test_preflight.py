@@ -1,0 +1,100 @@
+"""Pre-flight (hil.preflight): a bad point is found from the bench file, the EDS and the DAQ map
+alone, before any bench command; every shipped plan point passes it on the simulated bench."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from hil.config import default_sim_bench
+from hil.measurement import PointPlan
+from hil.preflight import check_point, voltage_limit_v, voltage_needed_v
+from hil.requirements import requirement_from_dict
+from testplans import conditions as c
+
+CONFIG = default_sim_bench()
+
+
+def point(**overrides):
+    settings = {"source": "dc_offset", "injection": {"ia_offset_a": 0.2}, "speed_rpm": 500.0,
+                "current_a": 20.0, "rule": c.CLOSED_FORM_RULE}
+    return PointPlan(**settings | overrides)
+
+
+def test_a_good_point_has_no_problem():
+    assert check_point(point(), CONFIG) == []
+
+
+@pytest.mark.parametrize("overrides, message", [
+    ({"speed_rpm": 3500.0}, "exceeds limits.speed_rpm"),
+    ({"current_a": 80.0}, "limits.current_a"),
+    ({"speed_rpm": 2900.0}, "peak phase voltage"),
+    ({"source": "gain_mismatch", "injection": {"ia_gain_error_pu": 0.01}, "max_order": 1},
+     "predicted order 2 is above the analysed band"),
+    ({"injection": {"ia_offset_a": 1e6}}, "ia_offset_a"),
+    ({"injection": {"ia_ofset_a": 0.2}}, "not a knob of the drive's EDS"),
+    ({"speed_rpm": 30.0, "revolutions": 400}, "buffer_capacity_samples"),
+    ({"sample_rate_hz": 500_000.0}, "max_sample_rate_hz"),
+    ({"sample_rate_hz": 1000.0, "max_order": 48}, "above what 1000 Hz can resolve"),
+])
+def test_each_kind_of_bad_point_is_named(overrides, message):
+    problems = check_point(point(**overrides), CONFIG)
+    assert any(message in p for p in problems), problems
+
+
+def test_a_requirement_on_an_order_outside_the_band_is_refused():
+    req = requirement_from_dict({"id": "REQ-7", "name": "order 36", "quantity":
+                                 "order_amplitude_pct", "order": 36, "limit": {"max": 1.0}})
+    problems = check_point(point(max_order=24), CONFIG, [req])
+    assert any("REQ-7" in p and "order 36" in p for p in problems), problems
+
+
+def test_voltage_limit_of_the_table_i_motor():
+    # the SVPWM limit is V_dc/√3; the no-load EMF alone reaches it near the motor's top speed
+    assert voltage_limit_v(CONFIG) == pytest.approx(12.0 / 3 ** 0.5)
+    assert voltage_needed_v(CONFIG, 500, 20, 0.0) < voltage_limit_v(CONFIG)
+    assert voltage_needed_v(CONFIG, 3000, 20, 0.0) > voltage_limit_v(CONFIG)
+
+
+def test_every_shipped_plan_point_passes_preflight(tmp_path):
+    """Collecting the shipped plans runs the pre-flight on every point (the plugin's hook)."""
+    folder = Path(c.__file__).parent
+    result = subprocess.run([sys.executable, "-m", "pytest", str(folder), "--collect-only", "-q",
+                             "-p", "no:cacheprovider", "--hil-record", str(tmp_path / "r")],
+                            capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    collected = [line for line in result.stdout.splitlines() if "::test_" in line]
+    assert len(collected) >= 25
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_bad_plan_fails_at_collection_and_nothing_is_sent(tmp_path):
+    plan_file = tmp_path / "test_user_plan.py"
+    plan_file.write_text(textwrap.dedent('''
+        import pytest
+        from hil.measurement import PointPlan
+        from testplans import conditions as c
+
+        pytestmark = pytest.mark.ripple_source("gain_mismatch")
+
+        def plan(config, speed_rpm):
+            return PointPlan(source="gain_mismatch", injection={"ia_gain_error_pu": 0.01},
+                             speed_rpm=speed_rpm, current_a=20.0, rule=c.CLOSED_FORM_RULE)
+
+        @pytest.mark.parametrize("speed_rpm", [500.0, 3500.0])
+        def test_user(measure, bench, speed_rpm):
+            outcome = measure(plan(bench.config, speed_rpm))
+            assert outcome.passed, outcome.summary()
+    '''))
+    records = tmp_path / "records"
+    result = subprocess.run([sys.executable, "-m", "pytest", str(plan_file), "-p",
+                             "no:cacheprovider", "--hil-record", str(records)],
+                            capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == pytest.ExitCode.USAGE_ERROR, result.stdout + result.stderr
+    assert "pre-flight refused" in result.stderr
+    assert "speed_rpm-3500" in result.stderr or "3500" in result.stderr
+    assert not records.exists()          # the bench was never opened: no record, no command
