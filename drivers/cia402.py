@@ -50,6 +50,11 @@ NMT_OPERATIONAL = 5
 CONSUMER_HEARTBEAT_INDEX = 0x1016
 HEARTBEAT_COB_BASE = 0x700
 DEFAULT_MASTER_NODE_ID = 0x7F
+#: 0x1018 sub-indices read when the EDS lists them: (sub, identity key, what).
+IDENTITY_SUBS = ((1, "vendor", "vendor-ID"), (2, "product", "product code"),
+                 (3, "revision", "revision number"), (4, "serial", "serial number"))
+#: Optional CiA 301 text objects read when the EDS lists them.
+OPTIONAL_TEXT_OBJECTS = ((0x1008, "device_name"), (0x100A, "firmware"))
 
 _NEXT_COMMAND_TOWARDS_ENABLED = {
     sm.SWITCH_ON_DISABLED: sm.CW_SHUTDOWN,
@@ -99,6 +104,7 @@ class Cia402Drive:
         self._last_heartbeat: float | None = None
         self._heartbeat_state: int | None = None
         self._connected_at: float | None = None
+        self._producer_period_s = self.producer_heartbeat_ms / 1000.0
         self._emcy: canopen.emcy.EmcyError | None = None
         self._identity: dict | None = None
         self._rated_torque_cache_nm: float | None = None
@@ -186,8 +192,7 @@ class Cia402Drive:
                                   f"device type 0x{device_type:08X} is not a CiA 402 device")
             self._identity = self._read_identity()
             node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO configuration allowed
-            producer_ms = max(1, int(self.heartbeat_timeout_s * 1000 / 4))
-            self._write_verified(0x1017, producer_ms, f"{action}: set producer heartbeat time")
+            self._write_verified(0x1017, self.producer_heartbeat_ms, f"{action}: set producer heartbeat time")
             self._start_master_heartbeat(action)
             self._configure_pdos(action)
             with self._heartbeat_update:
@@ -201,6 +206,11 @@ class Cia402Drive:
             self.close()
             raise
         return self
+
+    @property
+    def producer_heartbeat_ms(self) -> int:
+        """The drive's heartbeat period written to 0x1017: a quarter of the consumer time."""
+        return max(1, int(self.heartbeat_timeout_s * 1000 / 4))
 
     @property
     def consumer_heartbeat_entry(self) -> int:
@@ -293,17 +303,24 @@ class Cia402Drive:
         self.close()
 
     def _read_identity(self) -> dict:
-        def text(index):
-            value = self.sdo_read(index, action=f"read identity 0x{index:04X}")
-            return value if isinstance(value, str) else bytes(value).decode("ascii", "replace")
-        return {
-            "vendor": self.sdo_read(0x1018, 1, action="read identity vendor-ID 0x1018:01"),
-            "product": self.sdo_read(0x1018, 2, action="read identity product 0x1018:02"),
-            "revision": self.sdo_read(0x1018, 3, action="read identity revision 0x1018:03"),
-            "serial": self.sdo_read(0x1018, 4, action="read identity serial 0x1018:04"),
-            "device_name": text(0x1008),
-            "firmware": text(0x100A),
-        }
+        """CiA 301 identity: 0x1018 (mandatory; sub 1 vendor-ID mandatory, subs 2..4 optional)
+        and the optional 0x1008 device name / 0x100A software version, each read only when the
+        EDS lists it (a device need not have them)."""
+        od = self._require_node("read identity").object_dictionary
+        if 0x1018 not in od or 1 not in od[0x1018]:
+            raise self._error(ProtocolError, "read identity",
+                              "the EDS lacks the mandatory identity object 0x1018:01")
+        identity = {}
+        for sub, key, what in IDENTITY_SUBS:
+            if sub in od[0x1018]:
+                identity[key] = self.sdo_read(0x1018, sub,
+                                              action=f"read identity {what} 0x1018:{sub:02X}")
+        for index, key in OPTIONAL_TEXT_OBJECTS:
+            if index in od:
+                value = self.sdo_read(index, action=f"read identity 0x{index:04X}")
+                identity[key] = value if isinstance(value, str) else \
+                    bytes(value).decode("ascii", "replace")
+        return identity
 
     def identity(self) -> dict:
         """Vendor-ID, product code, revision, serial number, device name, firmware version."""
@@ -318,23 +335,33 @@ class Cia402Drive:
             self._heartbeat_state = nmt_state
             self._heartbeat_update.notify_all()
 
-    def _heartbeat_resumes(self) -> bool:
-        """After a silence, wait one more timeout for a heartbeat before calling it lost.
+    def _check_heartbeat(self, action: str) -> None:
+        """HeartbeatLost once the drive has been silent for the consumer time (CiA 301).
 
-        This process's own receive thread may have been starved (GIL, loaded machine), in which
-        case queued heartbeats arrive at once; a producer that is really silent stays silent.
+        Tolerance: one producer period. A check made between the consumer time and one producer
+        period after it waits until then for a heartbeat already on its way (this process's
+        receive thread may lag on a loaded machine); a producer that is really silent is declared
+        lost at most one producer period after the consumer time. The message states the silence
+        measured when it is raised.
         """
         with self._heartbeat_update:
-            seen = self._last_heartbeat
-            deadline = time.monotonic() + self.heartbeat_timeout_s
-            while self._last_heartbeat == seen:
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return False
+            last = self._last_heartbeat
+            since = last if last is not None else self._connected_at
+            if since is None or time.monotonic() - since <= self.heartbeat_timeout_s:
+                return
+            grace_end = since + self.heartbeat_timeout_s + self._producer_period_s
+            while self._last_heartbeat == last and (remaining := grace_end - time.monotonic()) > 0:
                 self._heartbeat_update.wait(remaining)
-        logger.warning("%s: heartbeat late (consumer timeout %s s)", self.instrument_name,
-                       self.heartbeat_timeout_s)
-        return True
+            if self._last_heartbeat != last:
+                logger.warning("%s: heartbeat late (consumer time %s s)", self.instrument_name,
+                               self.heartbeat_timeout_s)
+                return
+            silence_s = time.monotonic() - since
+        what = "no heartbeat" if last is not None else "no heartbeat since connect"
+        raise self._error(HeartbeatLost, action,
+                          f"{what} from node {self.node_id} for {silence_s:.3f} s (consumer time "
+                          f"{self.heartbeat_timeout_s:g} s, producer period "
+                          f"{self._producer_period_s:g} s)")
 
     def _wait_heartbeat_state(self, nmt_state: int, deadline: float, action: str) -> None:
         with self._heartbeat_update:
@@ -599,15 +626,9 @@ class Cia402Drive:
     def check_health(self) -> None:
         """Raise HeartbeatLost if the heartbeat is older than the timeout, DeviceFault on EMCY/FAULT."""
         action = "check health"
-        now = time.monotonic()
-        last = self._last_heartbeat
-        if last is None:
-            if self._connected_at is None or now - self._connected_at > self.heartbeat_timeout_s:
-                raise self._error(HeartbeatLost, action,
-                                  f"no heartbeat from node {self.node_id} since connect")
-        elif now - last > self.heartbeat_timeout_s and not self._heartbeat_resumes():
-            raise self._error(HeartbeatLost, action, f"last heartbeat from node {self.node_id} "
-                              f"{now - last:.3f} s ago (timeout {self.heartbeat_timeout_s} s)")
+        if self._connected_at is None:
+            raise self._error(HeartbeatLost, action, f"not connected to node {self.node_id}")
+        self._check_heartbeat(action)
         emcy = self._emcy
         if emcy is not None:
             raise self._error(DeviceFault, action,

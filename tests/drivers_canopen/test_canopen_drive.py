@@ -7,6 +7,7 @@ interface; injections are checked where they must land: ``twin.injection``.
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 
@@ -160,25 +161,59 @@ def test_emcy_fault_and_working_fault_reset(drive, sim_drive, twin):
     assert twin.enabled
 
 
-def test_heartbeat_loss_is_detected(drive, sim_drive):
+def heartbeat_frames(spy, node_id: int, duration_s: float) -> list[float]:
+    """Time stamps (s, the bus clock) of the node's heartbeat frames seen on ``spy``."""
+    stamps, deadline = [], time.monotonic() + duration_s
+    while (remaining := deadline - time.monotonic()) > 0:
+        message = spy.recv(timeout=remaining)
+        if message is not None and message.arbitration_id == 0x700 + node_id:
+            stamps.append(message.timestamp)
+    return stamps
+
+
+def test_heartbeat_loss_is_detected_at_the_consumer_time(drive, sim_drive, bus_settings):
+    """CiA 301: lost when silent for the consumer time; tolerance one producer period."""
+    timeout_s, period_s = drive.heartbeat_timeout_s, drive.producer_heartbeat_ms / 1000
     drive.check_health()
-    sim_drive.stop_heartbeat()
-    time.sleep(drive.heartbeat_timeout_s + 0.15)
-    with pytest.raises(HeartbeatLost, match="last heartbeat"):
-        drive.check_health()
+    with can.Bus(interface="virtual", channel=bus_settings.channel) as spy:
+        heartbeat_frames(spy, 5, 2 * period_s)
+        sim_drive.stop_heartbeat()
+        stamps = heartbeat_frames(spy, 5, 0.3 * period_s)   # one may still be in flight
+        last = stamps[-1] if stamps else None
+        while True:
+            try:
+                drive.check_health()
+            except HeartbeatLost as exc:
+                detected, message = time.time(), str(exc)
+                break
+            time.sleep(0.002)
+    if last is None:        # the stop came right after a frame: take it from the drive's view
+        last = detected - (time.monotonic() - drive._last_heartbeat)
+    silence_s = detected - last
+    assert timeout_s - period_s <= silence_s <= timeout_s + period_s + 0.02, silence_s
+    stated_s = float(re.search(r"for (\d+\.\d+) s", message).group(1))
+    assert stated_s == pytest.approx(silence_s, abs=0.02)
+    assert f"consumer time {timeout_s:g} s" in message and "node 5" in message
     with pytest.raises(HeartbeatLost):
         drive.enable()
 
 
-def test_a_late_heartbeat_is_not_a_lost_one(drive, sim_drive):
+def test_a_heartbeat_within_one_producer_period_after_the_consumer_time_is_late_not_lost(
+        drive, sim_drive):
+    timeout_s, period_s = drive.heartbeat_timeout_s, drive.producer_heartbeat_ms / 1000
     sim_drive.stop_heartbeat()
-    time.sleep(drive.heartbeat_timeout_s + 0.05)
-    timer = threading.Timer(0.1, sim_drive.resume_heartbeat)
+    last = drive._last_heartbeat
+    time.sleep(max(0.0, last + timeout_s + 0.25 * period_s - time.monotonic()))
+    timer = threading.Timer(0.4 * period_s, sim_drive.resume_heartbeat)
     timer.start()
     try:
-        drive.check_health()  # waits one more timeout before declaring the loss
+        drive.check_health()  # waits up to one producer period past the consumer time
     finally:
         timer.join()
+    sim_drive.stop_heartbeat()
+    time.sleep(timeout_s + 1.5 * period_s)
+    with pytest.raises(HeartbeatLost):
+        drive.check_health()
 
 
 def eventually(predicate, timeout_s=2.0):
