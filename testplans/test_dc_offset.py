@@ -5,6 +5,7 @@ as in the paper, and injected in amperes."""
 import pytest
 
 from testplans import conditions as c
+from testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("dc_offset")
 
@@ -19,3 +20,9 @@ def plan(config, offset_a_pu, offset_b_pu):
 def test_dc_offset(measure, bench, offset_a_pu, offset_b_pu):
     outcome = measure(plan(bench.config, offset_a_pu, offset_b_pu))
     assert outcome.passed, outcome.summary()
+
+
+def test_dc_offset_sensitivity(record):
+    """The sweep's measured ripple scales with the injection as the model says (slope 1)."""
+    result = check_sensitivity(record, "dc_offset", c.CLOSED_FORM_RULE.rel_tol)
+    assert result["accepted"], result["statement"]

@@ -9,6 +9,7 @@ rejection of the drive's current loop, whose bandwidth and delay the bench file 
 import pytest
 
 from testplans import conditions as c
+from testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("dead_time")
 
@@ -25,3 +26,9 @@ def plan(config, injection):
 def test_dead_time(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
+
+
+def test_dead_time_sensitivity(record):
+    """The sweep's measured ripple scales with the injection as the model says (slope 1)."""
+    result = check_sensitivity(record, "dead_time", c.DERIVED_ESTIMATE_RULE.rel_tol)
+    assert result["accepted"], result["statement"]

@@ -7,6 +7,7 @@ lagging the EMF by φ = 10°, which reproduces the paper's 4.5 % at 10° electri
 import pytest
 
 from testplans import conditions as c
+from testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("encoder")
 
@@ -23,3 +24,9 @@ def plan(config, injection):
 def test_encoder_resolution(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
+
+
+def test_encoder_sensitivity(record):
+    """The sweep's measured ripple scales with the injection as the model says (slope 1)."""
+    result = check_sensitivity(record, "encoder", c.CLOSED_FORM_RULE.rel_tol)
+    assert result["accepted"], result["statement"]

@@ -4,6 +4,7 @@
 import pytest
 
 from testplans import conditions as c
+from testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("gain_mismatch")
 
@@ -16,3 +17,9 @@ def plan(config, injection):
 def test_gain_mismatch(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
+
+
+def test_gain_mismatch_sensitivity(record):
+    """The sweep's measured ripple scales with the injection as the model says (slope 1)."""
+    result = check_sensitivity(record, "gain_mismatch", c.CLOSED_FORM_RULE.rel_tol)
+    assert result["accepted"], result["statement"]

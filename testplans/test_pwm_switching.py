@@ -31,6 +31,7 @@ between zero crossings. The paper's figure is recorded beside the verdict
 import pytest
 
 from testplans import conditions as c
+from testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_switching")
 
@@ -67,3 +68,9 @@ def plan(config, injection):
 def test_pwm_switching(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
+
+
+def test_pwm_switching_sensitivity(record):
+    """The sweep's measured ripple scales with the injection as the model says (slope 1)."""
+    result = check_sensitivity(record, "pwm_switching", c.CLOSED_FORM_RULE.rel_tol)
+    assert result["accepted"], result["statement"]

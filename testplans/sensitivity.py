@@ -1,0 +1,95 @@
+"""Sensitivity across a sweep: does the measured ripple scale with the injection as the model says?
+
+Each point of a sweep is judged on its own; a drive that ignores its injection or applies it
+scaled can still sit inside a generous per-point tolerance at some points. Across the sweep the
+measured pk-pk y_i and the expected pk-pk x_i (both per unit of the nameplate mean torque, as the
+points' verdicts state them) must follow y = s·x + b with slope s = 1 (b: the bench's own floor,
+which does not scale with the injection). The weighted least-squares slope and its expanded
+uncertainty (k = 2, from the points' U) are judged against [1 − tol, 1 + tol] with ILAC-G8 simple
+acceptance (each point already carries its guarded verdict). A drive that ignores the injection
+gives s ≈ 0; one that scales it by g gives s ≈ g.
+
+The result goes to the record's ``sensitivity`` section, per source, with the fitted line, the
+points used, and — where the sweep varies one scalar knob — the slope per unit of that knob,
+measured and expected (e.g. per µs of dead time).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from hil.analysis.decision import classify
+
+#: Results of this session, per source (the record section is rewritten whole each time).
+_RESULTS: dict[str, dict] = {}
+#: Fewest measured points a slope is fitted from.
+MIN_POINTS = 3
+
+
+def sweep_points(record, source: str) -> list[dict]:
+    """The measured points of ``source`` with a model verdict (errors and others left out)."""
+    return [t for t in record.tests
+            if t.get("source") == source and t.get("verdict") and t.get("measured")]
+
+
+def fit_slope(expected: np.ndarray, measured: np.ndarray, expanded: np.ndarray) -> dict:
+    """Weighted least squares of measured = s·expected + b (weights 1/u², u = U/2)."""
+    u = np.maximum(np.asarray(expanded, float) / 2.0, 1e-12)
+    design = np.column_stack([expected, np.ones_like(expected)])
+    weights = 1.0 / u
+    coef, *_ = np.linalg.lstsq(design * weights[:, None], measured * weights, rcond=None)
+    covariance = np.linalg.inv((design * weights[:, None] ** 2).T @ design)
+    residual = measured - design @ coef
+    dof = len(measured) - 2
+    # the points' scatter about the line may exceed their own U (model shape): widen then
+    chi2 = float(np.sum((residual / u) ** 2) / dof) if dof > 0 else 1.0
+    scale = max(1.0, chi2)
+    return {"slope": float(coef[0]), "intercept_pu": float(coef[1]),
+            "slope_u": float(math.sqrt(covariance[0, 0] * scale)),
+            "reduced_chi2": chi2}
+
+
+def knob_slopes(points: list[dict]) -> dict | None:
+    """Slope per unit of the swept knob, measured and expected, when one scalar knob varies."""
+    knobs = {k for t in points for k in t["injection"]}
+    if len(knobs) != 1:
+        return None
+    (knob,) = knobs
+    values = [t["injection"][knob] for t in points]
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return None
+    x = np.asarray(values, float)
+    if np.ptp(x) == 0:
+        return None
+    measured = np.polyfit(x, [t["verdict"]["measured_pk_pk_pu"] for t in points], 1)[0]
+    expected = np.polyfit(x, [t["verdict"]["predicted_pk_pk_pu"] for t in points], 1)[0]
+    return {"knob": knob, "measured_pu_per_unit": float(measured),
+            "expected_pu_per_unit": float(expected)}
+
+
+def check_sensitivity(record, source: str, rel_tol: float) -> dict:
+    """Fit, judge and record the sweep's slope; ``pytest.skip`` when too few points ran."""
+    points = sweep_points(record, source)
+    if len(points) < MIN_POINTS:
+        pytest.skip(f"{source}: {len(points)} measured point(s) of the sweep (deselected or "
+                    f"failed to measure); the slope needs {MIN_POINTS}")
+    expected = np.array([t["verdict"]["predicted_pk_pk_pu"] for t in points])
+    measured = np.array([t["verdict"]["measured_pk_pk_pu"] for t in points])
+    expanded = np.array([t["verdict"]["expanded_uncertainty_pu"] for t in points])
+    if np.ptp(expected) <= 0.1 * float(np.max(expected)):
+        pytest.skip(f"{source}: the measured points' expectations do not vary enough for a slope")
+    fit = fit_slope(expected, measured, expanded)
+    decision = classify(fit["slope"], 2.0 * fit["slope_u"], 1.0 - rel_tol, 1.0 + rel_tol)
+    result = fit | {"decision": decision, "accepted": decision in ("pass", "conditional pass"),
+                    "limits": [1.0 - rel_tol, 1.0 + rel_tol],
+                    "points": [t["test_id"] for t in points],
+                    "per_knob": knob_slopes(points),
+                    "statement": (f"{source}: measured/expected slope {fit['slope']:.3f} ± "
+                                  f"{2 * fit['slope_u']:.3f} (k=2) against "
+                                  f"[{1 - rel_tol:.2f}, {1 + rel_tol:.2f}] → {decision}")}
+    _RESULTS[source] = result
+    record.set_section("sensitivity", dict(_RESULTS))
+    return result
