@@ -5,13 +5,20 @@ The map is data, not code: the driver (``drivers.modbus_daq``) and the simulated
 and strings are sent high word first; a sample frame in the capture buffer holds the words of the
 enabled channels in map order. Engineering value = raw * scale + offset, so ``scale`` is the DAQ's
 LSB in SI units (the analysis needs it for its uncertainty budget).
+
+A channel is an ``int16`` scaled sample or a ``uint16``/``uint32`` free-running counter. A channel
+may declare a ``packed_type``: in the DAQ's packed capture format it travels in that narrower type
+(the encoder counter's low 16 bits, with the first sample's full value in a register), which the
+driver reassembles exactly. Optional tables ``buffer_read_modes`` and ``capture_formats`` list the
+values of the ``buffer_read_mode`` and ``capture_format`` registers; a map without them describes
+a DAQ that offers only paged reads in the full format.
 """
 
 from __future__ import annotations
 
 import struct
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +28,7 @@ from hil.errors import InputError
 DEFAULT_MAP_PATH = Path(__file__).parent / "data" / "daq_registers.toml"
 
 _WORDS = {"uint16": 1, "int16": 1, "uint32": 2, "int32": 2, "float32": 2}
+_CHANNEL_TYPES = ("int16", "uint16", "uint32")
 _STRUCT = {"uint16": ">H", "int16": ">h", "uint32": ">I", "int32": ">i", "float32": ">f"}
 
 
@@ -60,13 +68,24 @@ class Register:
 
 @dataclass(frozen=True)
 class Channel:
-    """One capture channel: its mask bit, raw type and scaling (engineering = raw*scale+offset)."""
+    """One capture channel: its mask bit, raw type and scaling (engineering = raw*scale+offset).
+
+    ``wire_type`` / ``words`` describe the full capture format; ``packed`` selects the packed one.
+    """
 
     name: str
     bit: int
-    type: str             # int16 or uint32 (a counter)
+    type: str             # int16 (scaled sample), uint16 or uint32 (a free-running counter)
     scale: float          # SI units per LSB
     offset: float
+    packed_type: str | None = None             # narrower type in the packed format
+    packed_first_register: str | None = None   # register with the first sample's full value
+
+    def wire_type(self, packed: bool = False) -> str:
+        return self.packed_type if packed and self.packed_type else self.type
+
+    def words_in(self, packed: bool = False) -> int:
+        return _WORDS[self.wire_type(packed)]
 
     @property
     def words(self) -> int:
@@ -74,28 +93,34 @@ class Channel:
 
     @property
     def is_counter(self) -> bool:
-        return self.type == "uint32"
+        return self.type in ("uint16", "uint32")
+
+    @property
+    def counter_bits(self) -> int:
+        return 16 * self.words
 
     def to_raw(self, values: np.ndarray) -> tuple[np.ndarray, bool]:
         """Engineering values -> raw integers; returns (raw, clipped) with int16 saturation."""
         if self.is_counter:
-            return np.asarray(values).astype(np.int64) & 0xFFFFFFFF, False
+            return np.asarray(values).astype(np.int64) & ((1 << self.counter_bits) - 1), False
         raw = np.rint((np.asarray(values, dtype=float) - self.offset) / self.scale)
         clipped = bool(np.any(raw > 32767) or np.any(raw < -32768))
         return np.clip(raw, -32768, 32767).astype(np.int64), clipped
 
-    def to_words(self, raw: np.ndarray) -> np.ndarray:
-        """Raw integers -> (n, words) array of uint16 register words, high word first."""
+    def to_words(self, raw: np.ndarray, packed: bool = False) -> np.ndarray:
+        """Raw integers -> (n, words) array of uint16 register words, high word first (a packed
+        counter keeps its low word)."""
         raw = np.asarray(raw, dtype=np.int64)
-        if self.words == 1:
+        if self.words_in(packed) == 1:
             return (raw & 0xFFFF).astype(np.uint16)[:, None]
         return np.stack([(raw >> 16) & 0xFFFF, raw & 0xFFFF], axis=1).astype(np.uint16)
 
-    def from_words(self, words: np.ndarray) -> np.ndarray:
-        """(n, words) uint16 array -> raw integers (int16 signed, or uint32 counter)."""
+    def from_words(self, words: np.ndarray, packed: bool = False) -> np.ndarray:
+        """(n, words) uint16 array -> raw integers: int16 signed, a counter unsigned."""
         words = np.asarray(words, dtype=np.uint16)
-        if self.words == 1:
-            return words[:, 0].view(np.int16).astype(np.int64)
+        if self.words_in(packed) == 1:
+            column = words[:, 0]
+            return (column if self.is_counter else column.view(np.int16)).astype(np.int64)
         return (words[:, 0].astype(np.int64) << 16) | words[:, 1].astype(np.int64)
 
 
@@ -110,6 +135,8 @@ class RegisterMap:
     registers: dict[str, Register]
     channels: tuple[Channel, ...]
     source: str
+    buffer_read_modes: dict[str, int] = field(default_factory=dict)
+    capture_formats: dict[str, int] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> Register:
         try:
@@ -134,6 +161,24 @@ class RegisterMap:
     @property
     def all_channels_mask(self) -> int:
         return self.mask_of(c.name for c in self.channels)
+
+    def frame_words(self, channels, packed: bool = False) -> int:
+        """Words of one sample frame holding ``channels`` in the full or packed format."""
+        return sum(channel.words_in(packed) for channel in channels)
+
+    @property
+    def sample_counter(self) -> Channel | None:
+        """The time-base channel (``device.sample_counter_channel``), None if the DAQ has none."""
+        name = self.device.get("sample_counter_channel")
+        return self.channel(name) if name else None
+
+    @property
+    def offers_auto_increment(self) -> bool:
+        return "auto_increment" in self.buffer_read_modes and "buffer_read_mode" in self.registers
+
+    @property
+    def offers_packed(self) -> bool:
+        return "packed" in self.capture_formats and "capture_format" in self.registers
 
     @property
     def window_words(self) -> int:
@@ -167,13 +212,30 @@ def load_register_map(path: str | Path | None = None) -> RegisterMap:
             registers[name] = Register(name, entry["table"], int(entry["address"]), kind, words,
                                        entry.get("min"), entry.get("max"))
         channels = tuple(Channel(c["name"], int(c["bit"]), c["type"], float(c["scale"]),
-                                 float(c.get("offset", 0.0))) for c in data["channels"])
+                                 float(c.get("offset", 0.0)), c.get("packed_type"),
+                                 c.get("packed_first_register")) for c in data["channels"])
         for channel in channels:
-            if channel.type not in ("int16", "uint32"):
-                raise InputError(f"register map {path}: channel {channel.name} type "
-                                 f"{channel.type!r}; allowed 'int16' or 'uint32'")
-        return RegisterMap(dict(data["device"]), dict(data["control_codes"]),
-                           dict(data["states"]), dict(data["status_flags"]), registers,
-                           channels, str(path))
+            _check_channel(channel, registers, path)
+        register_map = RegisterMap(dict(data["device"]), dict(data["control_codes"]),
+                                   dict(data["states"]), dict(data["status_flags"]), registers,
+                                   channels, str(path), dict(data.get("buffer_read_modes", {})),
+                                   dict(data.get("capture_formats", {})))
+        register_map.sample_counter     # noqa: B018 - a named counter channel must exist
+        return register_map
     except KeyError as exc:
         raise InputError(f"register map {str(path)!r} lacks key {exc}") from None
+
+
+def _check_channel(channel: Channel, registers: dict[str, Register], path) -> None:
+    """A channel's type, and its packed form (a counter's low word with a first-value register)."""
+    if channel.type not in _CHANNEL_TYPES:
+        raise InputError(f"register map {path}: channel {channel.name} type {channel.type!r}; "
+                         f"allowed {', '.join(_CHANNEL_TYPES)}")
+    if channel.packed_type is None:
+        return
+    if not (channel.is_counter and channel.packed_type == "uint16" and channel.words == 2):
+        raise InputError(f"register map {path}: channel {channel.name} packed_type="
+                         f"{channel.packed_type!r}; only a uint32 counter packs, as uint16")
+    if channel.packed_first_register not in registers:
+        raise InputError(f"register map {path}: channel {channel.name} packed_first_register="
+                         f"{channel.packed_first_register!r} is not a register of the map")

@@ -4,12 +4,26 @@ The DAQ captures the phase currents, the encoder counter, the transducer's analo
 dc-bus voltage synchronously, and drives the dyno's speed reference from an analog output. Its
 registers are described by a data file (``drivers/data/daq_registers.toml``, see
 ``drivers.daq_register_map``). A capture: configure (sample rate, samples, channel mask, settle
-time) -> arm -> trigger -> poll the state until "done" -> page the buffer out in 125-register
-windows -> convert to engineering units -> disarm. The result is a ``hil.capture.Capture`` with
-``time_s`` (from the trigger), ``ia_a``, ``ib_a``, ``encoder_counts`` (the 32-bit counter
-unwrapped), ``rotor_angle_mech_rad`` (= counts * 2*pi / counts_per_rev), ``torque_nm`` and
-``dc_bus_v``; ``meta["daq_lsb"]`` gives each channel's LSB in SI units for the uncertainty
-budget (int16 channels: the map's scale; the angle: 2*pi / counts_per_rev).
+time, capture format) -> arm -> trigger -> poll the state until "done" -> read the buffer out in
+125-register windows -> check its integrity -> convert to engineering units -> disarm. The result
+is a ``hil.capture.Capture`` with ``time_s`` (from the trigger, by the sample clock's ticks), the
+channels asked for (default all: ``ia_a``, ``ib_a``, ``encoder_counts`` (the 32-bit counter
+unwrapped) with ``rotor_angle_mech_rad`` (= counts * 2*pi / counts_per_rev), ``torque_nm``,
+``dc_bus_v``) and ``sample_counter`` (sample-clock ticks since the first sample);
+``meta["daq_lsb"]`` gives each channel's LSB in SI units for the uncertainty budget (int16
+channels: the map's scale; the angle: 2*pi / counts_per_rev) and ``meta["daq_transfer"]`` how the
+data travelled (mode, requests, round trips).
+
+Transfer (issue 17, :class:`TransferOptions`): only the channels asked for; the buffer read with
+auto-increment when the map offers it (one request per 125 words instead of a page write plus a
+read), up to ``in_flight`` reads outstanding over TCP (``drivers.modbus_pipeline``), the packed
+capture format (the encoder counter's low word) when the counter cannot move half its 16-bit
+range between samples. ``LEGACY_TRANSFER`` is the old way (paged, one at a time, full format).
+
+Integrity (issue 13): every capture is checked: the samples received equal the samples requested,
+the rate read back equals the rate asked, and the sample counter advances by exactly one tick per
+sample (a uniform time base). A failure raises :class:`CaptureIntegrityError` naming the DAQ and
+what was wrong, with the data as received attached (``error.capture``) so the caller can save it.
 
 Modbus exception codes become typed errors (all ``DeviceFault``): ``IllegalFunction`` (1),
 ``IllegalAddress`` (2), ``IllegalValue`` (3), ``DeviceFailure`` (4), ``DeviceBusy`` (6); no answer
@@ -29,7 +43,9 @@ from pymodbus import FramerType, ModbusException
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 
-from drivers.daq_register_map import RegisterMap, load_register_map
+from drivers import modbus_pipeline
+from drivers.daq_register_map import Channel, RegisterMap, load_register_map
+from drivers.serial_line import PARITIES, STOPBITS, line_for_port
 from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
                             ProtocolError)
 from hil.capture import Capture
@@ -46,12 +62,60 @@ class ModbusTcpSettings:
 
 @dataclass(frozen=True)
 class ModbusRtuSettings:
-    """Modbus RTU serial line of the DAQ (8 data bits)."""
+    """Modbus RTU serial line of the DAQ: 8 data bits, ``parity`` E/O/N, ``stopbits`` 1/2
+    (default 8E1, the Modbus serial-line default)."""
 
     port: str
     baudrate: int = 115200
-    parity: str = "N"
+    parity: str = "E"
     stopbits: int = 1
+
+    def __post_init__(self) -> None:
+        if self.parity not in PARITIES:
+            raise InputError(f"daq parity={self.parity!r}; allowed {', '.join(PARITIES)}")
+        if self.stopbits not in STOPBITS:
+            raise InputError(f"daq stopbits={self.stopbits!r}; allowed 1 or 2")
+
+
+@dataclass(frozen=True)
+class TransferOptions:
+    """How a capture buffer travels (issue 17). ``read_mode``: "best" (auto-increment if the
+    map offers it, else paged), "paged" or "auto_increment"; ``in_flight``: reads outstanding
+    over TCP (RTU: always 1); ``packed``: use the map's packed capture format when safe;
+    ``sample_counter``: capture the time-base channel (needed for the time-base check)."""
+
+    read_mode: str = "best"
+    in_flight: int = 8
+    packed: bool = True
+    sample_counter: bool = True
+
+    def __post_init__(self) -> None:
+        if self.read_mode not in ("best", "paged", "auto_increment"):
+            raise InputError(f"daq read_mode={self.read_mode!r}; allowed best, paged, "
+                             f"auto_increment")
+        if not 1 <= self.in_flight <= 64:
+            raise InputError(f"daq in_flight={self.in_flight}; allowed 1..64")
+
+
+#: The transfer before issue 17: a page write before every window read, one request at a time,
+#: the full format, no sample counter.
+LEGACY_TRANSFER = TransferOptions(read_mode="paged", in_flight=1, packed=False,
+                                  sample_counter=False)
+#: Capture channel names a caller may ask for besides the map's: the angle comes from the encoder.
+_ALIASES = {"rotor_angle_mech_rad": "encoder_counts"}
+
+
+class CaptureIntegrityError(DeviceFault):
+    """A finished capture is not what was asked: samples missing or a non-uniform time base.
+
+    ``capture`` holds the data as received (time from the sample counter where there is one),
+    ``problems`` each finding; the caller saves the raw data before handling the error.
+    """
+
+    def __init__(self, instrument: str, problems: list[str], capture: Capture) -> None:
+        super().__init__(instrument, "check capture integrity", "; ".join(problems))
+        self.problems = problems
+        self.capture = capture
 
 
 class ModbusExceptionError(DeviceFault):
@@ -101,7 +165,8 @@ class ModbusDaq:
 
     def __init__(self, settings: ModbusTcpSettings | ModbusRtuSettings, unit_id: int = 1,
                  register_map: RegisterMap | str | None = None, timeout_s: float = 1.0,
-                 instrument_name: str = "daq") -> None:
+                 instrument_name: str = "daq",
+                 transfer: TransferOptions = TransferOptions()) -> None:
         if not 0 <= unit_id <= 247:
             raise InputError(f"daq unit_id={unit_id} outside 0..247")
         if not timeout_s > 0:
@@ -112,15 +177,20 @@ class ModbusDaq:
             else load_register_map(register_map)
         self.timeout_s = timeout_s
         self.name = instrument_name
+        self.transfer = transfer
         self._lock = threading.RLock()
         self._identity: dict | None = None
+        self._round_trips = 0
+        self.line_note = ""         # RTU on a pseudo-terminal: why parity is not applied
+        self._tid = 0x8000           # pipelined transaction ids (pymodbus counts from 0)
         if isinstance(settings, ModbusTcpSettings):
             self._client = ModbusTcpClient(settings.host, port=settings.port, timeout=timeout_s,
                                            retries=0, reconnect_delay=0.0)
         elif isinstance(settings, ModbusRtuSettings):
+            parity, self.line_note = line_for_port(settings.port, settings.parity)
             self._client = ModbusSerialClient(settings.port, framer=FramerType.RTU,
                                               baudrate=settings.baudrate, bytesize=8,
-                                              parity=settings.parity,
+                                              parity=parity,
                                               stopbits=settings.stopbits, timeout=timeout_s,
                                               retries=0, reconnect_delay=0.0)
         else:
@@ -147,6 +217,7 @@ class ModbusDaq:
     # ------------------------------------------------------------------ register access
     def _call(self, action: str, request, *args, **kwargs):
         with self._lock:
+            self._round_trips += 1
             try:
                 response = request(*args, device_id=self.unit_id, **kwargs)
             except ConnectionException as exc:
@@ -228,8 +299,9 @@ class ModbusDaq:
         return lsb
 
     def arm(self, sample_rate_hz: float, samples: int, settle_s: float = 0.05,
-            channels=None) -> None:
-        """Configure a capture (integer Hz, sample count, channels, settle time) and arm it."""
+            channels=None, packed: bool = False) -> None:
+        """Configure a capture (integer Hz, sample count, DAQ channels (default all), settle
+        time, packed format if the map offers it) and arm it."""
         rate = int(round(sample_rate_hz))
         device = self.map.device
         if abs(rate - sample_rate_hz) > 1e-9 * max(1.0, sample_rate_hz) or \
@@ -242,8 +314,13 @@ class ModbusDaq:
         if not 0 <= settle_ms <= int(device["max_settle_ms"]):
             raise InputError(f"daq settle_s={settle_s} outside 0..{device['max_settle_ms']} ms")
         names = [c.name for c in self.map.channels] if channels is None else list(channels)
-        self.write_registers(sample_rate_hz=rate, samples=int(samples),
-                             channel_mask=self.map.mask_of(names), settle_ms=settle_ms)
+        config = {"sample_rate_hz": rate, "samples": int(samples),
+                  "channel_mask": self.map.mask_of(names), "settle_ms": settle_ms}
+        if self.map.offers_packed:
+            config["capture_format"] = self.map.capture_formats["packed" if packed else "full"]
+        elif packed:
+            raise InputError(f"daq: the register map {self.map.source} offers no packed format")
+        self.write_registers(**config)
         self.write_registers(control=self.map.control_codes["arm"])
 
     def trigger(self) -> None:
@@ -285,68 +362,182 @@ class ModbusDaq:
                                                     f"the buffer holds ({capacity})")
         return status
 
-    def read_buffer(self) -> Capture:
-        """Page the captured buffer out and convert it to engineering units."""
+    def read_buffer(self, samples_requested: int | None = None,
+                    rate_requested_hz: float | None = None) -> Capture:
+        """Read the finished capture out, convert it to engineering units and check it.
+
+        The check compares with the configuration read back from the DAQ, and with
+        ``samples_requested`` / ``rate_requested_hz`` when given; a failure raises
+        :class:`CaptureIntegrityError` carrying the data.
+        """
+        round_trips_before = self._round_trips
         status = self.status()
         if status["state"] != "done":
             raise DeviceFault(self.name, "read capture buffer",
                               f"DAQ state is {status['state']!r}, no finished capture")
-        config = self.read_registers("sample_rate_hz", "samples", "channel_mask", "settle_ms")
+        names = ["sample_rate_hz", "samples", "channel_mask", "settle_ms"]
+        if self.map.offers_packed:
+            names.append("capture_format")
+        config = self.read_registers(*names)
+        packed = config.get("capture_format") == self.map.capture_formats.get("packed")
         channels = self.map.channels_in(config["channel_mask"])
         n, words_per_sample = status["samples_captured"], status["words_per_sample"]
-        if words_per_sample != sum(c.words for c in channels):
+        expected_words = self.map.frame_words(channels, packed)
+        if words_per_sample != expected_words:
             raise DeviceFault(self.name, "read capture buffer",
                               f"device frame has {words_per_sample} words, map says "
-                              f"{sum(c.words for c in channels)} for mask "
-                              f"{config['channel_mask']:#x}")
-        words = self._read_words(n * words_per_sample)
+                              f"{expected_words} for mask {config['channel_mask']:#x}"
+                              f"{' (packed)' if packed else ''}")
+        first_values = {}
+        if packed:
+            registers = [c.packed_first_register for c in channels if c.packed_first_register]
+            first_values = self.read_registers(*registers) if registers else {}
+        mode, depth, requests = self._read_plan(n * words_per_sample)
+        words = self._read_words(n * words_per_sample, mode, depth)
         frames = words.reshape(n, words_per_sample)
-        return self._to_capture(frames, channels, float(config["sample_rate_hz"]),
-                                config["settle_ms"] / 1000.0, status["clipped"])
+        capture, problems = self._to_capture(frames, channels, packed, first_values,
+                                             float(config["sample_rate_hz"]),
+                                             config["settle_ms"] / 1000.0, status["clipped"])
+        capture.meta["daq_transfer"] = {
+            "read_mode": mode, "in_flight": depth, "packed": packed,
+            "words_per_sample": words_per_sample, "buffer_requests": requests,
+            "round_trips_readout": self._round_trips - round_trips_before}
+        wanted = config["samples"] if samples_requested is None else int(samples_requested)
+        if n != wanted or config["samples"] != wanted:
+            problems.insert(0, f"asked for {wanted} samples, the DAQ was set to "
+                               f"{config['samples']} and returned {n}")
+        if rate_requested_hz is not None and config["sample_rate_hz"] != rate_requested_hz:
+            problems.append(f"asked for {rate_requested_hz} Hz, the DAQ sampled at "
+                            f"{config['sample_rate_hz']} Hz")
+        capture.meta["daq_integrity"] = {"checked_time_base": self.map.sample_counter in channels,
+                                         "problems": list(problems)}
+        if problems:
+            raise CaptureIntegrityError(self.name, problems, capture)
+        return capture
 
-    def _read_words(self, total: int) -> np.ndarray:
+    def _read_plan(self, total: int) -> tuple[str, int, int]:
+        """(read mode, requests in flight, buffer requests) for ``total`` words."""
+        mode = self.transfer.read_mode
+        if mode == "best":
+            mode = "auto_increment" if self.map.offers_auto_increment else "paged"
+        elif mode == "auto_increment" and not self.map.offers_auto_increment:
+            raise InputError(f"daq read_mode='auto_increment': the register map "
+                             f"{self.map.source} offers only paged reads")
+        depth = self.transfer.in_flight if isinstance(self.settings, ModbusTcpSettings) else 1
+        return mode, depth, -(-total // self.map.window_words)
+
+    def _read_words(self, total: int, mode: str = "paged", depth: int = 1) -> np.ndarray:
         window = self.map["buffer_window"]
         out = np.empty(total, dtype=np.uint16)
-        for page, begin in enumerate(range(0, total, window.words)):
-            count = min(window.words, total - begin)
-            self.write_registers(buffer_page=page)
-            response = self._call(f"read capture buffer page {page}",
-                                  self._client.read_input_registers, window.address, count=count)
-            out[begin:begin + count] = response.registers
+        counts = [min(window.words, total - begin) for begin in range(0, total, window.words)]
+        if mode == "paged":
+            if "buffer_read_mode" in self.map.registers:
+                self.write_registers(buffer_read_mode=self.map.buffer_read_modes["paged"])
+            for page, count in enumerate(counts):
+                self.write_registers(buffer_page=page)
+                response = self._call(f"read capture buffer page {page}",
+                                      self._client.read_input_registers, window.address,
+                                      count=count)
+                out[page * window.words:page * window.words + count] = response.registers
+            return out
+        # selecting the mode rewinds the read pointer to the first word
+        self.write_registers(buffer_read_mode=self.map.buffer_read_modes["auto_increment"])
+        if depth > 1:
+            chunks = self._pipelined(window.address, counts, depth)
+        else:
+            chunks = [self._call(f"read capture buffer window {i} (auto-increment)",
+                                 self._client.read_input_registers, window.address,
+                                 count=count).registers for i, count in enumerate(counts)]
+        for i, chunk in enumerate(chunks):
+            out[i * window.words:i * window.words + len(chunk)] = chunk
         return out
 
-    def _to_capture(self, frames, channels, rate, settle_s, clipped) -> Capture:
+    def _pipelined(self, address: int, counts: list[int], depth: int) -> list[list[int]]:
+        """Buffer windows with ``depth`` reads in flight on the TCP connection."""
+        action = f"read capture buffer ({len(counts)} windows, {depth} in flight)"
+        with self._lock:
+            sock = getattr(self._client, "socket", None)
+            if sock is None and not self._client.connect():
+                raise InstrumentError(self.name, action, "not connected")
+            sock = self._client.socket
+            first_tid, self._tid = self._tid, 0x8000 + (self._tid + len(counts)) % 0x8000
+            self._round_trips += -(-len(counts) // depth)
+            try:
+                return modbus_pipeline.read_input_registers_pipelined(
+                    sock, self.unit_id, address, counts, depth=depth, timeout_s=self.timeout_s,
+                    first_tid=first_tid)
+            except modbus_pipeline.ExceptionAnswer as exc:
+                self._client.close()        # later answers may still be on their way
+                raise exception_error(self.name, f"{action}, window {exc.index}",
+                                      exc.code) from None
+            except TimeoutError as exc:
+                self._client.close()
+                raise InstrumentTimeout(self.name, action, f"{exc} ({self.timeout_s} s)") \
+                    from None
+            except OSError as exc:          # ConnectionError included
+                self._client.close()
+                raise InstrumentError(self.name, action, f"connection lost: {exc}") from None
+
+    def _to_capture(self, frames, channels, packed, first_values, rate, settle_s,
+                    clipped) -> tuple[Capture, list[str]]:
+        """Engineering units, and the integrity problems found while decoding."""
         constants = self._device_constants()
         counts_per_rev = int(constants["encoder_counts_per_rev"])
         n = len(frames)
-        data = {"time_s": np.arange(n) / rate}
-        lsb = {}
+        data, lsb, problems = {}, {}, []
+        ticks = None
         column = 0
+        counter = self.map.sample_counter
         for channel in channels:
-            raw = channel.from_words(frames[:, column:column + channel.words])
-            column += channel.words
-            if channel.is_counter:
-                counts = unwrap_counter(raw)
-                data["encoder_counts"] = counts
+            width = channel.words_in(packed)
+            raw = channel.from_words(frames[:, column:column + width], packed)
+            column += width
+            if counter is not None and channel.name == counter.name:
+                ticks = unwrap_counter(raw, channel.counter_bits)
+                ticks = ticks - ticks[0] if n else ticks
+                data[channel.name] = ticks
+                problems += _time_base_problems(ticks, rate)
+            elif channel.is_counter:
+                counts = self._counter_counts(channel, raw, packed, first_values, problems)
+                data[channel.name] = counts
                 data["rotor_angle_mech_rad"] = counts * (2.0 * math.pi / counts_per_rev)
-                lsb["encoder_counts"] = 1.0
+                lsb[channel.name] = 1.0
                 lsb["rotor_angle_mech_rad"] = 2.0 * math.pi / counts_per_rev
             else:
                 data[channel.name] = raw * channel.scale + channel.offset
                 lsb[channel.name] = channel.scale
+        data = {"time_s": (ticks if ticks is not None else np.arange(n)) / rate} | data
         meta = {"source": "daq", "instrument": self.name, "sample_rate_hz": rate,
                 "encoder_counts_per_rev": counts_per_rev,
                 "pole_pairs": int(constants["pole_pairs"]), "daq_lsb": lsb,
                 "daq_model": constants["model"], "daq_serial_number": constants["serial_number"],
                 "daq_settle_s": settle_s, "daq_clipped": bool(clipped)}
-        return Capture(channels=data, meta=meta)
+        if self.line_note:
+            meta["daq_line_note"] = self.line_note
+        return Capture(channels=data, meta=meta), problems
+
+    @staticmethod
+    def _counter_counts(channel: Channel, raw, packed, first_values, problems) -> np.ndarray:
+        """A counter channel unwrapped; a packed one re-anchored on its first full value."""
+        if not (packed and channel.packed_first_register):
+            return unwrap_counter(raw, channel.counter_bits)
+        first = int(first_values[channel.packed_first_register])
+        if len(raw) and raw[0] != first & 0xFFFF:
+            problems.append(f"{channel.name}: packed first sample {int(raw[0])} is not the low "
+                            f"word of {channel.packed_first_register} = {first}")
+        low = unwrap_counter(raw, 16)
+        anchor = unwrap_counter(np.array([first]), channel.counter_bits)[0]
+        return anchor + (low - low[0]) if len(raw) else low
 
     # ------------------------------------------------------------------ capture, high level
     def capture(self, duration_s: float, sample_rate_hz: float, settle_s: float = 0.05,
                 timeout_s: float | None = None, channels=None) -> Capture:
-        """Configure, arm, trigger, wait, read and disarm; returns the capture in SI units.
+        """Configure, arm, trigger, wait, read, check and disarm; the capture in SI units.
 
-        Raises LimitError if a channel clipped (the capture would understate the ripple).
+        ``channels``: the capture channels wanted (map names, or ``rotor_angle_mech_rad`` for
+        the encoder); None: all of them. Raises LimitError if a channel clipped (the capture
+        would understate the ripple), CaptureIntegrityError if samples are missing or the time
+        base is not uniform.
         """
         if not (math.isfinite(duration_s) and duration_s > 0):
             raise InputError(f"daq duration_s={duration_s} must be > 0")
@@ -357,23 +548,68 @@ class ModbusDaq:
                              f"{sample_rate_hz} is {samples} samples; allowed 1..{capacity}")
         if timeout_s is None:
             timeout_s = 10.0 + 20.0 * (duration_s + settle_s)
+        names = self.capture_channels(channels)
+        packed = self._packing_is_safe(names, sample_rate_hz)
+        round_trips = self._round_trips
         try:
-            self.arm(sample_rate_hz, samples, settle_s, channels)
+            self.arm(sample_rate_hz, samples, settle_s, names, packed)
             self.trigger()
+            setup = self._round_trips - round_trips
             self.wait_done(timeout_s)
-            result = self.read_buffer()
+            polls = self._round_trips - round_trips - setup
+            result = self.read_buffer(samples, round(sample_rate_hz))
         finally:
             self._disarm_quietly()
+        result.meta["daq_transfer"].update(round_trips_setup=setup + 1, round_trips_polling=polls)
         if result.meta["daq_clipped"]:
             raise LimitError(self.name, "capture", "a channel hit the end of its int16 range "
                                                    f"(LSBs {result.meta['daq_lsb']})")
         return result
+
+    def capture_channels(self, channels=None) -> list[str]:
+        """The DAQ channels a capture of ``channels`` (None: all) reads, in map order, with the
+        sample counter when the transfer options ask for it."""
+        wanted = {c.name for c in self.map.channels} if channels is None else \
+            {_ALIASES.get(name, name) for name in channels}
+        counter = self.map.sample_counter
+        if counter is not None:
+            if self.transfer.sample_counter:
+                wanted.add(counter.name)
+            elif channels is None:
+                wanted.discard(counter.name)
+        for name in wanted:
+            self.map.channel(name)      # InputError naming the unknown channel
+        return [c.name for c in self.map.channels if c.name in wanted]
+
+    def _packing_is_safe(self, names: list[str], sample_rate_hz: float) -> bool:
+        """Packed format when asked, offered, and no packed counter can move half its 16-bit
+        range in one sample (the encoder at the dyno's top speed)."""
+        if not (self.transfer.packed and self.map.offers_packed):
+            return False
+        counts_per_rev = int(self._device_constants()["encoder_counts_per_rev"])
+        top_rpm = max(abs(self.map["dyno_speed_setpoint_rpm"].minimum or 0.0),
+                      abs(self.map["dyno_speed_setpoint_rpm"].maximum or 0.0))
+        counts_per_sample = top_rpm / 60.0 * counts_per_rev / sample_rate_hz
+        packs = any(self.map.channel(name).packed_type for name in names)
+        return packs and counts_per_sample < 2 ** 15
 
     def _disarm_quietly(self) -> None:
         try:
             self.disarm()
         except InstrumentError:
             pass    # the original error (if any) matters more; the guard disarms again
+
+
+def _time_base_problems(ticks: np.ndarray, rate_hz: float) -> list[str]:
+    """Findings if the sample-clock ticks do not advance by exactly one per sample."""
+    steps = np.diff(ticks)
+    bad = np.flatnonzero(steps != 1)
+    if not len(bad):
+        return []
+    lost = int(np.sum(steps[bad] - 1))
+    return [f"time base not uniform at {rate_hz:g} Hz: the sample counter skips at "
+            f"{len(bad)} of {len(steps)} steps (first after sample {int(bad[0])}, by "
+            f"{int(steps[bad[0]])} ticks; {lost} samples lost in all)"]
 
 
 def unwrap_counter(raw: np.ndarray, bits: int = 32) -> np.ndarray:

@@ -1,22 +1,28 @@
 """Simulated Modbus DAQ (TCP or RTU over a pseudo-terminal), backed by a ``hil.sim.DriveTwin``.
 
-A pymodbus server holds the registers of ``drivers/data/daq_registers.toml``; an ``action`` hook
-(pymodbus ``SimDevice``) gives them behaviour: status registers are refreshed on read, the
-capture buffer window is filled from the page selected in ``buffer_page``, configuration writes
-are validated (exception 3, illegal data value) and refused while a capture runs (exception 6,
-device busy); unmapped addresses answer exception 2 (illegal data address).
+``DaqDevice`` holds the registers of ``drivers/data/daq_registers.toml`` and answers each request
+exactly as the map's header says: function codes 3, 4, 6, 16 only (others: exception 1), no coils
+or discrete inputs (exception 2), unlisted addresses exception 2, configuration writes validated
+(exception 3) and refused while a capture runs (exception 6); the buffer is read paged or with
+auto-increment (``buffer_read_mode``), in the full or packed ``capture_format``. A pymodbus server
+(``SimDevice`` action hook) carries it over TCP or RTU; any other server implementation can call
+``DaqDevice.handle`` (the tests serve it with modbus-tk).
 
 A capture runs in simulated time in a worker thread: under the twin's lock it calls
 ``twin.advance(settle_s, rate)`` (discarded) then ``twin.advance(n / rate, rate)`` and stores the
-scaled int16 / uint32 words of the enabled channels. Asking for more samples than
-``buffer_capacity_samples`` stores a full buffer and raises the overrun flag. The holding
+scaled int16 / uint32 words of the enabled channels, and the sample-clock tick of each sample in
+the ``sample_counter`` channel. Asking for more samples than ``buffer_capacity_samples`` stores a
+full buffer and raises the overrun flag. The twin's test-only defect ``daq_drop_every_nth``
+(``hil.sim.defects``) makes the DAQ silently lose every n-th sample (see :func:`stored_ticks`). The holding
 register pair ``dyno_speed_setpoint_rpm`` is the DAQ's analog output to the dyno: writing it sets
 ``twin.speed_rpm`` (if a capture is running, the dyno takes the new speed when that capture's
 simulation window ends: the twin changes operating point only between ``advance`` calls).
 
-RTU: ``SimulatedDaq.rtu(twin)`` opens two pseudo-terminals in raw mode; the pymodbus serial server
-listens on one, a bridge thread copies bytes between the two master ends (pacing them to the baud
-rate when ``pace_baud`` is set, since a pty ignores it), and the client opens ``sim.port``.
+RTU: ``SimulatedDaq.rtu(twin, parity=, stopbits=)`` (default 8E1, the Modbus serial-line default)
+opens two pseudo-terminals in raw mode; the pymodbus serial server listens on one with those line
+settings, a bridge thread copies bytes between the two master ends (pacing them to the baud rate
+and the bits per character when ``pace_baud`` is set, since a pty ignores both), and the client
+opens ``sim.port``. A Linux pty keeps no parity setting, so a parity mismatch cannot show here.
 
 ``fail_next(kind)`` makes the next request fail: "exception" (answer exception 4, server device
 failure), "timeout" (no answer), "disconnect" (no answer and the TCP connection is closed; on RTU a
@@ -26,6 +32,7 @@ serial line cannot disconnect, so it behaves as "timeout").
 from __future__ import annotations
 
 import asyncio
+import collections
 import logging
 import math
 import os
@@ -36,10 +43,14 @@ import tty
 
 import numpy as np
 from pymodbus.constants import ExcCodes
+from pymodbus.exceptions import ModbusIOException
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
+from pymodbus.transaction import TransactionManager
 
 from drivers.daq_register_map import RegisterMap, load_register_map
+from drivers.serial_line import PARITIES, STOPBITS, bits_per_char, line_for_port
 
 log = logging.getLogger(__name__)
 
@@ -47,19 +58,28 @@ FAIL_KINDS = ("exception", "timeout", "disconnect")
 #: How long a speed-setpoint write waits for the twin (a transducer reading holds it briefly).
 SPEED_APPLY_WAIT_S = 0.05
 _INPUT_FC = 4
-_HOLDING_FCS = (3, 6, 16, 22, 23)
+_REGISTER_FCS = (3, 4, 6, 16)
+_WRITE_FCS = (6, 16)
+_BIT_FCS = (1, 2, 5, 15)
+EXC_ILLEGAL_FUNCTION, EXC_ILLEGAL_ADDRESS, EXC_ILLEGAL_VALUE = 1, 2, 3
+EXC_DEVICE_FAILURE, EXC_BUSY = 4, 6
 
 
-class _Refusal(Exception):
-    """A request the device refuses with a Modbus exception code."""
+class Refusal(Exception):
+    """A request the device refuses; ``code`` is the Modbus exception code it answers."""
 
-    def __init__(self, code: ExcCodes) -> None:
-        super().__init__(code.name)
-        self.code = code
+    def __init__(self, code: int, why: str = "") -> None:
+        super().__init__(f"exception {code}{': ' + why if why else ''}")
+        self.code = int(code)
 
 
 class DaqDevice:
-    """The DAQ's register behaviour and capture engine (transport independent)."""
+    """The DAQ's register behaviour and capture engine, transport independent.
+
+    :meth:`handle` answers one Modbus request exactly as the register map says (its header lists
+    the function codes, the exception codes and the buffer read modes); the pymodbus server here
+    and any other server implementation (the tests use modbus-tk) call it.
+    """
 
     def __init__(self, twin, register_map: RegisterMap, serial_number: str) -> None:
         self.twin = twin
@@ -70,10 +90,15 @@ class DaqDevice:
         self._flags = 0
         self._config = {"sample_rate_hz": 10000, "samples": 1000,
                         "channel_mask": register_map.all_channels_mask, "settle_ms": 50}
+        if register_map.offers_packed:
+            self._config["capture_format"] = register_map.capture_formats["full"]
+        self._read_mode = register_map.buffer_read_modes.get("paged", 0)
         self._page = 0
+        self._pointer = 0
         self._words = np.zeros(0, dtype=np.uint16)
         self._samples_captured = 0
         self._words_per_sample = 0
+        self._first_values: dict[str, int] = {}
         self._generation = 0
         self._worker: threading.Thread | None = None
         with twin.lock:
@@ -89,83 +114,95 @@ class DaqDevice:
             "buffer_capacity_samples": int(self.device["buffer_capacity_samples"]),
             "max_sample_rate_hz": int(self.device["max_sample_rate_hz"]),
         }
+        self._image = {"input": {}, "holding": {}}
+        values = dict(self._constants, **self._config, control=0, buffer_page=0,
+                      buffer_read_mode=self._read_mode,
+                      dyno_speed_setpoint_rpm=self._speed_setpoint_rpm)
+        for reg in register_map.registers.values():
+            words = reg.encode(values[reg.name]) if reg.name in values else [0] * reg.words
+            self._image[reg.table].update(zip(range(reg.address, reg.address + reg.words), words))
         self.fail_next_kind: str | None = None
 
-    # ------------------------------------------------------------------ register image
-    def initial_blocks(self) -> tuple[list[SimData], list[SimData]]:
-        """(holding, input) SimData lists covering every mapped register."""
-        holding, inputs = [], []
-        values = dict(self._constants, **self._config, control=0, buffer_page=0,
-                      dyno_speed_setpoint_rpm=self._speed_setpoint_rpm)
-        for reg in self.map.registers.values():
-            words = reg.encode(values[reg.name]) if reg.name in values else [0] * reg.words
-            entry = SimData(reg.address, values=words, datatype=DataType.REGISTERS)
-            (holding if reg.table == "holding" else inputs).append(entry)
-        return holding, inputs
-
-    async def action(self, function_code, start_address, address, count, registers,
-                     set_values):
-        """pymodbus SimDevice hook: refresh reads, apply writes; return an ExcCodes to refuse."""
+    # ------------------------------------------------------------------ requests
+    def handle(self, function_code: int, address: int, count: int,
+               values: list[int] | None = None) -> list[int] | None:
+        """One request: the words read (function codes 3, 4) or None (6, 16); raises Refusal."""
         if self.fail_next_kind == "exception":
             self.fail_next_kind = None
-            return ExcCodes.DEVICE_FAILURE
-        try:
-            if function_code == _INPUT_FC:
-                self._refresh_inputs(start_address, address, count, registers)
-            elif function_code in _HOLDING_FCS and set_values:
-                self._write_holding(start_address, address, list(set_values), registers)
-            elif function_code in _HOLDING_FCS:
-                self._refresh_holding(start_address, registers)
-        except _Refusal as refusal:
-            return refusal.code
-        return None
+            raise Refusal(EXC_DEVICE_FAILURE, "injected failure")
+        if function_code in _BIT_FCS:
+            raise Refusal(EXC_ILLEGAL_ADDRESS, "the device has no coils or discrete inputs")
+        if function_code not in _REGISTER_FCS:
+            raise Refusal(EXC_ILLEGAL_FUNCTION, f"function code {function_code}")
+        writing = function_code in _WRITE_FCS
+        if writing:
+            count = len(values or [])
+        limit = 123 if function_code == 16 else 125
+        if not 1 <= count <= limit:
+            raise Refusal(EXC_ILLEGAL_VALUE, f"count {count}")
+        table = "input" if function_code == _INPUT_FC else "holding"
+        image = self._image[table]
+        if any(a not in image for a in range(address, address + count)):
+            raise Refusal(EXC_ILLEGAL_ADDRESS, f"{table} {address}..{address + count - 1}")
+        if writing:
+            self._write_holding(address, list(values))
+            return None
+        with self._lock:
+            if table == "input":
+                self._refresh_inputs(address, count)
+            else:
+                self._set("dyno_speed_setpoint_rpm", self._speed_setpoint_rpm)
+            return [image[a] for a in range(address, address + count)]
 
-    def _put(self, start_address, registers, name, value) -> None:
+    def _set(self, name: str, value) -> None:
         reg = self.map[name]
-        offset = reg.address - start_address
-        registers[offset:offset + reg.words] = reg.encode(value)
+        self._image[reg.table].update(zip(range(reg.address, reg.address + reg.words),
+                                          reg.encode(value)))
 
-    def _refresh_holding(self, start_address, registers) -> None:
-        with self._lock:
-            self._put(start_address, registers, "dyno_speed_setpoint_rpm",
-                      self._speed_setpoint_rpm)
+    def _refresh_inputs(self, address: int, count: int) -> None:
+        for name, value in (("state", self._state), ("status_flags", self._flags),
+                            ("samples_captured", self._samples_captured),
+                            ("words_per_sample", self._words_per_sample),
+                            *self._first_values.items()):
+            self._set(name, value)
+        window = self.map["buffer_window"]
+        if address + count > window.address and address < window.address + window.words:
+            self._fill_window(address, count, window)
 
-    def _refresh_inputs(self, start_address, address, count, registers) -> None:
-        with self._lock:
-            for name, value in (("state", self._state), ("status_flags", self._flags),
-                                ("samples_captured", self._samples_captured),
-                                ("words_per_sample", self._words_per_sample)):
-                self._put(start_address, registers, name, value)
-            window = self.map["buffer_window"]
-            if address + count > window.address and address < window.address + window.words:
-                self._fill_window(start_address, address, count, registers, window)
-
-    def _fill_window(self, start_address, address, count, registers, window) -> None:
+    def _fill_window(self, address: int, count: int, window) -> None:
         if self._state == self.map.states["capturing"]:
-            raise _Refusal(ExcCodes.DEVICE_BUSY)
+            raise Refusal(EXC_BUSY, "capturing")
+        auto = self._read_mode == self.map.buffer_read_modes.get("auto_increment")
+        if auto and address != window.address:
+            raise Refusal(EXC_ILLEGAL_ADDRESS, "auto-increment reads start at the window")
         first = max(address, window.address) - window.address
         last = min(address + count, window.address + window.words) - window.address
-        begin = self._page * window.words + first
-        end = self._page * window.words + last
+        begin = self._pointer + first
+        end = self._pointer + last
         if self._state != self.map.states["done"] or end > len(self._words):
-            raise _Refusal(ExcCodes.ILLEGAL_ADDRESS)
-        offset = window.address + first - start_address
-        registers[offset:offset + last - first] = self._words[begin:end].tolist()
+            raise Refusal(EXC_ILLEGAL_ADDRESS, "past the captured data")
+        image = self._image["input"]
+        image.update(zip(range(window.address + first, window.address + last),
+                         self._words[begin:end].tolist()))
+        if auto:
+            self._pointer = end
 
-    def _write_holding(self, start_address, address, values, registers) -> None:
-        image = list(registers)
-        image[address - start_address:address - start_address + len(values)] = values
+    def _write_holding(self, address: int, values: list[int]) -> None:
+        image = dict(self._image["holding"])
+        image.update(zip(range(address, address + len(values)), values))
         touched = [reg for reg in self.map.registers.values() if reg.table == "holding"
                    and reg.address < address + len(values) and address < reg.address + reg.words]
         with self._lock:
-            saved = dict(self._config), self._page
+            saved = dict(self._config), self._page, self._pointer, self._read_mode
             try:
                 for reg in touched:
-                    offset = reg.address - start_address
-                    self._apply(reg.name, reg.decode(image[offset:offset + reg.words]))
-            except _Refusal:
-                self._config, self._page = saved    # a refused write changes no setting
+                    self._apply(reg.name, reg.decode([image[a] for a in range(
+                        reg.address, reg.address + reg.words)]))
+            except Refusal:
+                # a refused write changes no setting
+                self._config, self._page, self._pointer, self._read_mode = saved
                 raise
+            self._image["holding"] = image
 
     def _apply(self, name: str, value) -> None:
         states = self.map.states
@@ -175,7 +212,7 @@ class DaqDevice:
         elif name == "dyno_speed_setpoint_rpm":
             reg = self.map[name]
             if not math.isfinite(value) or not reg.minimum <= value <= reg.maximum:
-                raise _Refusal(ExcCodes.ILLEGAL_VALUE)
+                raise Refusal(EXC_ILLEGAL_VALUE, f"speed {value}")
             self._speed_setpoint_rpm = float(value)
             self._speed_pending = True
             if self.twin.lock.acquire(timeout=SPEED_APPLY_WAIT_S):
@@ -184,15 +221,21 @@ class DaqDevice:
                 finally:
                     self.twin.lock.release()
             # else a capture holds the twin: its worker applies the setpoint when it ends
-        elif name == "buffer_page":
+        elif name in ("buffer_page", "buffer_read_mode"):
             if self._state == states["capturing"]:
-                raise _Refusal(ExcCodes.DEVICE_BUSY)
-            self._page = int(value)
+                raise Refusal(EXC_BUSY, "capturing")
+            if name == "buffer_read_mode":
+                if int(value) not in self.map.buffer_read_modes.values():
+                    raise Refusal(EXC_ILLEGAL_VALUE, f"buffer_read_mode {value}")
+                self._read_mode, self._page = int(value), 0
+            else:
+                self._page = int(value)
+            self._pointer = self._page * self.map.window_words
         else:
             if busy:
-                raise _Refusal(ExcCodes.DEVICE_BUSY)
+                raise Refusal(EXC_BUSY, "armed or capturing")
             if not self._config_value_ok(name, int(value)):
-                raise _Refusal(ExcCodes.ILLEGAL_VALUE)
+                raise Refusal(EXC_ILLEGAL_VALUE, f"{name} {value}")
             self._config[name] = int(value)
 
     def _apply_speed_setpoint(self) -> None:
@@ -202,7 +245,7 @@ class DaqDevice:
             try:
                 self.twin.speed_rpm = self._speed_setpoint_rpm
             except ValueError:
-                raise _Refusal(ExcCodes.ILLEGAL_VALUE) from None
+                raise Refusal(EXC_ILLEGAL_VALUE, "the dyno refused the speed") from None
 
     def _config_value_ok(self, name: str, value: int) -> bool:
         if name == "sample_rate_hz":
@@ -213,6 +256,8 @@ class DaqDevice:
             return value != 0 and value & ~self.map.all_channels_mask == 0
         if name == "settle_ms":
             return value <= int(self.device["max_settle_ms"])
+        if name == "capture_format":
+            return value in self.map.capture_formats.values()
         return False
 
     def _control(self, code: int) -> None:
@@ -225,23 +270,23 @@ class DaqDevice:
             self._samples_captured = 0
         elif code == codes["arm"]:
             if self._state == states["capturing"]:
-                raise _Refusal(ExcCodes.DEVICE_BUSY)
+                raise Refusal(EXC_BUSY, "capturing")
             self._generation += 1
             self._state = states["armed"]
             self._flags = 0
             self._samples_captured = 0
         elif code == codes["trigger"]:
             if self._state == states["capturing"]:
-                raise _Refusal(ExcCodes.DEVICE_BUSY)
+                raise Refusal(EXC_BUSY, "capturing")
             if self._state != states["armed"]:
-                raise _Refusal(ExcCodes.ILLEGAL_VALUE)
+                raise Refusal(EXC_ILLEGAL_VALUE, "trigger while not armed")
             self._state = states["capturing"]
             self._worker = threading.Thread(target=self._capture, args=(self._generation,
                                             dict(self._config)), daemon=True,
                                             name="sim-daq-capture")
             self._worker.start()
         else:
-            raise _Refusal(ExcCodes.ILLEGAL_VALUE)
+            raise Refusal(EXC_ILLEGAL_VALUE, f"control {code}")
 
     # ------------------------------------------------------------------ capture engine
     def _capture(self, generation: int, config: dict) -> None:
@@ -250,36 +295,63 @@ class DaqDevice:
         wanted = config["samples"]
         n = min(wanted, capacity)
         channels = self.map.channels_in(config["channel_mask"])
+        packed = config.get("capture_format") == self.map.capture_formats.get("packed")
         flags = 1 << self.map.status_flags["overrun"] if wanted > capacity else 0
+        ticks = stored_ticks(n, drop_every_nth(self.twin))
         try:
             with self.twin.lock:
                 if config["settle_ms"]:
                     self.twin.advance(config["settle_ms"] / 1000.0, rate)
-                data = self.twin.advance(n / rate, rate)
+                slots = int(ticks[-1]) + 1
+                data = self.twin.advance(slots / rate, rate)
                 with self._lock:
                     try:
                         self._apply_speed_setpoint()    # written while this capture ran
-                    except _Refusal:
+                    except Refusal:
                         log.error("dyno speed setpoint %s rpm refused by the twin",
                                   self._speed_setpoint_rpm)
-            columns = []
+            columns, first_values = [], {}
+            counter = self.map.sample_counter
             for channel in channels:
-                raw, clipped = channel.to_raw(np.asarray(data[channel.name])[:n])
+                values = ticks if counter is not None and channel.name == counter.name \
+                    else np.asarray(data[channel.name])[ticks]
+                raw, clipped = channel.to_raw(values)
                 if clipped:
                     flags |= 1 << self.map.status_flags["clipped"]
-                columns.append(channel.to_words(raw))
+                if packed and channel.packed_first_register:
+                    first_values[channel.packed_first_register] = int(raw[0])
+                columns.append(channel.to_words(raw, packed))
             frames = np.concatenate(columns, axis=1)
             outcome = (self.map.states["done"], frames.reshape(-1), len(frames),
-                       frames.shape[1])
+                       frames.shape[1], first_values)
         except Exception:  # noqa: BLE001 - a firmware fault is reported in the state register
             log.exception("simulated DAQ capture failed")
-            outcome = (self.map.states["fault"], np.zeros(0, dtype=np.uint16), 0, 0)
+            outcome = (self.map.states["fault"], np.zeros(0, dtype=np.uint16), 0, 0, {})
         with self._lock:
             if generation != self._generation:
                 return          # disarmed (or re-armed) meanwhile: discard
-            self._state, self._words, self._samples_captured, self._words_per_sample = outcome
+            (self._state, self._words, self._samples_captured, self._words_per_sample,
+             self._first_values) = outcome
             self._flags = flags
-            self._page = 0
+            self._page = self._pointer = 0
+
+
+def drop_every_nth(twin) -> int:
+    """The twin's test-only ``daq_drop_every_nth`` defect (0: the DAQ loses no sample)."""
+    return int(getattr(getattr(twin, "defects", None), "daq_drop_every_nth", 0) or 0)
+
+
+def stored_ticks(n: int, every_nth: int = 0) -> np.ndarray:
+    """Sample-clock ticks of the ``n`` samples the DAQ stores.
+
+    A healthy DAQ stores ticks 0..n-1. With the ``daq_drop_every_nth`` defect it silently loses
+    every n-th tick (the 10th, 20th, ... for n = 10) and keeps sampling until it has stored ``n``
+    samples: the count comes out right, the time base does not (only the sample counter shows it).
+    """
+    ticks = np.arange(n if not every_nth else n + (n - 1) // (every_nth - 1), dtype=np.int64)
+    if every_nth:
+        ticks = ticks[(ticks + 1) % every_nth != 0][:n]
+    return ticks
 
 
 def _twin_setting(twin, *path: str):
@@ -303,28 +375,36 @@ class SimulatedDaq:
         self.unit_id = unit_id
         self._host, self._port = host, port
         self._serial: dict | None = None
-        self._bridge: _PtyBridge | None = None
+        self._bridge: PtyBridge | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._server = None
         self._thread: threading.Thread | None = None
         self._started = threading.Event()
         self._start_error: BaseException | None = None
         self._bound: tuple[str, int] | None = None
+        self.line_note = ""
 
     @classmethod
-    def rtu(cls, twin, *, baudrate: int = 115200, pace_baud: bool = False, unit_id: int = 1,
-            register_map=None, serial_number: str = "SIM-DAQ-0001") -> "SimulatedDaq":
-        """An RTU DAQ on a pseudo-terminal; after ``start()`` the client opens ``sim.port``."""
+    def rtu(cls, twin, *, baudrate: int = 115200, parity: str = "E", stopbits: int = 1,
+            pace_baud: bool = False, unit_id: int = 1, register_map=None,
+            serial_number: str = "SIM-DAQ-0001") -> "SimulatedDaq":
+        """An RTU DAQ on a pseudo-terminal (8 data bits, ``parity``, ``stopbits``; default 8E1);
+        after ``start()`` the client opens ``sim.port``."""
+        if parity not in PARITIES or stopbits not in STOPBITS:
+            raise ValueError(f"simulated DAQ line parity={parity!r} stopbits={stopbits!r}; "
+                             f"allowed parity {PARITIES}, stopbits {STOPBITS}")
         sim = cls(twin, unit_id=unit_id, register_map=register_map,
                   serial_number=serial_number)
-        sim._serial = {"baudrate": baudrate, "pace_baud": pace_baud}
+        sim._serial = {"baudrate": baudrate, "parity": parity, "stopbits": stopbits,
+                       "pace_baud": pace_baud}
         return sim
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> "SimulatedDaq":
         if self._serial is not None:
-            self._bridge = _PtyBridge(self._serial["baudrate"] if self._serial["pace_baud"]
-                                      else None)
+            line = self._serial
+            self._bridge = PtyBridge(line["baudrate"] if line["pace_baud"] else None,
+                                     bits_per_char(line["parity"], line["stopbits"]))
             self._bridge.start()
         self._thread = threading.Thread(target=self._serve, daemon=True, name="sim-daq-modbus")
         self._thread.start()
@@ -399,18 +479,43 @@ class SimulatedDaq:
         finally:
             self._loop.close()
 
+    async def _action(self, function_code, start_address, address, count, registers,
+                      set_values):
+        """pymodbus SimDevice hook: the device answers; its words go into pymodbus's image.
+        (pymodbus calls it again without values after a write, to echo it: a holding read.)"""
+        if function_code in _WRITE_FCS and not set_values:
+            function_code = 3
+        try:
+            words = self.device.handle(function_code, address, count, set_values or None)
+        except Refusal as refusal:
+            return ExcCodes(refusal.code)
+        if words is not None:
+            registers[address - start_address:address - start_address + count] = words
+        return None
+
+    def _simdata(self) -> tuple[list[SimData], list[SimData]]:
+        """(holding, input) pymodbus blocks covering every mapped register."""
+        holding, inputs = [], []
+        for reg in self.map.registers.values():
+            entry = SimData(reg.address, values=[0] * reg.words, datatype=DataType.REGISTERS)
+            (holding if reg.table == "holding" else inputs).append(entry)
+        return holding, inputs
+
     async def _main(self) -> None:
-        holding, inputs = self.device.initial_blocks()
-        bits = [SimData(0, values=False, datatype=DataType.BITS)]
+        holding, inputs = self._simdata()
+        bits = [SimData(0, values=False, datatype=DataType.BITS)]   # pymodbus needs a block;
         device = SimDevice(self.unit_id, simdata=(bits, list(bits), holding, inputs),
-                           action=self.device.action)
+                           action=self._action)                     # the device refuses it
         if self._bridge is not None:
+            parity, self.line_note = line_for_port(self._bridge.server_port,
+                                                   self._serial["parity"])
             self._server = ModbusSerialServer(device, port=self._bridge.server_port,
-                                              baudrate=self._serial["baudrate"],
+                                              baudrate=self._serial["baudrate"], bytesize=8,
+                                              parity=parity, stopbits=self._serial["stopbits"],
                                               trace_packet=self._trace_packet)
         else:
-            self._server = ModbusTcpServer(device, address=(self._host, self._port),
-                                           trace_packet=self._trace_packet)
+            self._server = _InOrderTcpServer(device, address=(self._host, self._port),
+                                             trace_packet=self._trace_packet)
         await self._server.serve_forever(background=True)
         if self._bridge is None:
             self._bound = tuple(self._server.transport.sockets[0].getsockname()[:2])
@@ -418,14 +523,64 @@ class SimulatedDaq:
         await self._server.serving
 
 
-class _PtyBridge:
-    """Two raw pseudo-terminals joined by a thread: the server opens one, the client the other.
+class _InOrderRequestHandler(ServerRequestHandler):
+    """A pymodbus connection handler that answers pipelined requests, in order.
 
-    With ``pace_baud`` each chunk is delayed by its time on a real line (10 bits per byte).
+    Modbus TCP lets a client send requests before the earlier answers arrive. pymodbus 3.16's
+    handler decodes one frame per received segment and keeps one ``last_pdu``, so frames that
+    arrive together wait for more data or are overwritten. This one decodes every complete frame
+    of the buffer into a queue and answers them one after another.
     """
 
-    def __init__(self, pace_baud: int | None) -> None:
+    def __init__(self, *args) -> None:
+        super().__init__(*args)
+        self._queue: collections.deque = collections.deque()
+        self._draining = False
+
+    def callback_data(self, data: bytes, addr: tuple | None = None) -> int:
+        used = 0
+        while used < len(data):
+            try:
+                cut = TransactionManager.callback_data(self, data[used:], addr)
+            except ModbusIOException:
+                return used + super().callback_data(data[used:], addr)   # answers exception 1
+            used += cut
+            if self.last_pdu is not None:
+                self._queue.append((self.last_pdu, addr))
+            elif cut == 0:
+                break                               # an incomplete frame: wait for more data
+        if self._queue and not self._draining:
+            self._draining = True
+            self.loop.create_task(self._drain())
+        return used
+
+    async def _drain(self) -> None:
+        try:
+            while self._queue:
+                self.last_pdu, self.last_addr = self._queue.popleft()
+                await self.handle_request()
+        finally:
+            self._draining = False
+
+
+class _InOrderTcpServer(ModbusTcpServer):
+    """pymodbus TCP server whose connections answer pipelined requests in order."""
+
+    def callback_new_connection(self):
+        return _InOrderRequestHandler(self, self.trace_packet, self.trace_pdu,
+                                      self.trace_connect)
+
+
+class PtyBridge:
+    """Two raw pseudo-terminals joined by a thread: the server opens one, the client the other.
+
+    With ``pace_baud`` each chunk is delayed by its time on a real line (``bits_per_char`` bits
+    per byte: 11 for 8E1 and 8N2, 10 for 8N1).
+    """
+
+    def __init__(self, pace_baud: int | None, bits_per_char: int = 11) -> None:
         self.pace_baud = pace_baud
+        self.bits_per_char = bits_per_char
         self._server_master, server_slave = os.openpty()
         self._client_master, client_slave = os.openpty()
         for fd in (server_slave, client_slave, self._server_master, self._client_master):
@@ -466,5 +621,5 @@ class _PtyBridge:
                 except OSError:
                     continue
                 if self.pace_baud:
-                    time.sleep(len(data) * 10.0 / self.pace_baud)
+                    time.sleep(len(data) * self.bits_per_char / self.pace_baud)
                 os.write(peers[fd], data)
