@@ -106,6 +106,8 @@ class Prediction:
     harmonic order of the dominant ripple (None = broadband); ``angle_rad``/``waveform_pu`` give the
     ripple (torque minus its mean, per unit of ``base_nm``) against electrical angle θ where the
     paper defines a waveform. ``extras`` holds secondary figures (e.g. the paper's own per-unit).
+    ``expected_range_pu`` (low, high), per unit of ``base_nm``: where a derived model states its
+    own uncertainty, the interval a drive that behaves as modelled falls in (None: not stated).
     """
 
     source: str
@@ -119,6 +121,7 @@ class Prediction:
     angle_rad: np.ndarray | None = None
     waveform_pu: np.ndarray | None = None
     extras: dict[str, Any] = field(default_factory=dict)
+    expected_range_pu: tuple[float, float] | None = None
 
     @property
     def pk_pk_nm(self) -> float:
@@ -138,6 +141,8 @@ class Prediction:
                 "pk_pk_nm": self.pk_pk_nm, "base": self.base, "base_nm": self.base_nm,
                 "order": self.order, "equations": self.equations, "inputs": plain(self.inputs),
                 "assumptions": list(self.assumptions), "extras": plain(self.extras),
+                "expected_range_pu": (list(self.expected_range_pu)
+                                      if self.expected_range_pu is not None else None),
                 "angle_rad": plain(self.angle_rad), "waveform_pu": plain(self.waveform_pu)}
 
 

@@ -43,20 +43,24 @@ def paper_current_step_a(dead_time_s: float, dc_bus_v: float, inductance_h: floa
     return (2.0 / 3.0) * dc_bus_v * dead_time_s / inductance_h
 
 
-def loop_rejection(rotor_frequency_rad_s: float, op: OperatingPoint,
-                   bandwidth_rad_s: float | None, delay_s: float = 0.0) -> complex:
-    """Disturbance voltage → current of the motor in the rotor frame, with the PI loop if any."""
+def loop_rejection(rotor_frequency_rad_s, op: OperatingPoint,
+                   bandwidth_rad_s: float | None, delay_s: float = 0.0):
+    """Disturbance voltage → current of the motor in the rotor frame, with the PI loop if any.
+
+    ``rotor_frequency_rad_s`` a number (returns a complex) or an array (returns an array).
+    """
     motor = op.motor
-    s = 1j * rotor_frequency_rad_s
+    s = 1j * np.asarray(rotor_frequency_rad_s, dtype=float)
     plant = 1.0 / (motor.phase_resistance_ohm
                    + motor.phase_inductance_h * (s + 1j * op.elec_speed_rad_s))
-    if not bandwidth_rad_s:
-        return plant
-    if rotor_frequency_rad_s == 0.0:
-        return 0j  # the integrator rejects a constant disturbance completely
-    controller = bandwidth_rad_s * (motor.phase_resistance_ohm + motor.phase_inductance_h * s) / s
-    controller *= np.exp(-(s + 1j * op.elec_speed_rad_s) * delay_s)
-    return plant / (1.0 + controller * plant)
+    if bandwidth_rad_s:
+        safe_s = np.where(s == 0.0, 1j, s)
+        controller = bandwidth_rad_s * (motor.phase_resistance_ohm
+                                        + motor.phase_inductance_h * safe_s) / safe_s
+        controller = controller * np.exp(-(safe_s + 1j * op.elec_speed_rad_s) * delay_s)
+        # the integrator rejects a constant disturbance completely
+        plant = np.where(s == 0.0, 0j, plant / (1.0 + controller * plant))
+    return complex(plant) if plant.ndim == 0 else plant
 
 
 def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: float,

@@ -22,19 +22,50 @@ count). Its current response h(t) = L⁻¹{s/((R + L_s·s)(s + ω_c))} has the L
 stays within ±(2/3)·(V_dc/C)·‖h‖₁ and the pk-pk torque per unit of the mean torque is at most
 2·(2/3)·(V_dc/C)·‖h‖₁/(I·cos φ) (``model="closed_loop"``, a bound not in the paper; the loop's
 delay and cross-coupling are neglected).
+
+A bound cannot fail for a drive that ignores the injection. ``model="derived"`` (not in the paper)
+gives a value: the duty quantisation as an additive disturbance. Each PWM period k the firmware's
+compare value is floor((½ + v_x/V_dc)·C), so leg x gets the voltage error
+e_x[k] = (floor((½ + v_x/V_dc)·C)/C − ½ − v_x/V_dc)·V_dc, computed here from the steady-state leg
+references (the phasor V∠δ of eq 27's circuit, SVPWM or sine) sampled at the PWM rate over whole
+electrical revolutions. Its common mode does not reach an isolated-neutral motor; its space
+vector u[k] = (2/3)·Σ_x e_x[k]·e^(j·o_x) drives the current through the loop's disturbance
+response (``dead_time.loop_rejection``: plant 1/(R + L·(s + jω_e)) in the rotor frame, PI
+Kp = ω_c·L, Ki = ω_c·R, delay τ), evaluated per frequency of u. The torque ripple is
+Re(ê·conj(Δi))/(I·cos φ) (ê the unit EMF vector), synchronously averaged and low-passed to
+``max_order`` like the analysis, pk-pk. The model neglects that the loop's own reaction moves the
+quantisation steps (dithering) and ADC noise; against the simulated drive (air-gap torque,
+250–1500 rpm, 20–40 A, φ 0 and 0.5 rad, C = 32–128, within the voltage limit; table in
+tests/model/test_model_derived.py) the twin lay between 0.26 and 1.66 times this value, so the
+expected range is stated as [value/4, 2·value] (``DERIVED_RANGE_FACTORS``). Beyond the linear
+modulation range (e.g. 1500 rpm, 40 A) the loop saturates and the twin is 2–4 times higher: the
+form is refused there.
 """
 
 from __future__ import annotations
 
 import cmath
+import dataclasses
 import math
 
+import numpy as np
+
 from hil.errors import InputError
-from hil.model.core import MEAN_TORQUE_BASE, OperatingPoint, Prediction, check_range
+from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
+                            check_range)
+from hil.model.dead_time import loop_rejection
 
 PWM_COUNTS_RANGE = (8, 65535)
 PWM_BITS_RANGE = (4, 17)
 BASES = ("paper", "dc_bus")
+MODELS = ("paper", "closed_loop", "derived")
+MODULATIONS = ("svpwm", "sine")
+#: Expected range of the derived model, (low, high) factors of its value: the spread of the
+#: simulated drive against it over the validation grid (module docstring), rounded outward.
+DERIVED_RANGE_FACTORS = (0.25, 2.0)
+#: Highest electrical order the analysis keeps by default (hil.analysis DEFAULT_MAX_ORDER).
+DEFAULT_MAX_ORDER = 64
+MAX_REVOLUTIONS = 64
 
 
 def voltage_phasor(op: OperatingPoint) -> complex:
@@ -105,25 +136,78 @@ def closed_loop_bound_pu(op: OperatingPoint, counts: float, bandwidth_hz: float)
         op.current_a * math.cos(op.current_angle_rad))
 
 
+def leg_references_pu(theta: np.ndarray, op: OperatingPoint, modulation: str) -> np.ndarray:
+    """Steady-state leg voltage references, per unit of V_dc, at electrical angles θ (3 × N)."""
+    phasor = voltage_phasor(op)
+    v_peak, delta = math.sqrt(2.0) * abs(phasor), cmath.phase(phasor)
+    reference = v_peak * np.sin(theta[None, :] + delta - PHASE_OFFSETS_RAD[:, None]) / op.dc_bus_v
+    if modulation == "svpwm":
+        reference = reference - 0.5 * (reference.max(axis=0) + reference.min(axis=0))
+    return reference
+
+
+def whole_revolutions(periods_per_rev: float) -> int:
+    """Fewest revolutions (≤ MAX_REVOLUTIONS) holding a whole number of PWM periods, else the
+    count that comes closest."""
+    mismatch = [abs(r * periods_per_rev - round(r * periods_per_rev))
+                for r in range(1, MAX_REVOLUTIONS + 1)]
+    whole = [r for r, miss in enumerate(mismatch, start=1) if miss <= 1e-6]
+    return whole[0] if whole else 1 + int(np.argmin(mismatch))
+
+
+def derived_pk_pk_pu(op: OperatingPoint, counts: float, *, pwm_frequency_hz: float,
+                     bandwidth_hz: float, delay_s: float = 0.0, modulation: str = "svpwm",
+                     max_order: int = DEFAULT_MAX_ORDER) -> tuple[float, int]:
+    """(pk-pk per unit of the mean torque, revolutions averaged) of the derived model."""
+    omega_e = abs(op.elec_speed_rad_s)
+    periods_per_rev = 2.0 * math.pi * pwm_frequency_hz / omega_e
+    revolutions = whole_revolutions(periods_per_rev)
+    n = int(round(revolutions * periods_per_rev))
+    theta = omega_e * np.arange(n) / pwm_frequency_hz
+    reference = leg_references_pu(theta, op, modulation)
+    error_v = (np.floor((0.5 + reference) * counts) / counts - 0.5 - reference) * op.dc_bus_v
+    vector = (2.0 / 3.0) * np.sum(error_v * np.exp(1j * PHASE_OFFSETS_RAD)[:, None], axis=0)
+    omega = 2.0 * math.pi * np.fft.fftfreq(n, 1.0 / pwm_frequency_hz)
+    forward = dataclasses.replace(op, speed_rpm=abs(op.speed_rpm))  # mirror image if negative
+    response = loop_rejection(omega - omega_e, forward, 2.0 * math.pi * bandwidth_hz, delay_s)
+    current = np.fft.ifft(np.fft.fft(vector) * response)
+    ripple = np.real(np.exp(1j * (theta - math.pi / 2)) * np.conj(current)) / (
+        op.current_a * math.cos(op.current_angle_rad))
+    spectrum = np.fft.rfft(ripple)
+    orders = np.arange(spectrum.size) / revolutions
+    keep = (orders <= max_order) & (np.abs(orders - np.round(orders)) < 1e-9) & (orders > 0)
+    synchronous = np.fft.irfft(np.where(keep, spectrum, 0.0), n)
+    return float(np.ptp(synchronous)), revolutions
+
+
 def predict_pwm_resolution(op: OperatingPoint, *, pwm_bits: int | None = None,
                            pwm_period_counts: int | None = None,
                            voltage_step_basis: str | None = None, model: str = "paper",
-                           current_loop_bandwidth_hz: float | None = None) -> Prediction:
+                           current_loop_bandwidth_hz: float | None = None,
+                           current_loop_delay_s: float = 0.0, pwm_frequency_hz: float = 20000.0,
+                           modulation: str = "svpwm",
+                           max_order: int = DEFAULT_MAX_ORDER) -> Prediction:
     """Torque step of one voltage-resolution step (eq 28), per unit of the operating torque;
-    or, with ``model="closed_loop"``, the bound under the PI current loop."""
+    with ``model="closed_loop"`` the bound under the PI current loop; with ``model="derived"``
+    the duty-quantisation ripple through the loop (module docstring)."""
     step, basis = voltage_step_rel(op, pwm_bits=pwm_bits, pwm_period_counts=pwm_period_counts,
                                    voltage_step_basis=voltage_step_basis)
     phasor = voltage_phasor(op)
     gain = sensitivity(op)
-    if model not in ("paper", "closed_loop"):
-        raise InputError(f"model={model!r} is not one of paper, closed_loop")
-    if model == "closed_loop":
+    if model not in MODELS:
+        raise InputError(f"model={model!r} is not one of {', '.join(MODELS)}")
+    if model in ("closed_loop", "derived"):
         if current_loop_bandwidth_hz is None:
-            raise InputError("model=closed_loop needs current_loop_bandwidth_hz "
+            raise InputError(f"model={model} needs current_loop_bandwidth_hz "
                              "(allowed 10..25000 Hz)")
         bandwidth = check_range("current_loop_bandwidth_hz", current_loop_bandwidth_hz, 10.0,
                                 25000.0, unit=" Hz")
         counts = pwm_period_counts if pwm_period_counts is not None else 2.0 ** (pwm_bits - 1)
+    if model == "derived":
+        return _derived_prediction(op, counts, bandwidth, current_loop_delay_s, pwm_frequency_hz,
+                                   modulation, max_order, abs(step * gain),
+                                   closed_loop_bound_pu(op, counts, bandwidth))
+    if model == "closed_loop":
         return Prediction(
             source="pwm_resolution", pk_pk_pu=closed_loop_bound_pu(op, counts, bandwidth),
             base=MEAN_TORQUE_BASE, base_nm=op.mean_torque_nm, order=None,
@@ -147,3 +231,45 @@ def predict_pwm_resolution(op: OperatingPoint, *, pwm_bits: int | None = None,
             "pk-pk torque = one voltage step's torque change (first order)"],
         extras={"voltage_rms_v": abs(phasor), "delta_rad": cmath.phase(phasor),
                 "sensitivity": gain})
+
+
+def _derived_prediction(op: OperatingPoint, counts: float, bandwidth_hz: float, delay_s: float,
+                        pwm_frequency_hz: float, modulation: str, max_order: int,
+                        paper_pu: float, bound_pu: float) -> Prediction:
+    if op.speed_rpm == 0.0:
+        raise InputError("speed_rpm=0: the derived form averages whole electrical revolutions "
+                         "(allowed: speed_rpm != 0 with model=derived)")
+    f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, 2000.0, 50000.0, unit=" Hz")
+    delay = check_range("current_loop_delay_s", delay_s, 0.0, 1e-3, unit=" s")
+    if modulation not in MODULATIONS:
+        raise InputError(f"modulation={modulation!r} is not one of {', '.join(MODULATIONS)}")
+    orders = check_range("max_order", max_order, 1, 10000)
+    v_peak = math.sqrt(2.0) * abs(voltage_phasor(op))
+    linear_limit = op.dc_bus_v / (math.sqrt(3.0) if modulation == "svpwm" else 2.0)
+    if v_peak > linear_limit:
+        raise InputError(f"the operating point needs a {v_peak:.3g} V peak phase voltage, beyond "
+                         f"the {modulation} linear range {linear_limit:.3g} V of the "
+                         f"{op.dc_bus_v:g} V bus (allowed: lower speed or current)")
+    value, revolutions = derived_pk_pk_pu(op, counts, pwm_frequency_hz=f_sw,
+                                          bandwidth_hz=bandwidth_hz, delay_s=delay,
+                                          modulation=modulation, max_order=int(orders))
+    low, high = DERIVED_RANGE_FACTORS
+    return Prediction(
+        source="pwm_resolution", pk_pk_pu=value, base=MEAN_TORQUE_BASE,
+        base_nm=op.mean_torque_nm, order=None,
+        inputs={"pwm_period_counts": counts, "model": "derived",
+                "current_loop_bandwidth_hz": bandwidth_hz, "current_loop_delay_s": delay,
+                "pwm_frequency_hz": f_sw, "modulation": modulation, "max_order": int(orders),
+                **op.to_dict()},
+        equations="duty quantisation through the current loop (not in the paper; eqs 27-28 for "
+                  "the open-loop form)",
+        assumptions=[
+            "compare values truncated to whole counts of the steady-state leg references",
+            "additive disturbance: the loop's reaction does not move the quantisation steps",
+            f"PI loop Kp = ω_c·L_s, Ki = ω_c·R, delay {delay:.3g} s (continuous-time)",
+            f"synchronous average over {revolutions} revolution(s), orders 1..{int(orders)}",
+            "air-gap torque (a transducer's bandwidth below the ripple lowers the reading)",
+            "range [value/4, 2·value] from the spread against the simulated drive"],
+        expected_range_pu=(low * value, high * value),
+        extras={"paper_pk_pk_pu": paper_pu, "closed_loop_bound_pu": bound_pu,
+                "revolutions_averaged": revolutions})

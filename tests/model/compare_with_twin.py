@@ -1,36 +1,24 @@
 """Print closed-form predictions beside the simulated drive (hil.sim.DriveTwin), one point each.
 
 Run: .venv/bin/python tests/model/compare_with_twin.py   (about 10 s; not a test: no verdicts)
-The twin's electromagnetic torque over whole electrical revolutions is low-passed in the order
-domain (orders above ``max_order`` dropped, which removes the PWM-switching ripple) before pk-pk.
+The twin's ripple is measured by ``twin_ripple.twin_ripple`` (orders above ``max_order`` dropped).
 """
 
 import math
+import sys
+from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).parent))
 
-from hil.model import OperatingPoint, predict
-from hil.sim import DriveTwin
+from hil.model import OperatingPoint, predict  # noqa: E402
+from twin_ripple import twin_ripple  # noqa: E402
 
-SAMPLE_RATE_HZ = 200_000.0
 LOOP = {"current_loop_bandwidth_hz": 0.08 * 20000.0}  # the twin's FirmwareModel default
+DELAY = {"current_loop_delay_s": 1.5 / 20000}
 
 
 def twin_pk_pk(injection, op, *, max_order):
-    duration_s = max(0.12, 1.05 * 60.0 / (abs(op.speed_rpm) * op.motor.pole_pairs))
-    twin = DriveTwin(seed=1)
-    twin.set_injection(current_angle_rad=op.current_angle_rad, **injection)
-    twin.speed_rpm, twin.current_command_a = op.speed_rpm, op.current_a
-    twin.enable()
-    twin.advance(0.03, SAMPLE_RATE_HZ)
-    channels = twin.advance(duration_s, SAMPLE_RATE_HZ)
-    theta = channels["rotor_angle_mech_rad"] * op.motor.pole_pairs
-    revolutions = int((theta[-1] - theta[0]) // (2 * math.pi))
-    torque = channels["torque_em_nm"][theta - theta[0] < revolutions * 2 * math.pi]
-    spectrum = np.fft.rfft(torque)
-    spectrum[np.arange(spectrum.size) / revolutions > max_order] = 0
-    smooth = np.fft.irfft(spectrum, torque.size)
-    return np.ptp(smooth) / np.mean(smooth)
+    return twin_ripple(injection, op, max_order=max_order).pk_pk_pu
 
 
 def main():
@@ -43,9 +31,13 @@ def main():
          "gain_mismatch", {}, 40),
         ("encoder dec 100, 100 rpm, φ 10°", {"encoder_decimation": 100}, op10, "encoder", {}, 400),
         ("dead_time 2 µs (average model)", {"dead_time_s": 2e-6}, op, "dead_time",
-         {"model": "average_voltage", "current_loop_delay_s": 1.5 / 20000, **LOOP}, 40),
+         {"model": "average_voltage", **DELAY, **LOOP}, 40),
         ("dead_time 2 µs (paper eq 38)", {"dead_time_s": 2e-6}, op, "dead_time", {}, 40),
         ("word_length 10 bits (bound)", {"word_length_bits": 10}, op, "word_length", {}, 200),
+        ("word_length 10 bits (derived)", {"word_length_bits": 10}, op, "word_length",
+         {"model": "derived"}, 64),
+        ("pwm counts 32 (derived)", {"pwm_period_counts": 32}, op, "pwm_resolution",
+         {"model": "derived", **LOOP, **DELAY}, 64),
         ("pwm counts 32 (closed-loop bound)", {"pwm_period_counts": 32}, op, "pwm_resolution",
          {"model": "closed_loop", **LOOP}, 40),
         ("pwm counts 32 (eq 28)", {"pwm_period_counts": 32}, op, "pwm_resolution", {}, 40),
