@@ -15,7 +15,8 @@ from hil import __version__
 from hil.errors import HilError, InputError
 
 #: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
-COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "predict", "budget"]
+COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "predict", "budget",
+                              "yield_cmd"]
 
 
 class OneLineErrorParser(argparse.ArgumentParser):

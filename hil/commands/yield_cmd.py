@@ -1,0 +1,166 @@
+"""``hil yield TOLERANCES.toml``: Monte Carlo yield of a ripple requirement over tolerances.
+
+Prints the yield with its 95 % confidence interval, the ripple quantiles and the Sobol' ranking
+of the tolerances; writes ``yield.json``, ``histogram.png``/``.svg`` and the resumable campaign
+chunks to ``--out``. ``--target-yield 99`` adds the inverse design: the loosest tolerances
+(cost ∝ 1/tolerance) that reach 99 % (hil/tolerance/design.py states the algorithm).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+
+from hil.campaign import CampaignInterrupted, TwinSettings
+from hil.errors import InputError
+from hil.tolerance.combiner import CombinerSettings
+from hil.tolerance.design import inverse_design
+from hil.tolerance.engines import ENGINES
+from hil.tolerance.run import YieldOptions, run_yield
+from hil.tolerance.spec import DRIVES_RANGE, load_tolerances
+
+
+def _weights(items: list[str] | None) -> dict[str, float]:
+    weights = {}
+    for item in items or []:
+        name, _, value = item.partition("=")
+        try:
+            weights[name] = float(value)
+        except ValueError:
+            raise InputError(f"--cost-weight {item!r} must be NAME=NUMBER") from None
+        if not weights[name] > 0 or not math.isfinite(weights[name]):
+            raise InputError(f"--cost-weight {item!r}: the weight must be > 0")
+    return weights
+
+
+def run(args: argparse.Namespace) -> int:
+    spec = load_tolerances(args.tolerances).with_requirement(args.limit_pct)
+    changes = {}
+    if args.drives is not None:
+        if not DRIVES_RANGE[0] <= args.drives <= DRIVES_RANGE[1]:
+            raise InputError(f"--drives {args.drives} must be in {DRIVES_RANGE[0]}..{DRIVES_RANGE[1]}")
+        changes["drives"] = args.drives
+    if args.seed is not None:
+        if args.seed < 0:
+            raise InputError(f"--seed {args.seed} must be >= 0")
+        changes["seed"] = args.seed
+    spec = dataclasses.replace(spec, **changes)
+    if args.target_yield is not None and args.engine != "closed-form":
+        raise InputError("--target-yield runs on the closed-form engine (--engine closed-form)")
+    options = YieldOptions(engine=args.engine, scheduler=args.scheduler, n_workers=args.workers,
+                           chunk_size=args.chunk_size, sobol_n=args.sobol_n,
+                           combiner=CombinerSettings(bounds=not args.no_bounds),
+                           twin=TwinSettings(revolutions=args.revolutions),
+                           progress=not args.no_progress and sys.stderr.isatty())
+    try:
+        summary = run_yield(spec, args.out, options)
+    except CampaignInterrupted as stop:
+        print(f"hil yield: {stop}", file=sys.stderr)
+        raise
+    if args.target_yield is not None:
+        summary["inverse_design"] = inverse_design(spec, args.target_yield / 100.0,
+                                                   weights=_weights(args.cost_weight),
+                                                   settings=options.combiner)
+        from hil.campaign.store import write_atomic
+        from pathlib import Path
+        write_atomic(Path(args.out) / "yield.json", json.dumps(summary, indent=2).encode())
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print("\n".join(format_summary(summary)))
+    return 0
+
+
+def _pct(value: float) -> str:
+    return f"{100 * value:.3f} %"
+
+
+def format_summary(s: dict) -> list[str]:
+    req = s["requirement"]
+    ci = s["yield_ci95"]
+    q = s["worst_ripple_pct_quantiles"]
+    lines = [f"hil yield: {s['engine']} engine, {s['drives']:,} drives, "
+             f"{len(s['per_point'])} operating point(s), limit {req['limit']['max']:g} % pk-pk "
+             f"({req['id']})",
+             f"yield {_pct(s['yield'])}  (95 % CI {_pct(ci[0])} .. {_pct(ci[1])}, Wilson)",
+             "worst-point ripple, % of mean torque: " + ", ".join(
+                 f"{k} {v:.3g}" for k, v in q.items())]
+    for p in s["per_point"]:
+        lines.append(f"  {p['speed_rpm']:g} rpm, {p['current_a']:g} A, φ {p['current_angle_deg']:g}°: "
+                     f"yield {_pct(p['yield'])}, median {p['ripple_pct_quantiles']['q50']:.3g} %, "
+                     f"q99 {p['ripple_pct_quantiles']['q99']:.3g} %")
+    if s.get("bounds_added"):
+        lines.append("  (word-length and PWM-resolution bounds added to every drive's pk-pk: "
+                     "conservative; --no-bounds leaves them out)")
+    sobol = s.get("sobol")
+    if sobol and sobol["ranking"]:
+        basis = sobol["ranked_by"].split()[-1]
+        table = sobol["indices"][basis]
+        lines.append(f"Sobol' ranking ({sobol['ranked_by']}, {sobol['evaluations']:,} evaluations):")
+        for i, name in enumerate(sobol["ranking"], 1):
+            row = table[name]
+            lines.append(f"  {i}. {name:<24} S_T {row['ST']:.3f} ± {row['ST_conf']:.3f}   "
+                         f"S_1 {row['S1']:.3f} ± {row['S1_conf']:.3f}")
+    design = s.get("inverse_design")
+    if design:
+        lines += format_design(design)
+    c = s["campaign"]
+    lines.append(f"{c['chunks']} chunks ({c['chunks_resumed']} resumed) on {c['workers']} "
+                 f"worker(s), {c['scheduler']}; wall {c['wall_s']:.1f} s")
+    figures = s.get("figures", {})
+    lines.append(f"written: {c['folder']}/yield.json" + (
+        f", {figures['png']}, {figures['svg']}" if figures else ""))
+    return lines
+
+
+def format_design(d: dict) -> list[str]:
+    target = 100 * d["target_yield"]
+    if not d["feasible"]:
+        return [f"inverse design for {target:g} %: not reachable — {d['reason']}"]
+    lines = [f"inverse design for {target:g} % (cost ∝ 1/tolerance; {d['algorithm']}):"]
+    for name, p in d["parameters"].items():
+        lines.append(f"  {name:<24} {p['spread_kind']} {p['file_spread']:.4g} -> "
+                     f"{p['design_spread']:.4g}  (x{p['factor']:.3g})")
+    check = d["check"]
+    lines.append(f"  cost {d['cost']['file']:.3g} -> {d['cost']['design']:.3g}; check on "
+                 f"{check['drives']:,} fresh drives: yield {_pct(check['yield'])} "
+                 f"(95 % CI {_pct(check['yield_ci95'][0])} .. {_pct(check['yield_ci95'][1])})")
+    alone = [f"{n} {a['spread_kind']} {a['spread']:.4g}" for n, a in d["alone"].items() if a]
+    lines.append("  one tolerance alone reaching it: " + ("; ".join(alone) if alone else
+                                                          "none (several must tighten)"))
+    return lines
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("yield", help="Monte Carlo yield of a ripple limit over "
+                                   "tolerances", description=__doc__.splitlines()[0])
+    parser.add_argument("tolerances", help="tolerance file (TOML), e.g. "
+                        "hil/examples/tolerances.toml")
+    parser.add_argument("--engine", choices=ENGINES, default="closed-form")
+    parser.add_argument("--drives", type=int, help="Monte Carlo drives (overrides the file)")
+    parser.add_argument("--seed", type=int, help="campaign seed (overrides the file)")
+    parser.add_argument("--limit-pct", type=float,
+                        help="pk-pk limit, %% of the mean torque (overrides [requirement])")
+    parser.add_argument("--out", default="yield-campaign",
+                        help="campaign folder: chunks (resumable), yield.json, histograms")
+    parser.add_argument("--scheduler", help="tcp://HOST:8786 of an existing Dask cluster, or "
+                        "'inline' (this process); default: a LocalCluster on this machine")
+    parser.add_argument("--workers", type=int, help="LocalCluster workers (default: cores)")
+    parser.add_argument("--chunk-size", type=int, help="drives per chunk (default 50000 "
+                        "closed-form, 16 twin)")
+    parser.add_argument("--sobol-n", type=int, default=1024,
+                        help="Sobol' base samples, a power of 2 (N·(D+2) evaluations; 0: none)")
+    parser.add_argument("--revolutions", type=int, default=2,
+                        help="twin: electrical revolutions analysed per drive and point")
+    parser.add_argument("--no-bounds", action="store_true",
+                        help="closed-form: leave the word-length and PWM-resolution bounds out")
+    parser.add_argument("--target-yield", type=float, metavar="PCT",
+                        help="inverse design: loosest tolerances reaching this yield, %%")
+    parser.add_argument("--cost-weight", action="append", metavar="NAME=W",
+                        help="inverse design: cost weight of a tolerance (default 1 each)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.set_defaults(func=run)
