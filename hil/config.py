@@ -43,6 +43,9 @@ SERIAL_BAUDRATES: tuple[int, ...] = (1200, 2400, 4800, 9600, 19200, 38400, 57600
                                      230400, 460800, 921600)
 TORQUE_DIALECTS: tuple[str, ...] = ("magtrol", "himmelstein")
 DAQ_TRANSPORTS: tuple[str, ...] = ("tcp", "rtu")
+#: Modbus RTU line: parity (even, odd, none) and stop bits; 8 data bits always.
+DAQ_PARITIES: tuple[str, ...] = ("E", "O", "N")
+DAQ_STOPBITS: tuple[int, ...] = (1, 2)
 INSTRUMENT_ROLES: tuple[str, ...] = ("drive", "daq", "torque", "dyno")
 
 _ALWAYS, _REAL, _OPTIONAL = "always", "real", "optional"
@@ -105,7 +108,12 @@ class DriveConfig:
 
 @dataclass(frozen=True)
 class DaqConfig:
-    """``[daq]``: the Modbus data-acquisition unit, over TCP (host/port) or RTU (serial)."""
+    """``[daq]``: the Modbus data-acquisition unit, over TCP (host/port) or RTU (serial).
+
+    RTU line: 8 data bits, ``parity`` and ``stopbits`` (default 8E1, the Modbus serial-line
+    default; 8N2 and 8N1 selectable). TCP: ``requests_in_flight`` buffer reads outstanding at once
+    (1 for a DAQ that cannot take pipelined requests).
+    """
 
     transport: str = _key("tcp", "str", choices=DAQ_TRANSPORTS)
     host: str | None = _key(None, "str")
@@ -115,10 +123,20 @@ class DaqConfig:
     unit_id: int = _key(1, "int", lo=0, hi=255)
     register_map: Path | None = _key(None, "path")  # None: the map shipped with the drivers
     timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
+    parity: str = _key("E", "str", choices=DAQ_PARITIES)
+    stopbits: int = _key(1, "int", choices=DAQ_STOPBITS)
+    requests_in_flight: int = _key(8, "int", lo=1, hi=64)
 
     def _check(self, path: str, ctx: "_Context") -> None:
         need, other = (("host", "port"), ("serial_port", "baudrate")) if self.transport == "tcp" \
             else (("serial_port", "baudrate"), ("host", "port"))
+        line_only = {"tcp": ("parity", "stopbits"), "rtu": ("requests_in_flight",)}
+        for name in line_only[self.transport]:
+            default = next(f.default for f in fields(self) if f.name == name)
+            if getattr(self, name) != default:
+                ctx.fail(f"{path}.{name} is only used with transport = "
+                         f"{'rtu' if self.transport == 'tcp' else 'tcp'!r}, "
+                         f"not with transport = {self.transport!r}")
         for name in other:
             if getattr(self, name) is not None:
                 ctx.fail(f"{path}.{name} is only used with transport = "
@@ -236,6 +254,12 @@ class LabInfo:
     name: str = _key("", "str")
     address: str = _key("", "str")
     operator: str = _key("", "str")
+    # ISO/IEC 17025 §7.8.2 content of page 1 (each may be given on the command line instead)
+    customer: str = _key("", "str")
+    authorizer: str = _key("", "str")                # name of the person authorizing the report
+    authorizer_function: str = _key("", "str")
+    item_received: date | None = _key(None, "date")  # date the item tested was received
+    environment: str = _key("", "str")               # e.g. "23 ± 2 °C, 45 % RH"; "" = not recorded
 
 
 @dataclass(frozen=True)

@@ -8,18 +8,51 @@ process reaches it with only bench-file settings). Every server binds 127.0.0.1 
 
 from __future__ import annotations
 
+import math
 import os
 import uuid
 
 from hil.config import BenchConfig
+from hil.errors import InputError
+
+
+#: the twin's PWM frequency before any injection (its loop bandwidth scales with the PWM knob)
+TWIN_PWM_HZ = 20_000.0
 
 
 def twin_config(bench: BenchConfig):
     """The ``hil.sim.DriveConfig`` of the drive a simulated bench file describes: its
-    ``[motor]`` nameplate (the twin's defaults otherwise)."""
-    from hil.sim import DriveConfig, MotorModel
+    ``[motor]`` nameplate and its ``[drive]`` current loop (the twin's defaults otherwise).
 
-    return DriveConfig(motor=MotorModel(parameters=bench.motor))
+    ``current_loop_bandwidth_hz`` is the bandwidth at the twin's default 20 kHz PWM; a stated
+    ``current_loop_delay_s`` must equal the twin's (``current_loop_delay_periods`` + 0.5) PWM
+    periods, since the plans predict with it: InputError naming both keys otherwise.
+    """
+    from hil.sim import DriveConfig, FirmwareModel, MotorModel
+
+    drive = bench.drive
+    loop = {"design": drive.current_loop_design, "decoupling": drive.current_loop_decoupling,
+            "emf_feedforward": drive.current_loop_emf_feedforward,
+            "delay_periods": drive.current_loop_delay_periods,
+            "angle_compensation": drive.current_loop_angle_compensation}
+    if drive.current_loop_bandwidth_hz is not None:
+        loop["bandwidth_per_pwm"] = drive.current_loop_bandwidth_hz / TWIN_PWM_HZ
+    try:
+        firmware = FirmwareModel(**loop)
+    except ValueError:
+        raise InputError(f"{bench.source}: drive.current_loop_bandwidth_hz = "
+                         f"{drive.current_loop_bandwidth_hz:g} is outside what the simulated "
+                         f"drive runs; allowed {0.005 * TWIN_PWM_HZ:g}..{0.15 * TWIN_PWM_HZ:g} Hz"
+                         ) from None
+    delay_s = firmware.total_delay_s(TWIN_PWM_HZ)
+    if drive.current_loop_delay_s is not None \
+            and not math.isclose(drive.current_loop_delay_s, delay_s, rel_tol=1e-6):
+        raise InputError(f"{bench.source}: drive.current_loop_delay_s = "
+                         f"{drive.current_loop_delay_s:g} s disagrees with "
+                         f"current_loop_delay_periods = {drive.current_loop_delay_periods:g}: the "
+                         f"simulated drive's loop delay is ({drive.current_loop_delay_periods:g} "
+                         f"+ 0.5) / {TWIN_PWM_HZ:g} Hz = {delay_s:g} s")
+    return DriveConfig(motor=MotorModel(parameters=bench.motor), firmware=firmware)
 
 
 class SimulatedBench:

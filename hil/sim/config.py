@@ -65,20 +65,43 @@ class InverterModel:
                              f"got {self.modulation!r}")
 
 
+LOOP_DESIGNS = ("continuous", "discrete")
+LOOP_DELAYS_PERIODS = (0.0, 0.5, 1.0, 1.5)
+
+
 @dataclass(frozen=True)
 class FirmwareModel:
-    """FOC current loop executed once per PWM period with one period of computation delay.
+    """FOC current loop executed once per PWM period; the default is the twin's original loop.
 
-    PI gains by pole-zero cancellation of the R-L phase (Table I): Kp = L·ωc, Ki = R·ωc with the
-    closed-loop bandwidth ωc = 2π·``bandwidth_per_pwm``·f_pwm. The loop delay is 1.5 PWM periods
-    (one period of computation plus half a period of PWM hold), so the phase margin is
-    90° − 1.5·ωc/f_pwm rad ≈ 47° at the default 0.08 (1.6 kHz at 20 kHz PWM): a
-    "high-performance current regulator" as the paper assumes, without ringing.
+    Bandwidth ωc = 2π·``bandwidth_per_pwm``·f_pwm (it scales with the PWM frequency knob).
+    ``design``: "continuous" — PI designed in s by pole-zero cancellation of the R-L phase,
+    Kp = L·ωc, Ki = R·ωc, run with a forward-Euler integrator (open loop ≈ ωc·Ts/(z − 1) per
+    sample); "discrete" — pole-matched in z: the PI's zero cancels the ZOH-sampled plant pole
+    a = exp(−R·Ts/L) and the delay-free closed-loop pole sits at exp(−ωc·Ts), so
+    Kp = a·R·(1 − e^(−ωc·Ts))/(1 − a), Ki·Ts = R·(1 − e^(−ωc·Ts)) (see ``gains``). At the same
+    ωc the discrete design has the lower loop gain, 1 − e^(−ωc·Ts) against ωc·Ts (0.40 vs 0.50
+    at the default 0.08 per PWM period): the continuous design run at the PWM rate overshoots
+    its nominal bandwidth.
+    ``delay_periods``: computation delay between the current sample and the compare update:
+    1 (default: sampled at the counter valley, applied from the next period), 0 (applied in the
+    same period, an ideal instant computation), 0.5 (sampled at the counter peak, applied at the
+    next valley) or 1.5 (sampled at the peak, applied at the valley after next). The PWM's
+    average voltage adds half a period, so the total loop delay is (delay_periods + 0.5)/f_pwm
+    (1.5 periods by default: phase margin 90° − 1.5·ωc·Ts rad ≈ 47° at 0.08).
+    ``decoupling``: feed-forward of the dq cross terms (v_d += ωe·L·i_q, v_q −= ωe·L·i_d with the
+    measured currents); ``emf_feedforward``: v_q += E = ψ·ω_m (the nameplate EMF constant);
+    ``angle_compensation``: the inverse Park uses the angle advanced by ωe·(delay_periods + 0.5)/
+    f_pwm, rounded to the sine table. The speed these use is the dyno's (an ideal estimate).
     ``sine_table_size`` entries of sin over one electrical revolution (index = truncated angle).
     """
 
     bandwidth_per_pwm: float = 0.08
     sine_table_size: int = 4096
+    design: str = "continuous"
+    delay_periods: float = 1.0
+    decoupling: bool = False
+    emf_feedforward: bool = False
+    angle_compensation: bool = False
 
     def __post_init__(self) -> None:
         if not 0.005 <= self.bandwidth_per_pwm <= 0.15:
@@ -87,11 +110,32 @@ class FirmwareModel:
         if not 64 <= self.sine_table_size <= 1 << 20:
             raise ValueError(f"FirmwareModel.sine_table_size must be in [64, 1048576], "
                              f"got {self.sine_table_size!r}")
+        if self.design not in LOOP_DESIGNS:
+            raise ValueError(f"FirmwareModel.design must be one of {LOOP_DESIGNS}, "
+                             f"got {self.design!r}")
+        if self.delay_periods not in LOOP_DELAYS_PERIODS:
+            raise ValueError(f"FirmwareModel.delay_periods must be one of "
+                             f"{LOOP_DELAYS_PERIODS} PWM periods, got {self.delay_periods!r}")
+        for name in ("decoupling", "emf_feedforward", "angle_compensation"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"FirmwareModel.{name} must be True or False, "
+                                 f"got {getattr(self, name)!r}")
 
     def gains(self, motor: MotorParameters, pwm_frequency_hz: float) -> tuple[float, float]:
-        """(Kp in V/A, Ki in V/(A·s)) for the given PWM frequency."""
+        """(Kp in V/A, Ki in V/(A·s)) for the given PWM frequency (see the class docstring)."""
         omega_c = 2.0 * math.pi * self.bandwidth_per_pwm * pwm_frequency_hz
-        return motor.phase_inductance_h * omega_c, motor.phase_resistance_ohm * omega_c
+        resistance = motor.phase_resistance_ohm
+        if self.design == "continuous":
+            return motor.phase_inductance_h * omega_c, resistance * omega_c
+        period_s = 1.0 / pwm_frequency_hz
+        plant_pole = math.exp(-resistance * period_s / motor.phase_inductance_h)
+        loop_gain = -math.expm1(-omega_c * period_s)             # 1 − e^(−ωc·Ts)
+        kp = plant_pole * resistance * loop_gain / (1.0 - plant_pole)
+        return kp, resistance * loop_gain / period_s
+
+    def total_delay_s(self, pwm_frequency_hz: float) -> float:
+        """Loop delay from a current sample to the mean of the voltage it sets, s."""
+        return (self.delay_periods + 0.5) / pwm_frequency_hz
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,11 @@ Executed once per PWM period at the counter valley (period start): the two phase
 sampled through the ADC (with the injected offset/gain, eqs 15-16 and 21-22), the third is computed
 (eq 17), the rotor angle is read from the encoder (decimated, or Hall 60° sectors: the angle the
 paper calls θ_d, eq 4), Park (eq 11, three-phase form with a sine table), two PI regulators with
-anti-windup, inverse Park, zero-sequence injection and the compare values. The result is latched
-for the *next* period: one period of computation delay.
+anti-windup, inverse Park, zero-sequence injection and the compare values. By default the result
+is latched for the *next* period: one period of computation delay (the engine also runs it with
+0, 0.5 or 1.5 periods, see ``hil.sim.kernel``). Optional parts of the loop (``FirmwareModel``):
+decoupling of the dq cross terms, back-EMF feed-forward and an inverse-Park angle advanced by
+ωe × (loop delay) to compensate the rotation during the delay.
 
 Arithmetic is float64, or n-bit fixed point when ``word_length_bits`` > 0: every stored value is a
 signed Q(n-1) fraction of its base (currents: the ADC full scale; voltages: the dc bus) and every
@@ -24,11 +27,11 @@ import math
 
 from numba import njit
 
-from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_DEAD_TIME, P_ENC_CPR, P_ENC_DECIM, P_HALL,
-                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_ID_CMD, P_IQ_CMD,
-                            P_KI_TS_PU, P_KP_PU, P_MODULATION, P_POLE_PAIRS, P_PWM_COUNTS,
-                            P_PWM_FREQ, P_TABLE_SIZE, P_WORD_BITS, S_INT_D, S_INT_Q, S_ISENSE_A,
-                            S_ISENSE_B)
+from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_ANGLE_ADVANCE, P_DEAD_TIME, P_DECOUPLE_PU,
+                            P_EMF_FF_PU, P_ENC_CPR, P_ENC_DECIM, P_HALL, P_IA_GAIN, P_IA_OFFSET,
+                            P_IB_GAIN, P_IB_OFFSET, P_ID_CMD, P_IQ_CMD, P_KI_TS_PU, P_KP_PU,
+                            P_MODULATION, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_TABLE_SIZE,
+                            P_WORD_BITS, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B)
 
 TWO_PI = 2.0 * math.pi
 SIN_120 = math.sqrt(3.0) / 2.0
@@ -134,8 +137,10 @@ def firmware_angle_fraction(theta_m, params):
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
-def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb):
-    """One PI step with conditional integration (anti-windup); returns (output, integrator)."""
+def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb, feedforward):
+    """One PI step plus ``feedforward`` with conditional integration (anti-windup: the
+    integrator holds while the total output is saturated and the error pushes further);
+    returns (output, integrator)."""
     error = qfix(reference - measured, lsb)
     proportional = qfix(kp * error, lsb)
     candidate = qfix(integrator + qfix(ki_ts * error, lsb), lsb)
@@ -144,9 +149,13 @@ def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb):
     elif candidate < -limit:
         candidate = -limit
     unsaturated = proportional + candidate
+    if feedforward != 0.0:
+        unsaturated += feedforward
     if abs(unsaturated) > limit and unsaturated * error > 0.0:
         candidate = integrator          # saturated and the error pushes further: hold
         unsaturated = proportional + candidate
+        if feedforward != 0.0:
+            unsaturated += feedforward
     output = qfix(unsaturated, lsb)
     if output > limit:
         output = limit
@@ -186,12 +195,14 @@ def angle_values(index, table_size, lsb, cache):
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
-def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, lsb, adc_half,
-                  angle_cache):
-    """Run the current loop once; return the compare values (counts) for the next period.
+def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, max_compare, lsb,
+                  adc_half, angle_cache):
+    """Run the current loop once; return the compare values (counts) it computes.
 
-    ``lsb``: word resolution (``word_lsb``); ``adc_half``: 2^(ADC bits − 1); ``angle_cache``:
-    ``ANGLE_CACHE_ROWS`` × 7, column ``A_INDEX`` set to -1, for one run at one ``lsb``.
+    ``omega_m``: the rotor speed, rad/s (an ideal speed estimate; only the decoupling, the EMF
+    feed-forward and the angle compensation use it). ``lsb``: word resolution (``word_lsb``);
+    ``adc_half``: 2^(ADC bits − 1); ``angle_cache``: ``ANGLE_CACHE_ROWS`` × 7, column
+    ``A_INDEX`` set to -1, for one run at one ``lsb``.
     """
     full_scale = params[P_ADC_FS]
     sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_half)
@@ -219,12 +230,28 @@ def firmware_step(ia_a, ib_a, theta_m, params, state, counts_top, max_compare, l
     limit = 1.0 / math.sqrt(3.0) if svpwm else 0.5      # linear range, per unit of V_dc
     kp = params[P_KP_PU]
     ki_ts = params[P_KI_TS_PU]
-    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, lsb)
-    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, lsb)
+    # feed-forward of the motor's dq equations in this frame (q along the EMF, e_a = E·sin θe):
+    # v_q = R·i_q + L·di_q/dt − ωe·L·i_d + E,  v_d = R·i_d + L·di_d/dt + ωe·L·i_q
+    ff_d = 0.0
+    ff_q = 0.0
+    if params[P_DECOUPLE_PU] != 0.0:
+        w_l = qfix(omega_m * params[P_DECOUPLE_PU], lsb)          # ωe·L, per unit
+        ff_d = qfix(w_l * i_q, lsb)
+        ff_q = qfix(-(w_l * i_d), lsb)
+    if params[P_EMF_FF_PU] != 0.0:
+        ff_q = qfix(ff_q + qfix(omega_m * params[P_EMF_FF_PU], lsb), lsb)   # + E, per unit
+    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, lsb, ff_d)
+    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, lsb, ff_q)
     magnitude = math.sqrt(v_d * v_d + v_q * v_q)
     if magnitude > limit:
         v_d = qfix(v_d * limit / magnitude, lsb)
         v_q = qfix(v_q * limit / magnitude, lsb)
+
+    if params[P_ANGLE_ADVANCE] != 0.0:      # rotate the output by the angle turned meanwhile
+        shift = math.floor(omega_m * params[P_POLE_PAIRS] * params[P_ANGLE_ADVANCE] / TWO_PI
+                           * table_size + 0.5)
+        s_a, c_a, s_b, s_c, c_b, c_c = angle_values(_modulo(index + shift, table_size),
+                                                    table_size, lsb, angle_cache)
 
     v_a = qfix(qfix(v_q * s_a, lsb) + qfix(v_d * c_a, lsb), lsb)   # inverse Park
     v_b = qfix(qfix(v_q * s_b, lsb) + qfix(v_d * c_b, lsb), lsb)

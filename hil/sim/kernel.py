@@ -1,7 +1,9 @@
 """The engine: one compiled loop over PWM periods, exact between switching instants.
 
 Per period: the dyno sets the speed; the firmware runs at the counter valley and latches compare
-values for the *next* period; the three legs' gate states (centre-aligned, edges exactly where the
+values for the *next* period (``FirmwareModel.delay_periods`` = 1; with 0 they apply in the same
+period; with 0.5 or 1.5 the firmware samples at the counter peak, on the exact current there, and
+its values apply from the next valley or the one after); the three legs' gate states (centre-aligned, edges exactly where the
 up/down counter meets the compare value, dead time after every edge) cut the period into at most
 13 segments of constant gate state; in each the currents follow the exact solution of
 ``hil.sim.electrical``. During a dead interval a leg's voltage is set by its current's sign (diode
@@ -45,11 +47,11 @@ from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
                             C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_FS,
                             P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
-                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L,
+                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_LOOP_DELAY,
                             P_MERGE_SEGMENTS, P_N_COG, P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS,
                             P_PWM_FREQ, P_R, P_RAMP, P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC,
-                            S_CMP_A, S_CMP_B, S_CMP_C, S_HIGH_END, S_IA, S_IB, S_IC,
-                            S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M,
+                            S_CMP_A, S_CMP_B, S_CMP_C, S_CMP_PENDING, S_HIGH_END, S_IA, S_IB,
+                            S_IC, S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M,
                             S_THETA_M, S_TIME, S_TR_Y)
 
 TWO_PI = 2.0 * math.pi
@@ -222,6 +224,11 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     tau_f = params[P_TR_TAU]
     cpr = params[P_ENC_CPR]
     merge = params[P_MERGE_SEGMENTS] != 0.0
+    immediate = params[P_LOOP_DELAY] == 0.0          # compare values apply in the same period
+    mid_sampling = params[P_LOOP_DELAY] == 0.5 or params[P_LOOP_DELAY] == 1.5
+    half_period = 0.5 * period
+    peak_a = 0.0
+    peak_b = 0.0
 
     orders = np.zeros(MAX_HARMONICS)
     amplitudes = np.zeros(MAX_HARMONICS)
@@ -235,9 +242,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
 
     if state[S_INITIALISED] == 0.0:
         state[S_OMEGA_M] = params[P_SPEED_CMD] * RPM
-        state[S_CMP_A] = -1.0
-        state[S_CMP_B] = -1.0
-        state[S_CMP_C] = -1.0
+        for x in range(3):
+            state[S_CMP_A + x] = -1.0
+            state[S_CMP_PENDING + x] = -1.0
         state[S_INITIALISED] = 1.0
 
     committed = state.copy()
@@ -271,12 +278,23 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
             compare[x] = state[S_CMP_A + x]
             cur[x] = state[S_IA + x]
 
-        # firmware at the valley: its compare values apply from the next period on
+        # firmware at the valley: its compare values apply from the next period on (delay 1)
+        # or from this one (delay 0); with delay 0.5 / 1.5 it runs at the peak instead (below)
         if enabled:
-            ca, cb, cc = firmware_step(cur[0], cur[1], theta_m0, params, state, counts_top,
-                                       max_compare, lsb, adc_half, angle_cache)
+            if not mid_sampling:
+                ca, cb, cc = firmware_step(cur[0], cur[1], theta_m0, omega, params, state,
+                                           counts_top, max_compare, lsb, adc_half, angle_cache)
+                state[S_CMP_A] = ca
+                state[S_CMP_B] = cb
+                state[S_CMP_C] = cc
+                if immediate:
+                    compare[0] = ca
+                    compare[1] = cb
+                    compare[2] = cc
         else:
-            ca, cb, cc = -1.0, -1.0, -1.0
+            for x in range(3):
+                state[S_CMP_A + x] = -1.0
+                state[S_CMP_PENDING + x] = -1.0
             state[S_INT_D] = 0.0
             state[S_INT_Q] = 0.0
             fs = params[P_ADC_FS]
@@ -284,9 +302,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                                               fs, adc_half)
             state[S_ISENSE_B] = fs * adc_read(cur[1], params[P_IB_OFFSET], params[P_IB_GAIN],
                                               fs, adc_half)
-        state[S_CMP_A] = ca
-        state[S_CMP_B] = cb
-        state[S_CMP_C] = cc
+            if immediate:
+                compare[:] = -1.0
+        peak_pending = enabled and mid_sampling
 
         gates_off = compare[0] < 0.0
         if gates_off:
@@ -473,6 +491,13 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                 span = tau_b - tau
                 slope = (torque_b - torque_a) / span
 
+                # ---- the firmware's sampling instant at the counter peak (delay 0.5 / 1.5)
+                if peak_pending and tau_b > half_period:
+                    peak_a, peak_b, _ = _currents_at(half_period, tau, mode, clamped, k, x0, u,
+                                                     omega_e, orders, count, basis, resistance,
+                                                     inductance)
+                    peak_pending = False
+
                 # ---- samples inside [tau, tau_b)
                 while j < n_samples:
                     t_sample = record_start_s + j * sample_dt_s
@@ -559,6 +584,19 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
             out[C_VA, i] = v_integral[0] / period
             out[C_VB, i] = v_integral[1] / period
             out[C_VC, i] = v_integral[2] / period
+        if enabled and mid_sampling:                  # sampled at the peak, applied at the
+            ca, cb, cc = firmware_step(peak_a, peak_b, theta_m0 + omega * half_period, omega,
+                                       params, state, counts_top, max_compare, lsb, adc_half,
+                                       angle_cache)  # next valley (0.5) or the one after (1.5)
+            if params[P_LOOP_DELAY] > 1.0:
+                for x in range(3):
+                    state[S_CMP_A + x] = state[S_CMP_PENDING + x]
+            state[S_CMP_PENDING] = ca
+            state[S_CMP_PENDING + 1] = cb
+            state[S_CMP_PENDING + 2] = cc
+            if params[P_LOOP_DELAY] < 1.0:
+                for x in range(3):
+                    state[S_CMP_A + x] = state[S_CMP_PENDING + x]
         for x in range(3):
             state[S_HIGH_END + x] = 1.0 if compare[x] >= counts_top else 0.0
         state[S_IA] = cur[0]

@@ -42,7 +42,11 @@ P_STEP_ANGLE = 49        # mech rad
 P_DWELL = 50             # s
 P_TR_TAU = 51            # transducer time constant, s
 P_MERGE_SEGMENTS = 52    # 1: skip boundaries where no leg voltage changes (0 only to test that)
-N_PARAMS = 53
+P_LOOP_DELAY = 53        # current-loop computation delay, PWM periods: 0, 0.5, 1 or 1.5
+P_DECOUPLE_PU = 54       # decoupling: ωe·L per unit of V_base/I_base, per mech rad/s (0: off)
+P_EMF_FF_PU = 55         # back-EMF feed-forward: peak EMF per unit of V_base, per mech rad/s (0: off)
+P_ANGLE_ADVANCE = 56     # inverse-Park angle advanced by ωe × this, s (0: no compensation)
+N_PARAMS = 57
 
 # ---- state vector (float64), at a PWM period boundary ----
 S_TIME = 0               # s, start of the next period
@@ -61,7 +65,8 @@ S_ISENSE_A = 12          # last sensed currents (A, as the firmware read them)
 S_ISENSE_B = 13
 S_INITIALISED = 14
 S_HIGH_END = 15          # 3 flags: leg x ended the last period high (full duty, no edge)
-N_STATE = 18
+S_CMP_PENDING = 18       # 3 compare values computed, waiting a period more (1.5-period delay)
+N_STATE = 21
 
 # ---- output channels (rows of the output array) ----
 C_TIME = 0

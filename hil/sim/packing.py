@@ -64,6 +64,14 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     p[L.P_DWELL] = config.dyno.dwell_s
     p[L.P_TR_TAU] = 1.0 / (2.0 * math.pi * config.transducer.bandwidth_hz)
     p[L.P_MERGE_SEGMENTS] = 1.0
+    firmware = config.firmware
+    p[L.P_LOOP_DELAY] = firmware.delay_periods
+    if firmware.decoupling:                  # ωe·L·I_base/V_base per mechanical rad/s
+        p[L.P_DECOUPLE_PU] = motor.pole_pairs * motor.phase_inductance_h * to_pu
+    if firmware.emf_feedforward:             # peak EMF per V_base, per mechanical rad/s
+        p[L.P_EMF_FF_PU] = motor.emf_peak_v_s_per_rad / voltage_base_v
+    if firmware.angle_compensation:
+        p[L.P_ANGLE_ADVANCE] = firmware.total_delay_s(injection.pwm_frequency_hz)
     return p
 
 
