@@ -21,7 +21,8 @@ logger = logging.getLogger(__name__)
 RPDO_COMM, RPDO_MAP, TPDO_COMM, TPDO_MAP = 0x1400, 0x1600, 0x1800, 0x1A00
 PDO_COUNT = 4
 COB_ID_INVALID = 0x80000000
-SYNC_COB_ID = 0x080
+SYNC_COB_ID = 0x080          # default of 0x1005 (CiA 301)
+COB_ID_SYNC_INDEX = 0x1005
 
 
 def is_pdo_config_index(index: int) -> bool:
@@ -94,6 +95,7 @@ class PdoEngine:
         self._next_due: dict[int, float] = {}
         self._last_sent: dict[int, bytes] = {}
         self._sync_count = 0
+        self._sync_cob_id = SYNC_COB_ID
         self._changed = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -199,8 +201,17 @@ class PdoEngine:
             except Exception:  # keep the node alive; a broken bus shows up as missing PDOs
                 logger.exception("TPDO transmission failed")
 
+    def set_sync_cob_id(self, cob_id_entry: int) -> None:
+        """Consume SYNC on the COB-ID in a 0x1005 value (bits 0..10; bit 30 "generate" unused)."""
+        cob_id = cob_id_entry & 0x7FF
+        with self._lock:
+            if self._thread is not None:
+                self._network.unsubscribe(self._sync_cob_id, self.on_sync)
+                self._network.subscribe(cob_id, self.on_sync)
+            self._sync_cob_id = cob_id
+
     def start(self) -> None:
-        self._network.subscribe(SYNC_COB_ID, self.on_sync)
+        self._network.subscribe(self._sync_cob_id, self.on_sync)
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="sim-drive-tpdo", daemon=True)
         self._thread.start()
@@ -210,7 +221,7 @@ class PdoEngine:
         if self._thread is not None:
             self._thread.join(timeout=1.0)
             self._thread = None
-        self._network.unsubscribe(SYNC_COB_ID, self.on_sync)
+        self._network.unsubscribe(self._sync_cob_id, self.on_sync)
         with self._lock:
             for config in self._rpdos:
                 if config.enabled:

@@ -15,7 +15,9 @@ Object dictionary: the shipped EDS (``drivers/data/ripple_drive.eds``). Behaviou
   0x60FF target velocity sets the dyno speed ``twin.speed_rpm`` (the simulated bench has one speed).
 * TPDOs (statusword, actual values) are sent on change, on their event timer or on SYNC; RPDOs
   are applied to the dictionary; a master's PDO remap takes effect (see ``can_pdo``).
-* Heartbeat producer from 0x1017; EMCY on ``raise_fault`` and on fault reset (code 0x0000).
+* Heartbeat producer from 0x1017; EMCY on ``raise_fault`` and on fault reset (code 0x0000), on
+  the COB-ID in 0x1014 (bit 31 set: no EMCY); SYNC consumed on the COB-ID in 0x1005. Motor rated
+  torque 0x6076 (rw) is read live for every per-mille conversion.
 * Master-loss detection: a heartbeat consumer per 0x1016 entry (``can_heartbeat``). On a
   timeout the drive sends EMCY 0x8130 (heartbeat error), performs the abort connection option
   0x6007 (0 none, 1 fault, 2 disable voltage = default, 3 quick stop) and restores every
@@ -44,16 +46,37 @@ from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
 from drivers.simulated.can_heartbeat import (CONSUMER_HEARTBEAT_INDEX, HeartbeatConsumer,
                                              check_consumer_write, consumer_entries)
 from drivers.simulated.can_node import ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode
-from drivers.simulated.can_pdo import PdoEngine, is_pdo_config_index, validate_mapping_entry
+from drivers.simulated.can_pdo import (COB_ID_SYNC_INDEX, PdoEngine, is_pdo_config_index,
+                                      validate_mapping_entry)
 from hil.motor import TABLE_I
 
 logger = logging.getLogger(__name__)
 
 _STATUS_CACHE_S = 0.001
 
+COB_ID_EMCY_INDEX = 0x1014
 EMCY_HEARTBEAT_ERROR = 0x8130  # CiA 301: life guard error or heartbeat error
 ABORT_CONNECTION_OPTION_INDEX = 0x6007
 ABORT_OPTION_NONE, ABORT_OPTION_FAULT, ABORT_OPTION_DISABLE_VOLTAGE, ABORT_OPTION_QUICK_STOP = 0, 1, 2, 3
+
+
+class SwitchableEmcyProducer(canopen.emcy.EmcyProducer):
+    """canopen's EMCY producer on the COB-ID of a 0x1014 entry; bit 31 set = EMCY not sent."""
+
+    def __init__(self, entry: int) -> None:
+        super().__init__(entry & 0x7FF)
+        self.enabled = not entry & 0x80000000
+
+    def set_entry(self, entry: int) -> None:
+        self.cob_id, self.enabled = entry & 0x7FF, not entry & 0x80000000
+
+    def send(self, code: int, register: int = 0, data: bytes = b"") -> None:
+        if self.enabled:
+            super().send(code, register, data)
+
+    def reset(self, register: int = 0, data: bytes = b"") -> None:
+        if self.enabled:
+            super().reset(register, data)
 
 
 def _gates_go_off(old_state: str, new_state: str) -> bool:
@@ -101,7 +124,6 @@ class SimulatedDrive:
     # -- lifecycle --------------------------------------------------------------------------
     def start(self) -> "SimulatedDrive":
         od = load_dictionary(self._eds_path, self.node_id)
-        self._rated_torque_nm = od[0x6076].default / 1000.0
         self._supported_modes = od[0x6502].default
         self.network = canopen.Network(open_bus(self.settings))
         self.network.NOTIFIER_CYCLE = NOTIFIER_CYCLE_S  # bounds close() time
@@ -109,6 +131,7 @@ class SimulatedDrive:
         self.node = DriveLocalNode(self.node_id, od, validate_and_apply=self._validate_and_apply,
                                    after_store=self._after_store, on_nmt_reset=self._on_nmt_reset,
                                    on_nmt_state=self._on_nmt_state)
+        self.node.emcy = SwitchableEmcyProducer(self.node.stored_value(COB_ID_EMCY_INDEX))
         self.node.add_read_callback(self._read_live)
         self.network.add_node(self.node)
         self.pdo = PdoEngine(self.node, self.network,
@@ -215,6 +238,8 @@ class SimulatedDrive:
                     del self.node.data_store[index]
             self._heartbeat_stopped = False
         self.pdo.reload()
+        self.node.emcy.set_entry(self.node.stored_value(COB_ID_EMCY_INDEX))
+        self.pdo.set_sync_cob_id(self.node.stored_value(COB_ID_SYNC_INDEX))
         self._configure_heartbeat_consumer()
 
     # -- object writes ----------------------------------------------------------------------
@@ -242,7 +267,7 @@ class SimulatedDrive:
         elif index == CURRENT_COMMAND_INDEX:
             self._apply_twin_attribute("current_command_a", self._current_command.to_si(value))
         elif index == 0x6071:
-            torque_nm = value / 1000.0 * self._rated_torque_nm
+            torque_nm = value / 1000.0 * self._rated_torque_nm()
             self._apply_twin_attribute("current_command_a", torque_nm / self._kt)
         elif index == 0x60FF:
             self._apply_twin_attribute("speed_rpm", float(value))
@@ -265,6 +290,10 @@ class SimulatedDrive:
             self.pdo.reload()
         elif index == CONSUMER_HEARTBEAT_INDEX:
             self._configure_heartbeat_consumer()
+        elif index == COB_ID_EMCY_INDEX:
+            self.node.emcy.set_entry(od.decode_raw(data))
+        elif index == COB_ID_SYNC_INDEX:
+            self.pdo.set_sync_cob_id(od.decode_raw(data))
         elif index == 0x1017:
             heartbeat_ms = od.decode_raw(data)
             with self._lock:
@@ -292,7 +321,11 @@ class SimulatedDrive:
         return cached[1]
 
     def _per_mille_of_rated(self, torque_nm: float) -> int:
-        return max(-32768, min(32767, round(torque_nm / self._rated_torque_nm * 1000.0)))
+        return max(-32768, min(32767, round(torque_nm / self._rated_torque_nm() * 1000.0)))
+
+    def _rated_torque_nm(self) -> float:
+        """Motor rated torque 0x6076 as stored now (mN*m on the bus; LowLimit 1)."""
+        return self.node.stored_value(0x6076) / 1000.0
 
     def _read_live(self, index: int, subindex: int, od):
         if index == 0x6041:

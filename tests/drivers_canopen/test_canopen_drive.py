@@ -275,3 +275,16 @@ def _drain(bus):
 def test_nan_current_command_is_refused(drive):
     with pytest.raises(InjectionRangeError):
         drive.set_current_command_a(math.nan)
+
+
+def test_a_drive_without_the_optional_identity_objects_connects(twin, bus_settings, tmp_path):
+    """CiA 301: 0x1008 / 0x100A are optional; 0x1018 is the identity the driver needs."""
+    from drivers.simulated.drive_node import SimulatedDrive
+    from eds_text import drop_objects, shipped_text, write
+    lean = write(drop_objects(shipped_text(), [0x1008, 0x100A]), tmp_path / "lean.eds")
+    with SimulatedDrive(twin, bus_settings, node_id=5, eds_path=lean, serial_number=7), \
+            Cia402Drive(bus_settings, node_id=5, eds_path=lean) as drive:
+        identity = drive.identity()
+        drive.enable()
+        assert twin.enabled
+    assert identity == {"vendor": 0, "product": 0x402, "revision": 0x00010000, "serial": 7}

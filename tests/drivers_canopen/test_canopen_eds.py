@@ -10,6 +10,8 @@ from hypothesis import strategies as st
 
 from drivers.canopen_eds import (DEFAULT_EDS_PATH, COUNTS_PER_SI_UNIT, current_command_object,
                                  injection_objects, load_dictionary, parse_scaled_name)
+from cia306 import check_eds
+from eds_text import drop_objects, get_key, set_key, shipped_text, write
 from hil.motor import TABLE_I
 
 # The knob table of COMMON.md, written out independently of the EDS: (low, high, default).
@@ -145,23 +147,64 @@ def test_any_in_range_value_is_accepted_and_quantised_to_half_a_count(data):
     assert abs(obj.to_si(count) - value) <= 0.5 / obj.counts_per_si + 1e-12
 
 
-def test_eds_is_structurally_consistent_per_cia306():
-    import configparser
-    eds = configparser.RawConfigParser()
-    eds.optionxform = str
-    eds.read(DEFAULT_EDS_PATH)
-    object_sections = {s for s in eds.sections() if len(s) == 4 and int(s, 16) >= 0x1000}
-    listed = set()
-    for group in ("MandatoryObjects", "OptionalObjects", "ManufacturerObjects"):
-        count = int(eds.get(group, "SupportedObjects"))
-        entries = [int(eds.get(group, str(i)), 16) for i in range(1, count + 1)]
-        assert len(entries) == count
-        listed |= {f"{e:04X}" for e in entries}
-    assert listed == object_sections
-    for section in object_sections:
-        if eds.has_option(section, "SubNumber"):
-            subs = [s for s in eds.sections() if s.startswith(section + "sub")]
-            assert int(eds.get(section, "SubNumber")) == len(subs), section
-    for mandatory in ("1000", "1001", "1018"):
-        assert f"{int(mandatory, 16):04X}" in {f"{int(eds.get('MandatoryObjects', str(i)), 16):04X}"
-                                                for i in range(1, 4)}
+# ------------------------------------------------------------------ CiA 306, strictly
+def test_communication_objects_the_drive_uses_are_described():
+    od = load_dictionary(node_id=5)
+    assert od[0x1005].default == 0x80                  # SYNC consumed on 0x080
+    assert od[0x1014].default == 0x80 + 5               # EMCY produced on 0x080 + node-ID
+    for index in (0x1005, 0x1014, 0x6075, 0x6076):      # CiA 301 / CiA 402: rw
+        assert od[index].access_type == "rw", hex(index)
+    assert od[0x6076].min >= 1                          # a divisor of every per-mille value
+
+
+def test_the_shipped_eds_passes_the_strict_cia306_check_and_eds_utils():
+    from eds_utils.core.file_io.read_eds import read_eds
+    assert check_eds(DEFAULT_EDS_PATH) == []
+    assert read_eds(str(DEFAULT_EDS_PATH))[1] == []
+
+
+def _planted():
+    """(what, edit) pairs, each one CiA 306 fault, and the words the checker must report."""
+    high = get_key(shipped_text(), "2002", "HighLimit")
+    return {
+        "object count": (lambda t: set_key(t, "OptionalObjects", "SupportedObjects", "36"),
+                         "[OptionalObjects] SupportedObjects=36 but 37 entries"),
+        "data type": (lambda t: set_key(t, "2001", "DataType", "0x0099"),
+                      "[2001] DataType 0x0099 is not a CiA 301 basic data type"),
+        "access type": (lambda t: set_key(t, "6040", "AccessType", "rx"),
+                        "[6040] AccessType 'rx'"),
+        "default above limit": (lambda t: set_key(t, "2002", "DefaultValue", str(int(high) + 1)),
+                                f"[2002] DefaultValue {int(high) + 1} outside LowLimit..HighLimit"),
+        "mapped string": (lambda t: set_key(t, "1008", "PDOMapping", "1"),
+                          "[1008] PDOMapping=1 on VISIBLE_STRING"),
+        "sub number": (lambda t: set_key(t, "1018", "SubNumber", "4"),
+                       "[1018] SubNumber=4 but 5 sub-index sections"),
+    }
+
+
+@pytest.mark.parametrize("fault", ["object count", "data type", "access type",
+                                   "default above limit", "mapped string", "sub number"])
+def test_each_planted_fault_is_rejected_by_name(tmp_path, fault):
+    edit, words = _planted()[fault]
+    faults = check_eds(write(edit(shipped_text()), tmp_path / "faulty.eds"))
+    assert len(faults) == 1 and words in faults[0], faults
+
+
+def test_a_copy_with_four_planted_faults_is_rejected(tmp_path):
+    """The issue's case: python-canopen imported such a copy without a word."""
+    planted = _planted()
+    text = shipped_text()
+    for fault in ("object count", "data type", "access type", "default above limit"):
+        text = planted[fault][0](text)
+    path = write(text, tmp_path / "four-faults.eds")
+    faults = check_eds(path)
+    for fault in ("object count", "data type", "access type", "default above limit"):
+        assert sum(planted[fault][1] in f for f in faults) == 1, (fault, faults)
+    assert len(faults) == 4
+    load_dictionary(path)        # what the project relied on before: it raises nothing
+
+
+def test_leaving_out_optional_identity_objects_keeps_the_eds_valid(tmp_path):
+    path = write(drop_objects(shipped_text(), [0x1008, 0x100A]), tmp_path / "lean.eds")
+    assert check_eds(path) == []
+    assert 0x1008 not in load_dictionary(path) and 0x1018 in load_dictionary(path)

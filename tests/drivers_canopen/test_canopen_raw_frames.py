@@ -153,3 +153,34 @@ def test_tpdo_event_timer_and_sync_transmission(raw):
         if wait_for(raw, TPDO1, 0.2) is not None:
             tpdo_count += 1
     assert tpdo_count == 3
+
+
+def test_emcy_and_sync_cob_ids_follow_0x1014_and_0x1005(raw, sim_drive):
+    assert sdo_download_u32(raw, 0x1014, 0, 0x0C5)[0] == 0x60          # EMCY now on 0x0C5
+    sim_drive.raise_fault(code=0x2310, text="moved")
+    assert wait_for(raw, 0x0C5) is not None and wait_for(raw, EMCY, 0.1) is None
+    assert sdo_download_u32(raw, 0x1014, 0, 0x800000C5)[0] == 0x60     # bit 31: EMCY off
+    sim_drive.raise_fault(code=0x2310, text="quiet")
+    assert wait_for(raw, 0x0C5, 0.1) is None
+    send(raw, 0x000, [0x80, NODE])                                    # TPDO1 on every SYNC
+    time.sleep(0.02)
+    send(raw, SDO_RX, struct.pack("<BHBB3x", 0x2F, 0x1800, 2, 1))
+    assert wait_for(raw, SDO_TX).data[0] == 0x60
+    assert sdo_download_u32(raw, 0x1005, 0, 0x081)[0] == 0x60          # SYNC now on 0x081
+    send(raw, 0x000, [0x01, NODE])
+    time.sleep(0.05)
+    while raw.recv(timeout=0) is not None:
+        pass
+    send(raw, 0x080, [])
+    assert wait_for(raw, TPDO1, 0.1) is None                          # the old SYNC: ignored
+    send(raw, 0x081, [])
+    assert wait_for(raw, TPDO1, 0.2) is not None
+
+
+def test_motor_rated_torque_is_writable_and_scales_the_torque_values(raw, twin):
+    assert sdo_download_u32(raw, 0x6076, 0, 2000)[0] == 0x60          # 2 N*m rated
+    send(raw, SDO_RX, struct.pack("<BHBh2x", 0x2B, 0x6071, 0, 500))   # 500 per mille
+    assert wait_for(raw, SDO_TX).data[0] == 0x60
+    from hil.motor import TABLE_I
+    assert twin.current_command_a == pytest.approx(1.0 / TABLE_I.torque_constant_nm_per_a)
+    assert struct.unpack_from("<I", sdo_download_u32(raw, 0x6076, 0, 0), 4)[0] == 0x06090032
