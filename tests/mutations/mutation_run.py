@@ -1,0 +1,42 @@
+"""Run test plans against a simulated drive with test-only defects and tell which plans failed.
+
+The defects are those of :class:`hil.sim.defects.DriveDefects`, given to the plans as the
+ripple-hil plugin's ``--hil-sim-defect KEY=VALUE`` options; the plans run in a separate pytest
+process over the real stacks (CANopen, Modbus TCP, serial pty), exactly as ``hil run`` runs them.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import testplans
+from hil.record import load_record
+
+PLANS = Path(testplans.__file__).parent
+FAILED = ("failed", "error")
+
+
+def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0) -> dict:
+    """Run the plans of ``sources`` with ``defects``; per source, a Counter of test outcomes."""
+    folder.mkdir(parents=True, exist_ok=True)
+    args = [sys.executable, "-m", "pytest", *[str(PLANS / f"test_{s}.py") for s in sources],
+            "-q", "-p", "no:cacheprovider", "--hil-record", str(folder / "records")]
+    for key, value in defects.items():
+        args += ["--hil-sim-defect", f"{key}={value}"]
+    done = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s, cwd=folder)
+    records = sorted((folder / "records").iterdir()) if (folder / "records").exists() else []
+    outcomes: dict[str, Counter] = defaultdict(Counter)
+    if records:
+        for test in load_record(records[-1])["tests"]:
+            outcomes[test.get("source") or "?"][test.get("outcome")] += 1
+    return {"returncode": done.returncode, "outcomes": dict(outcomes),
+            "output": done.stdout[-4000:] + done.stderr[-2000:]}
+
+
+def failed_sources(run: dict) -> set[str]:
+    """Sources with at least one failed or errored test in the record."""
+    return {source for source, counts in run["outcomes"].items()
+            if any(counts[o] for o in FAILED)}

@@ -1,0 +1,55 @@
+"""Mutation suite: a simulated drive that is wrong in the way a plan exists to catch must make
+that plan fail (issue 13 item 3; design.md §7: "a verdict that cannot fail is a defect").
+
+Each case runs the relevant plans end to end against the simulated bench with one test-only
+defect and asserts every plan that should catch it failed. The full table (every defect against
+every plan) is printed by ``studies/mutation_table.py``.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from mutation_run import failed_sources, run_plans
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow]
+
+CASES = [
+    # defect, plans run, plans that must fail
+    ({"ignore_injection": "*"}, ["dc_offset", "gain_mismatch", "dead_time"],
+     {"dc_offset", "gain_mismatch", "dead_time"}),
+    ({"ignore_injection": "*"}, ["encoder", "pwm_switching"], {"encoder", "pwm_switching"}),
+    ({"ignore_injection": "*"}, ["word_length", "pwm_resolution"],
+     {"word_length", "pwm_resolution"}),
+    ({"injection_scale": 1.5}, ["dc_offset", "gain_mismatch", "dead_time"],
+     {"dc_offset", "gain_mismatch", "dead_time"}),
+    ({"hidden_ia_offset_a": 0.3}, ["baseline", "dc_offset"], {"baseline", "dc_offset"}),
+    ({"word_length_offset_bits": -2}, ["word_length"], {"word_length"}),
+    ({"transducer_scale": 1.05}, ["self_check"], {"self_check"}),
+    ({"daq_drop_every_nth": 10}, ["self_check"], {"self_check"}),
+]
+
+
+def case_id(case) -> str:
+    defects, _, _ = case
+    return ",".join(f"{k}={v}" for k, v in defects.items()) + "->" + "+".join(case[2])
+
+
+@pytest.mark.parametrize("case", CASES, ids=case_id)
+def test_a_defective_drive_fails_the_plans_that_exist_to_catch_it(case, tmp_path):
+    defects, sources, must_fail = case
+    run = run_plans(sources, defects, tmp_path)
+    assert run["outcomes"], "no record was written:\n" + run["output"]
+    missed = must_fail - failed_sources(run)
+    assert not missed, (f"defect {defects}: plans {sorted(missed)} passed although they exist "
+                        f"to catch it; outcomes {run['outcomes']}\n{run['output']}")
+    assert run["returncode"] == 1, run["output"]
+
+
+def test_the_same_plans_pass_on_the_drive_without_defects(tmp_path):
+    """The control: without a defect the plans the cases run pass (so a case's failure is the
+    defect's doing)."""
+    sources = ["self_check", "baseline", "dc_offset", "gain_mismatch", "dead_time"]
+    run = run_plans(sources, {}, tmp_path)
+    assert failed_sources(run) == set(), run["output"]
+    assert run["returncode"] == 0, run["output"]
