@@ -246,12 +246,26 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
         bench.drive.set_current_command_a(plan.current_a)
         bench.drive.enable()
         bench.check_health()
-        capture = bench.daq.capture(duration_s, rate_hz, settle_s=plan.settle_s,
-                                    timeout_s=max(30.0, 10 * duration_s))
+        # only the DAQ channels the analysis reads (issue 17: the transfer is the cost), plus
+        # the phase currents that bench.check_capture checks against the current limit
+        channels = ("ia_a", "ib_a", "rotor_angle_mech_rad") + (
+            ("torque_nm",) if plan.analysis == "torque" else ())
+        failure = None
+        try:
+            capture = bench.daq.capture(duration_s, rate_hz, settle_s=plan.settle_s,
+                                        timeout_s=max(30.0, 10 * duration_s), channels=channels)
+        except Exception as exc:
+            # a capture that failed its integrity check carries the data as received
+            # (drivers.modbus_daq.CaptureIntegrityError): record it, then fail the point
+            if getattr(exc, "capture", None) is None:
+                raise
+            capture, failure = exc.capture, exc
         capture.meta.update(test_id=test_id, source=plan.source,
                             injection=dict(plan.injection), captured_utc=utc_now(),
                             wall_time_unix_s=time.time())
         record.save_capture(test_id, capture)          # raw data first, before any check
+        if failure is not None:
+            raise failure
         bench.check_health()
         bench.check_capture(capture)
         bench.make_safe(f"{test_id}: point finished")

@@ -44,6 +44,7 @@ import tty
 import numpy as np
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ModbusIOException
+from pymodbus.pdu import ExceptionResponse
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
@@ -61,6 +62,8 @@ _INPUT_FC = 4
 _REGISTER_FCS = (3, 4, 6, 16)
 _WRITE_FCS = (6, 16)
 _BIT_FCS = (1, 2, 5, 15)
+#: Function codes pymodbus passes to the device's registers (the device refuses all but 3/4/6/16).
+_DATASTORE_FCS = (*_REGISTER_FCS, *_BIT_FCS, 22, 23)
 EXC_ILLEGAL_FUNCTION, EXC_ILLEGAL_ADDRESS, EXC_ILLEGAL_VALUE = 1, 2, 3
 EXC_DEVICE_FAILURE, EXC_BUSY = 4, 6
 
@@ -509,7 +512,7 @@ class SimulatedDaq:
         if self._bridge is not None:
             parity, self.line_note = line_for_port(self._bridge.server_port,
                                                    self._serial["parity"])
-            self._server = ModbusSerialServer(device, port=self._bridge.server_port,
+            self._server = _InOrderSerialServer(device, port=self._bridge.server_port,
                                               baudrate=self._serial["baudrate"], bytesize=8,
                                               parity=parity, stopbits=self._serial["stopbits"],
                                               trace_packet=self._trace_packet)
@@ -524,12 +527,14 @@ class SimulatedDaq:
 
 
 class _InOrderRequestHandler(ServerRequestHandler):
-    """A pymodbus connection handler that answers pipelined requests, in order.
+    """A pymodbus connection handler that answers pipelined requests, in order, as the map says.
 
     Modbus TCP lets a client send requests before the earlier answers arrive. pymodbus 3.16's
     handler decodes one frame per received segment and keeps one ``last_pdu``, so frames that
     arrive together wait for more data or are overwritten. This one decodes every complete frame
-    of the buffer into a queue and answers them one after another.
+    of the buffer into a queue and answers them one after another. pymodbus answers some function
+    codes itself (7, 8, 11, 17, 43: its own diagnostics and identity); the DAQ's map lists none of
+    them, so they get exception 1, and a malformed quantity of a listed code exception 3.
     """
 
     def __init__(self, *args) -> None:
@@ -542,8 +547,15 @@ class _InOrderRequestHandler(ServerRequestHandler):
         while used < len(data):
             try:
                 cut = TransactionManager.callback_data(self, data[used:], addr)
-            except ModbusIOException:
-                return used + super().callback_data(data[used:], addr)   # answers exception 1
+            except ModbusIOException as exc:
+                frame = self.framer.decode(data[used:])[3]
+                function_code = frame[0] if frame else 0
+                code = EXC_ILLEGAL_VALUE if function_code in _REGISTER_FCS else \
+                    EXC_ILLEGAL_FUNCTION
+                self.server_send(ExceptionResponse(function_code, exception_code=ExcCodes(code),
+                                                   device_id=exc.dev_id,
+                                                   transaction=exc.transaction_id), addr)
+                return len(data)
             used += cut
             if self.last_pdu is not None:
                 self._queue.append((self.last_pdu, addr))
@@ -558,13 +570,28 @@ class _InOrderRequestHandler(ServerRequestHandler):
         try:
             while self._queue:
                 self.last_pdu, self.last_addr = self._queue.popleft()
-                await self.handle_request()
+                if self.last_pdu.function_code in _DATASTORE_FCS:
+                    await self.handle_request()
+                else:
+                    refusal = ExceptionResponse(self.last_pdu.function_code,
+                                                ExcCodes.ILLEGAL_FUNCTION)
+                    refusal.transaction_id = self.last_pdu.transaction_id
+                    refusal.dev_id = self.last_pdu.dev_id
+                    self.server_send(refusal, self.last_addr)
         finally:
             self._draining = False
 
 
 class _InOrderTcpServer(ModbusTcpServer):
-    """pymodbus TCP server whose connections answer pipelined requests in order."""
+    """pymodbus TCP server whose connections answer as ``_InOrderRequestHandler``."""
+
+    def callback_new_connection(self):
+        return _InOrderRequestHandler(self, self.trace_packet, self.trace_pdu,
+                                      self.trace_connect)
+
+
+class _InOrderSerialServer(ModbusSerialServer):
+    """pymodbus RTU server whose line answers as ``_InOrderRequestHandler``."""
 
     def callback_new_connection(self):
         return _InOrderRequestHandler(self, self.trace_packet, self.trace_pdu,
