@@ -1,0 +1,182 @@
+"""Forward signatures: the torque each source adds at each operating point, per unit parameter,
+as complex coefficients per mechanical order (the convention of :mod:`hil.diagnosis.orders`).
+
+Controller sources (inverses of ``hil.model``):
+
+* **Sensor dc offsets** (eqs 15-19) and **gain mismatch** (eqs 21-25) are sensor errors n_a, n_b
+  added to the measured currents. The firmware regulates the *measured* currents, so the actual
+  current error is −T·n, with T the current loop's complementary sensitivity evaluated in the
+  rotor frame (T = 1 is the paper's ideal regulation, for which these signatures equal
+  ``hil.model.dc_offset.ripple_pu`` and the eq 24 ripple term exactly; tested). The torque is the
+  paper's sum Σ e_x·i_x/ω_m (eq 7) written with space vectors: ΔT = (3/2)·k_e·Re(−j·e^{jθ}·Δī*),
+  k_e = E/ω_m. An offset gives order 1; k_a − k_b gives order 2 at a fixed phase
+  (sin(2θ − φ − 2π/3), eq 24); k_a + k_b moves only the mean. Gains are parameterised by the
+  paper's k (actual-current error, 1 + k = 1/(1 + g) for a sensor gain error g), which makes the
+  signature exact rather than first order in g.
+* **Dead time** (eqs 32-38, the project's derived closed-loop form): the average-voltage model of
+  ``hil.model.dead_time.average_model_torque_pu`` with the bench's current loop; orders 6, 12, …;
+  linear in T_d.
+
+Motor-side terms: **cogging** fixed in the mechanical angle and independent of current (a constant
+complex coefficient per mechanical order), and **EMF-harmonic torque**, fixed in the electrical
+angle and proportional to the current.
+
+Every signature is passed through the torque transducer's first-order response at the ripple's
+time frequency (a lag in angle for forward rotation, a lead backwards), when its bandwidth is known.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from hil.errors import InputError
+from hil.model import OperatingPoint
+from hil.model.dead_time import average_model_torque_pu, loop_rejection
+from hil.motor import TABLE_I, MotorParameters
+
+#: Angle grid (points per electrical revolution) on which waveforms are transformed.
+GRID_POINTS = 256
+SQRT3 = math.sqrt(3.0)
+
+
+@dataclass(frozen=True)
+class DriveSetup:
+    """What the forward models need to know about the drive and the bench (SI units).
+
+    ``current_loop_bandwidth_hz`` None means ideal current regulation (the paper's assumption);
+    ``transducer_bandwidth_hz`` None means a flat transducer response.
+    """
+
+    motor: MotorParameters = TABLE_I
+    current_loop_bandwidth_hz: float | None = None
+    current_loop_delay_s: float = 0.0
+    pwm_frequency_hz: float = 20_000.0
+    transducer_bandwidth_hz: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("current_loop_bandwidth_hz", "transducer_bandwidth_hz"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise InputError(f"{name}={value!r} must be a positive frequency in Hz or None")
+        if not (0 <= self.current_loop_delay_s < 1e-2):
+            raise InputError(f"current_loop_delay_s={self.current_loop_delay_s!r} must be in "
+                             "[0, 0.01) s")
+        if not 2000 <= self.pwm_frequency_hz <= 50_000:
+            raise InputError(f"pwm_frequency_hz={self.pwm_frequency_hz!r} must be in "
+                             "[2000, 50000] Hz")
+
+    def to_dict(self) -> dict:
+        data = asdict(self)
+        data["motor"] = asdict(self.motor)
+        return data
+
+
+def operating_point(speed_rpm: float, current_a: float, current_angle_rad: float,
+                    setup: DriveSetup) -> OperatingPoint:
+    return OperatingPoint(speed_rpm=speed_rpm, current_a=current_a,
+                          current_angle_rad=current_angle_rad, motor=setup.motor)
+
+
+def loop_tracking(rotor_frequency_rad_s: float, op: OperatingPoint, setup: DriveSetup) -> complex:
+    """Complementary sensitivity T of the current loop at a rotor-frame frequency: how much of a
+    measurement error the loop writes into the actual current (1 for ideal regulation)."""
+    if not setup.current_loop_bandwidth_hz:
+        return 1.0 + 0j
+    if rotor_frequency_rad_s == 0.0:
+        return 1.0 + 0j                   # the integrator tracks a constant error completely
+    motor = op.motor
+    plant = 1.0 / (motor.phase_resistance_ohm + 1j * motor.phase_inductance_h
+                   * (rotor_frequency_rad_s + op.elec_speed_rad_s))
+    sensitivity_times_plant = loop_rejection(rotor_frequency_rad_s, op,
+                                             2 * math.pi * setup.current_loop_bandwidth_hz,
+                                             setup.current_loop_delay_s)
+    return 1.0 - sensitivity_times_plant / plant
+
+
+def transducer_response(mech_order: int, speed_rpm: float, setup: DriveSetup) -> complex:
+    """First-order transducer response at the time frequency of mechanical order m (signed)."""
+    if not setup.transducer_bandwidth_hz:
+        return 1.0 + 0j
+    frequency_hz = mech_order * speed_rpm / 60.0
+    return 1.0 / (1.0 + 1j * frequency_hz / setup.transducer_bandwidth_hz)
+
+
+def electrical_grid() -> np.ndarray:
+    return np.arange(GRID_POINTS) * (2 * math.pi / GRID_POINTS)
+
+
+def waveform_orders(torque_nm: np.ndarray) -> np.ndarray:
+    """c_k (k = 0..GRID/2 − 1) with τ(θ) = Re Σ c_k e^{jkθ} of a waveform on the electrical grid."""
+    spectrum = np.fft.rfft(torque_nm) / GRID_POINTS
+    spectrum[1:] *= 2.0
+    return spectrum[: GRID_POINTS // 2]
+
+
+def sensor_error_torque(op: OperatingPoint, setup: DriveSetup, n_a: np.ndarray,
+                        n_b: np.ndarray) -> np.ndarray:
+    """Electrical-order torque coefficients (N·m) of sensor errors n_a(θ), n_b(θ) (A) on the grid.
+
+    Two sensors, i_c computed (isolated neutral, eq 17): the firmware's space vector of the error
+    is n_a + j·(n_a + 2·n_b)/√3; its harmonic e^{jmθ} is seen by the loop at (m − 1)·ω_e.
+    """
+    theta = electrical_grid()
+    error = n_a + 1j * (n_a + 2.0 * n_b) / SQRT3
+    harmonics = np.fft.fft(error) / GRID_POINTS
+    m = np.fft.fftfreq(GRID_POINTS, 1.0 / GRID_POINTS)
+    tracking = np.array([loop_tracking((k - 1.0) * op.elec_speed_rad_s, op, setup) for k in m])
+    actual_error = -np.fft.ifft(harmonics * tracking) * GRID_POINTS
+    k_e = op.motor.emf_peak_v_s_per_rad
+    torque = 1.5 * k_e * np.real(-1j * np.exp(1j * theta) * np.conj(actual_error))
+    return waveform_orders(torque)
+
+
+def reference_currents(op: OperatingPoint) -> tuple[np.ndarray, np.ndarray]:
+    """Ideal phase currents i_a, i_b = I·sin(θ − φ − o_x) (eq 4) on the grid, A."""
+    theta = electrical_grid()
+    phi = op.current_angle_rad
+    return (op.current_a * np.sin(theta - phi),
+            op.current_a * np.sin(theta - phi - 2 * math.pi / 3))
+
+
+def offset_orders(op: OperatingPoint, setup: DriveSetup, phase: str) -> np.ndarray:
+    """Torque coefficients per ampere of dc offset in sensor ``phase`` ('a' or 'b')."""
+    one, zero = np.ones(GRID_POINTS), np.zeros(GRID_POINTS)
+    return sensor_error_torque(op, setup, *((one, zero) if phase == "a" else (zero, one)))
+
+
+def gain_difference_orders(op: OperatingPoint, setup: DriveSetup) -> np.ndarray:
+    """Torque coefficients per unit of k_a − k_b (actual-current errors, eqs 21-22): k_a = +½,
+    k_b = −½, i.e. sensor errors n_x = −k_x·i_x."""
+    i_a, i_b = reference_currents(op)
+    return sensor_error_torque(op, setup, -0.5 * i_a, 0.5 * i_b)
+
+
+def gain_sum_orders(op: OperatingPoint, setup: DriveSetup) -> np.ndarray:
+    """Torque coefficients per unit of k_a + k_b (k_a = k_b = ½): the mean only (eq 24)."""
+    i_a, i_b = reference_currents(op)
+    return sensor_error_torque(op, setup, -0.5 * i_a, -0.5 * i_b)
+
+
+def dead_time_orders(op: OperatingPoint, setup: DriveSetup) -> np.ndarray:
+    """Torque coefficients per microsecond of effective dead time (average-voltage model with the
+    bench's loop; hil.model.dead_time)."""
+    theta = electrical_grid()
+    torque_pu = average_model_torque_pu(theta, op, 1e-6, setup.pwm_frequency_hz,
+                                        setup.current_loop_bandwidth_hz,
+                                        setup.current_loop_delay_s)
+    coefficients = waveform_orders(torque_pu * op.mean_torque_nm)
+    coefficients[0] = 0.0          # the fundamental's loss moves the mean; not used
+    return coefficients
+
+
+def to_mech(electrical: np.ndarray, pole_pairs: int, max_mech_order: int) -> dict[int, complex]:
+    """Electrical-order coefficients → {mechanical order p·k: coefficient} within the band."""
+    out = {}
+    for k in range(1, electrical.size):
+        m = pole_pairs * k
+        if m <= max_mech_order and abs(electrical[k]) > 0:
+            out[m] = complex(electrical[k])
+    return out
