@@ -179,8 +179,12 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
             if order is not None and order > plan.max_order:
                 raise InputError(f"{test_id}: predicted order {order} is above max_order "
                                  f"{plan.max_order}; raise the plan's max_order")
+            expected_range = (None if prediction.expected_range_pu is None else
+                              tuple(v * prediction.base_nm / nameplate_nm
+                                    for v in prediction.expected_range_pu))
             verdict = decide(result, predicted_pu, order, plan.rule,
-                             base_scale=abs(result.mean_torque_nm) / nameplate_nm)
+                             base_scale=abs(result.mean_torque_nm) / nameplate_nm,
+                             expected_range_pu=expected_range)
         judged = [judge(req, result, torque_accuracy_nm=_torque_accuracy_nm(bench))
                   for req in chosen]
         checks = plan.checks(capture, result, plan, bench) if plan.checks else None

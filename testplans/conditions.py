@@ -22,6 +22,25 @@ BOUND_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.0, upper_bound=True, check_s
 #: The absolute part is the bench's own floor (baseline ≈ 0.06 % ± 0.09 %), since these
 #: predictions are small (0.2–0.9 %).
 DERIVED_ESTIMATE_RULE = DecisionRule(rel_tol=0.30, abs_tol_pu=0.001)
+#: A derived model that states its own expected range (word length, PWM resolution): the point
+#: must fall inside that range, widened by the bench floor (0.1 %, the baseline's ≈ 0.06 % ±
+#: 0.09 %); its order is judged where the model names one.
+DERIVED_RANGE_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.001, expected_range=True)
+#: PWM resolution: the duty-quantisation ripple is not synchronous with the rotor (the loop's
+#: reaction moves the quantisation steps from one revolution to the next), so the synchronous
+#: average's type-A U is of the order of the value itself (1.3 % ± 2.2 % at 32 counts) and a
+#: guarded rule could never accept. Simple acceptance (ILAC-G8, w = 0) against the derived model's
+#: own range; U is reported beside each point, and the sweep's scaling is checked as well.
+DERIVED_RANGE_SIMPLE_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.001, expected_range=True,
+                                         guard_band_factor=0.0)
+#: Slope tolerance of the sensitivity check for the derived-range sources: their models state
+#: ranges of ±20 % (word length's bias terms) and [¼, 2]× (PWM resolution), so their slopes are
+#: judged within ±50 %: a drive that ignores the injection gives a slope near 0.
+DERIVED_RANGE_SLOPE_TOL = 0.5
+#: Firmware facts the derived word-length model needs, here the simulated drive's (state your
+#: drive's from its firmware documentation): a 12-bit current ADC over ±100 A, and sin/cos of the
+#: other phases computed by trigonometric identities from one table entry.
+WORD_LENGTH_FIRMWARE = {"adc_bits": 12, "trig_values": "identities"}
 #: The bench's own ripple with nothing injected must stay below this (pu of mean torque), so
 #: that the smallest injected ripple of the sweeps (≈ 2 %) stands clear of it.
 BASELINE_CEILING_PU = 0.01

@@ -9,6 +9,11 @@ uncertainty (k = 2, from the points' U) are judged against [1 − tol, 1 + tol] 
 acceptance (each point already carries its guarded verdict). A drive that ignores the injection
 gives s ≈ 0; one that scales it by g gives s ≈ g.
 
+Where the model's absolute level is known only within a wide range (PWM resolution: [¼, 2]× its
+value) the check is on *scaling* instead (``mode="scaling"``): the exponent e of
+measured ∝ expected^e, fitted on logarithms, must be 1 within tolerance — the ripple must halve
+when the model says it halves (per halving of the PWM counter), whatever its level.
+
 The result goes to the record's ``sensitivity`` section, per source, with the fitted line, the
 points used, and — where the sweep varies one scalar knob — the slope per unit of that knob,
 measured and expected (e.g. per µs of dead time).
@@ -70,8 +75,18 @@ def knob_slopes(points: list[dict]) -> dict | None:
             "expected_pu_per_unit": float(expected)}
 
 
-def check_sensitivity(record, source: str, rel_tol: float) -> dict:
-    """Fit, judge and record the sweep's slope; ``pytest.skip`` when too few points ran."""
+def fit_exponent(expected: np.ndarray, measured: np.ndarray, expanded: np.ndarray) -> dict:
+    """Weighted least squares of ln(measured) = e·ln(expected) + c (u of ln y = u_y / y)."""
+    measured = np.maximum(measured, 1e-12)
+    u_log = np.maximum(np.asarray(expanded, float) / 2.0 / measured, 1e-6)
+    fit = fit_slope(np.log(expected), np.log(measured), 2.0 * u_log)
+    return {"slope": fit["slope"], "intercept_pu": float(np.exp(fit["intercept_pu"])),
+            "slope_u": fit["slope_u"], "reduced_chi2": fit["reduced_chi2"]}
+
+
+def check_sensitivity(record, source: str, rel_tol: float, *, mode: str = "linear") -> dict:
+    """Fit, judge and record the sweep's slope (``mode="linear"``) or scaling exponent
+    (``mode="scaling"``); ``pytest.skip`` when too few points ran."""
     points = sweep_points(record, source)
     if len(points) < MIN_POINTS:
         pytest.skip(f"{source}: {len(points)} measured point(s) of the sweep (deselected or "
@@ -81,13 +96,16 @@ def check_sensitivity(record, source: str, rel_tol: float) -> dict:
     expanded = np.array([t["verdict"]["expanded_uncertainty_pu"] for t in points])
     if np.ptp(expected) <= 0.1 * float(np.max(expected)):
         pytest.skip(f"{source}: the measured points' expectations do not vary enough for a slope")
-    fit = fit_slope(expected, measured, expanded)
+    fit = (fit_slope if mode == "linear" else fit_exponent)(expected, measured, expanded)
     decision = classify(fit["slope"], 2.0 * fit["slope_u"], 1.0 - rel_tol, 1.0 + rel_tol)
     result = fit | {"decision": decision, "accepted": decision in ("pass", "conditional pass"),
                     "limits": [1.0 - rel_tol, 1.0 + rel_tol],
                     "points": [t["test_id"] for t in points],
                     "per_knob": knob_slopes(points),
-                    "statement": (f"{source}: measured/expected slope {fit['slope']:.3f} ± "
+                    "mode": mode,
+                    "statement": (f"{source}: measured/expected "
+                                  f"{'slope' if mode == 'linear' else 'scaling exponent'} "
+                                  f"{fit['slope']:.3f} ± "
                                   f"{2 * fit['slope_u']:.3f} (k=2) against "
                                   f"[{1 - rel_tol:.2f}, {1 + rel_tol:.2f}] → {decision}")}
     _RESULTS[source] = result

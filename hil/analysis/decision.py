@@ -41,6 +41,10 @@ class DecisionRule:
     check_signature: bool = True
     min_order_share: float | None = None
     upper_bound: bool = False
+    #: Judge against the prediction's own stated range (a derived model's ``expected_range_pu``)
+    #: widened by ``abs_tol_pu`` (the bench floor) and ``rel_tol`` of each end, instead of
+    #: prediction ± T.
+    expected_range: bool = False
 
     def __post_init__(self) -> None:
         _require(0.0 <= self.rel_tol <= 10.0, "rel_tol", self.rel_tol, "0..10")
@@ -104,12 +108,14 @@ class Verdict:
 
 
 def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: int | None = None,
-           rule: DecisionRule | None = None, *, base_scale: float = 1.0) -> Verdict:
+           rule: DecisionRule | None = None, *, base_scale: float = 1.0,
+           expected_range_pu: tuple[float, float] | None = None) -> Verdict:
     """Compare ``measured.pk_pk_pu`` (with its expanded U) and spectrum with a prediction.
 
     ``base_scale`` re-expresses the measured pk-pk and its U per unit of another base torque
     (``|measured mean| / base``), e.g. the nameplate mean torque K_t·I·cos φ that the prediction
-    is stated in; 1 keeps the measured mean torque as the base.
+    is stated in; 1 keeps the measured mean torque as the base. ``expected_range_pu``: the
+    prediction's own (low, high) in the same base, needed by a rule with ``expected_range``.
     """
     rule = rule or DecisionRule()
     if not (math.isfinite(base_scale) and base_scale > 0):
@@ -126,6 +132,13 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
     tolerance = rule.tolerance_pu(predicted_pk_pk_pu)
     guard = rule.guard_band_factor * expanded
     lower, upper = predicted_pk_pk_pu - tolerance, predicted_pk_pk_pu + tolerance
+    if rule.expected_range:
+        if expected_range_pu is None:
+            raise InputError("this decision rule judges against the prediction's expected range, "
+                             "but the prediction states none (use a derived model)")
+        low, high = sorted(float(v) for v in expected_range_pu)
+        lower = low * (1.0 - rule.rel_tol) - rule.abs_tol_pu
+        upper = high * (1.0 + rule.rel_tol) + rule.abs_tol_pu
     if rule.upper_bound:
         lower = 0.0
         magnitude = classify(value, guard, -math.inf, upper)
