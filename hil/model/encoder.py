@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import brentq
 
 from hil.errors import InputError
 from hil.model.core import OperatingPoint, Prediction, angle_grid, check_range
@@ -57,9 +58,54 @@ def paper_pk_pk(resolution_rad: float, current_angle_rad: float) -> float:
     """Eq 9, exact: max − min of cos(γ + φ) over 0 ≤ γ ≤ θ_res, per unit of (3/2)·E·I/ω_m."""
     lo, hi = current_angle_rad, current_angle_rad + resolution_rad
     values = [math.cos(lo), math.cos(hi)]
-    if lo < 0.0 < hi:  # the maximum of cos inside the interval
-        values.append(1.0)
+    for extreme in (0.0, math.pi):  # the maximum / minimum of cos inside the interval
+        if lo < extreme < hi:
+            values.append(math.cos(extreme))
     return max(values) - min(values)
+
+
+def staircase_mean_pu(resolution_rad: float, current_angle_rad: float) -> float:
+    """Mean of cos(γ + φ) for γ uniform on [0, θ_res): the staircase's mean torque per unit of
+    (3/2)·E·I/ω_m (negative when the count lags the EMF by more than 90° on average)."""
+    phi = current_angle_rad
+    return (math.sin(phi + resolution_rad) - math.sin(phi)) / resolution_rad
+
+
+def lagging_ripple_pu(resolution_rad: float, current_angle_rad: float) -> float:
+    """Pk-pk per unit of the staircase's mean torque (``Prediction.pk_pk_pu``) at angle φ."""
+    return paper_pk_pk(resolution_rad, current_angle_rad) / abs(
+        staircase_mean_pu(resolution_rad, current_angle_rad))
+
+
+def current_angle_for_ripple(resolution_rad: float, target_pu: float) -> float:
+    """The current angle φ ≥ 0 (lagging the EMF) at which the staircase ripple per unit of its
+    mean torque equals ``target_pu``.
+
+    On 0 ≤ φ < π/2 − θ_res/2 the ripple rises monotonically from its value at φ = 0 without
+    bound (the mean torque cos(φ + θ_res/2)·sinc falls to zero), so every target at or above the
+    φ = 0 value is reached once; smaller targets need a leading current (the minimum,
+    1 − cos(θ_res/2) over the mean, is at φ = −θ_res/2) and raise InputError.
+    """
+    target = check_range("target_pu", target_pu, 0.0, 1e6, low_open=True)
+    floor = lagging_ripple_pu(resolution_rad, 0.0)
+    if target < floor:
+        raise InputError(
+            f"target {100 * target:.4g} % is below the {100 * floor:.4g} % of a current in phase "
+            f"with the EMF at {math.degrees(resolution_rad):.4g}° resolution: unreachable on the "
+            f"lagging branch (allowed: >= {100 * floor:.4g} %; the least ripple, "
+            f"{100 * lagging_ripple_pu(resolution_rad, -resolution_rad / 2):.4g} %, needs the "
+            f"current leading by {math.degrees(resolution_rad) / 2:.4g}°)")
+    if target == floor:
+        return 0.0
+    high = math.pi / 2 - resolution_rad / 2
+    if high <= 0.0:
+        raise InputError(f"resolution {math.degrees(resolution_rad):.4g}° leaves no lagging "
+                         "branch with a positive mean torque")
+    high = min(high * (1 - 1e-12), math.pi / 2)
+    if lagging_ripple_pu(resolution_rad, high) < target:
+        raise InputError(f"target {100 * target:.4g} % is not reached below φ = 90°")
+    return brentq(lambda phi: lagging_ripple_pu(resolution_rad, phi) - target, 0.0, high,
+                  xtol=1e-13)
 
 
 def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = None,
@@ -71,16 +117,20 @@ def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = N
         encoder_counts_per_rev=encoder_counts_per_rev, encoder_decimation=encoder_decimation,
         hall_mode=bool(hall_mode))
     phi = op.current_angle_rad
-    # Mean of cos(γ+φ) for γ uniform on [0, θ_res): the mean torque with the staircase present.
-    mean_pu = (math.sin(phi + res) - math.sin(phi)) / res
+    mean_pu = staircase_mean_pu(res, phi)  # the mean torque with the staircase present
+    if abs(mean_pu) < 1e-9:
+        raise InputError(f"the staircase's mean torque is zero at φ = {math.degrees(phi):.4g}° "
+                         f"with {math.degrees(res):.4g}° resolution: no ripple per unit of it "
+                         "(allowed: another current_angle_rad)")
     paper = paper_pk_pk(res, phi)
     theta = angle_grid()
     # γ = θ − θ_d; the small guard keeps grid points that sit on a count edge in the new count
     gamma = np.maximum(theta - np.floor(theta / res + 1e-9) * res, 0.0)
-    waveform = (torque_pu(gamma, phi) - mean_pu) / mean_pu
-    base_nm = op.mean_torque_nm / math.cos(phi) * mean_pu
+    waveform = (torque_pu(gamma, phi) - mean_pu) / abs(mean_pu)
+    # (3/2)·E·I/ω_m times |mean|: the base is a magnitude even where the mean torque is negative
+    base_nm = op.motor.torque_constant_nm_per_a * op.current_a * abs(mean_pu)
     return Prediction(
-        source="encoder", pk_pk_pu=paper / mean_pu, base=STAIRCASE_MEAN_BASE,
+        source="encoder", pk_pk_pu=paper / abs(mean_pu), base=STAIRCASE_MEAN_BASE,
         base_nm=base_nm, order=2.0 * math.pi / res, inputs={
             "resolution_elec_rad": res, "resolution_elec_deg": math.degrees(res),
             "hall_mode": bool(hall_mode), "encoder_counts_per_rev": encoder_counts_per_rev,
@@ -91,4 +141,5 @@ def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = N
             "sinusoidal back EMF, no cogging"],
         angle_rad=theta, waveform_pu=waveform,
         extras={"paper_pk_pk_pu": paper, "paper_base": "(3/2)·E·I/ω_m (eq 9)",
+                "mean_torque_sign": 1.0 if mean_pu > 0 else -1.0,
                 "count_frequency_order": 2.0 * math.pi / res})

@@ -11,8 +11,10 @@ M = V_pk/V_dc and θ the angle from the zero crossing of the phase voltage. So e
 text says). Eq 30, Δi = ΔT_on·(V − i·R − E)/L_s with V = V_dc/3 and i·R + E ≈ 0 at the zero
 crossing of the phase voltage, is the excursion of the current from its average during one of the
 two −V_dc/3 intervals of a centre-aligned period (the +V_dc/3 intervals bring it back): the pk-pk
-ripple within the period is 2·Δi = M·[sin(θ + 2π/3) − sin θ]·T_s·V_dc/(3·L_s) (checked against a
-switched-circuit simulation in the tests). It is largest at the zero crossing,
+ripple within the period is 2·Δi = M·[sin(θ + 2π/3) − sin θ]·T_s·V_dc/(3·L_s). A literal reading
+of the paper takes Δi as the pk-pk; the simulated drive decides for 2·Δi: its phase current at a
+phase-voltage zero crossing, sampled at 1 MHz, has a within-period pk-pk of 0.95–0.96 × 2·Δi
+(tests/model/test_model_pwm_switching_twin.py), so ``model="paper"`` reports 2·Δi/I. It is largest at the zero crossing,
 √3·V_pk·T_s/(6·L_s), independent of V_dc, and its envelope repeats every 60°: order 6.
 The paper takes the per-unit torque ripple equal to this current ripple per unit of I (current in
 phase with the EMF). A switched-circuit torque sum shows the magnitude is right (0.6-1.5 times)

@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from hil.errors import InputError
 from hil.model import OperatingPoint, predict
-from hil.model.encoder import PAPER_FIG3_CURRENT_ANGLE_RAD
+from hil.model.encoder import PAPER_FIG3_CURRENT_ANGLE_RAD, current_angle_for_ripple
 from model_torque_sum import balanced, pk_pk_over_mean, torque_nm
 
 FINE = np.linspace(0, 2 * math.pi, 72000, endpoint=False)
@@ -109,3 +110,33 @@ def test_word_length_paper_formula_and_conversion():
     assert pred.extras["paper_pk_pk_pu"] == 10 / 2 ** 11
     assert pred.pk_pk_pu == pytest.approx(10 / 2 ** 11 * 100 / (25 * math.cos(math.radians(30))))
     assert pred.order is None
+
+
+def test_encoder_minimum_inside_the_count_phi_80_resolution_120():
+    """γ + φ passes π inside the count: the minimum of cos is −1 (issue 13 item 7)."""
+    op = OperatingPoint(speed_rpm=0, current_a=20.0, current_angle_rad=math.radians(80))
+    pred = predict("encoder", op, resolution_elec_rad=math.radians(120))
+    assert pred.extras["paper_pk_pk_pu"] == pytest.approx(1 + math.cos(math.radians(80)))
+    assert round(pred.extras["paper_pk_pk_pu"], 3) == 1.174
+    torque = staircase_torque(op, math.radians(120))  # mean torque negative here
+    assert np.mean(torque) < 0 and pred.extras["mean_torque_sign"] == -1.0
+    assert pred.pk_pk_pu > 0 and pred.base_nm > 0
+    assert pred.pk_pk_pu == pytest.approx(np.ptp(torque) / abs(np.mean(torque)), rel=1e-3)
+    assert pred.base_nm == pytest.approx(abs(np.mean(torque)), rel=1e-4)
+
+
+@pytest.mark.parametrize("resolution_deg,target_pct", [(10.0, 4.68), (10.0, 20.0), (60.0, 80.0),
+                                                       (2.5, 1.0)])
+def test_encoder_current_angle_for_a_target_ripple(resolution_deg, target_pct):
+    res = math.radians(resolution_deg)
+    phi = current_angle_for_ripple(res, target_pct / 100)
+    assert 0.0 <= phi < math.pi / 2
+    op = OperatingPoint(speed_rpm=0, current_a=20.0, current_angle_rad=phi)
+    theta = np.linspace(0, 6 * res, 6 * 20000, endpoint=False)  # eq 8: periodic in the count
+    torque = staircase_torque(op, res, theta)  # independent of the inversion: the torque sum
+    assert pk_pk_over_mean(torque) == pytest.approx(target_pct / 100, rel=2e-3)
+
+
+def test_encoder_target_below_the_lagging_branch_is_refused():
+    with pytest.raises(InputError, match="unreachable on the lagging branch"):
+        current_angle_for_ripple(math.radians(10.0), 0.01)
