@@ -94,6 +94,9 @@ def dask_client(scheduler: str | None = None, n_workers: int | None = None) -> I
         raise InputError(f"n_workers={n_workers!r} must be an integer in 1..1024")
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                            host="127.0.0.1", dashboard_address=None,
+                           # no dashboard; the scheduler's small HTTP endpoint (health) on a
+                           # free loopback port instead of 8787, which another cluster may hold
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                            silence_logs=logging.ERROR)
     try:
         client = Client(cluster)
