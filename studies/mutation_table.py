@@ -1,0 +1,57 @@
+"""Mutation table: every test-only defect of the simulated drive against every plan.
+
+For each defect (hil.sim.defects.DriveDefects) all plans run end to end on the simulated bench;
+the table lists the plans that failed, and the plans that exist to catch that defect but passed
+(the aim: none). Run: ``.venv/bin/python studies/mutation_table.py`` (≈ 1 min per defect).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "mutations"))
+from mutation_run import failed_sources, run_plans  # noqa: E402
+
+INJECTED = ["encoder", "word_length", "dc_offset", "gain_mismatch", "pwm_resolution",
+            "pwm_switching", "dead_time"]
+PLANS = ["self_check", "baseline", *INJECTED]
+SCALED = {"encoder", "dc_offset", "gain_mismatch", "pwm_resolution", "pwm_switching",
+          "dead_time"}
+#: defect → the plans that exist to catch it
+DEFECTS = [
+    ({"ignore_injection": "*"}, set(INJECTED)),
+    ({"injection_scale": 1.5}, SCALED),
+    ({"injection_scale": 0.7}, SCALED),
+    ({"hidden_ia_offset_a": 0.3}, {"baseline", "dc_offset"}),
+    ({"word_length_offset_bits": -2}, {"word_length"}),
+    ({"word_length_offset_bits": 2}, {"word_length"}),
+    ({"transducer_scale": 1.05}, {"self_check"}),
+    ({"transducer_scale": 0.95}, {"self_check"}),
+    ({"daq_drop_every_nth": 10}, {"self_check"}),
+]
+
+
+def main() -> int:
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        control = run_plans(PLANS, {}, Path(tmp) / "control")
+        print(f"control (no defect): failed {sorted(failed_sources(control)) or 'none'}")
+        for index, (defects, must_fail) in enumerate(DEFECTS):
+            started = time.perf_counter()
+            run = run_plans(PLANS, defects, Path(tmp) / f"d{index}")
+            failed = failed_sources(run)
+            label = ", ".join(f"{k}={v}" for k, v in defects.items())
+            rows.append((label, sorted(failed), sorted(must_fail - failed)))
+            print(f"{label}: {time.perf_counter() - started:.0f} s", file=sys.stderr)
+    print("\n| defect | plans that failed | should have failed but passed |")
+    print("|---|---|---|")
+    for label, failed, missed in rows:
+        print(f"| {label} | {', '.join(failed) or '—'} | {', '.join(missed) or 'none'} |")
+    return 1 if any(missed for _, _, missed in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
