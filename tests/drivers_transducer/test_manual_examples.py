@@ -60,8 +60,9 @@ def test_dsp7000_channel_commands_and_six_character_speed():
             magtrol(unit, channel=2, unit="oz.in") as tt:
         reading = tt.read()
         tt.tare()
+        tt.read()                             # settings are silent: sync on an answer
     assert (reading.speed_rpm, reading.torque_nm) == (1725.0, pytest.approx(22.6 * OZ_IN_NM))
-    assert unit.received == ["OD2", "TS2"]    # no UR#: not in the DSP7000 command set
+    assert unit.received == ["OD2", "TS2", "OD2"]    # no UR#: not in the DSP7000 command set
 
 
 @pytest.mark.parametrize("alarm", [b"S 1725T22.60A\r\n", b"S  1725T22.60A\r\n",
@@ -95,10 +96,11 @@ def test_identity_without_a_published_layout_is_parsed_tolerantly(idn, model):
 
 
 def test_unpublished_filter_command_is_never_sent():
-    with ScriptedInstrument({}) as unit, magtrol(unit) as tt:
+    with ScriptedInstrument({"OD": b"S    0T0.000R\r\n"}) as unit, magtrol(unit) as tt:
         with pytest.raises(InputError, match="no filter command"):
             tt.set_filter(1)
-    assert unit.received == ["UR8"]
+        tt.read()                             # settings are silent: sync on an answer
+    assert unit.received == ["UR8", "OD"]
 
 
 def himmelstein(instrument):
