@@ -119,3 +119,22 @@ def test_twin_ripple_map_on_two_workers(tmp_path, client_two):
     assert np.array_equal(again, ripple)
     with pytest.raises(InputError, match="grid point"):
         twin_ripple_map([{"bogus_knob": 1}], base, tmp_path / "bad", scheduler="inline")
+
+
+def test_twin_yield_on_local_cluster_matches_inline_and_closed_form(tmp_path, client_two):
+    """The twin engine in CI (8 drives on two workers): the same drives as inline, and per drive
+    near the closed form for offsets + gain + dead time at 500 rpm (tolerance: the engines'
+    agreement of studies/yield_engines.py, where the twin's loop and ADC differ)."""
+    from hil.tolerance.run import YieldOptions, run_yield
+
+    spec = dataclasses.replace(SPEC, drives=8)
+    options = YieldOptions(engine="twin", chunk_size=2, sobol_n=0, progress=False, plots=False)
+    cluster = run_yield(spec, tmp_path / "twin", options, client=client_two)
+    inline = run_yield(spec, tmp_path / "inline", dataclasses.replace(options, scheduler="inline"))
+    assert cluster["campaign"]["workers"] == 2 and cluster["drives"] == 8
+    twin = np.load(tmp_path / "twin" / "monte_carlo" / "chunks" / "00001.npz")["ripple_pu"]
+    again = np.load(tmp_path / "inline" / "monte_carlo" / "chunks" / "00001.npz")["ripple_pu"]
+    assert np.array_equal(twin, again)
+    job = ChunkJob(spec=spec, engine="closed-form", n=2)
+    closed = yield_chunk(job, chunk_seed(spec.seed, 1))["ripple_pu"]
+    assert twin == pytest.approx(closed, rel=0.25)

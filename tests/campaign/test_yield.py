@@ -1,0 +1,155 @@
+"""Yield statistics, the closed-form combiner, Sobol' ranking and the inverse design, each on a
+case whose answer is known independently."""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.special import erf
+
+from hil.model import predict
+from hil.model.core import PHASE_OFFSETS_RAD, OperatingPoint
+from hil.tolerance.combiner import CombinerSettings, ripple_pu
+from hil.tolerance.design import inverse_design
+from hil.tolerance.run import YieldOptions, run_yield
+from hil.tolerance.spec import parse_tolerances
+from hil.tolerance.stats import wilson_interval
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "hil" / "examples" / "tolerances.toml"
+NO_BOUNDS = CombinerSettings(bounds=False)
+
+
+def one_offset_spec(sigma_a, limit_pct=3.0, drives=40_000):
+    return parse_tolerances({
+        "drives": drives, "seed": 4,
+        "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": limit_pct}},
+        "operating_point": [{"speed_rpm": 500, "current_a": 20}],
+        "parameters": {"ia_offset_a": {"distribution": "normal", "sigma": sigma_a}}})
+
+
+def offset_pass_probability(sigma_a, limit_pct=3.0, current_a=20.0):
+    """Eq 19 with one sensor: pk-pk = (4/√3)|Δa|, so a drive passes iff
+    |offset| ≤ limit·√3/4·I; for a zero-mean normal offset P = erf(x/(σ√2))."""
+    threshold_a = limit_pct / 100 * math.sqrt(3) / 4 * current_a
+    return erf(threshold_a / (sigma_a * math.sqrt(2))), threshold_a
+
+
+def test_wilson_interval_closed_forms_and_coverage():
+    z2 = 1.959963984540054 ** 2
+    assert wilson_interval(0, 10) == pytest.approx((0.0, z2 / (10 + z2)))  # x = 0: z²/(n+z²)
+    assert wilson_interval(10, 10) == pytest.approx((10 / (10 + z2), 1.0))
+    low, high = wilson_interval(81, 263)
+    assert low == pytest.approx(0.2553, abs=1e-4) and high == pytest.approx(0.3662, abs=1e-4)
+    # coverage: 2000 binomial experiments at p = 0.9, n = 200 — about 95 % contain p
+    rng = np.random.default_rng(0)
+    hits = [wilson_interval(int(k), 200)[0] <= 0.9 <= wilson_interval(int(k), 200)[1]
+            for k in rng.binomial(200, 0.9, 2000)]
+    assert 0.93 <= np.mean(hits) <= 0.97
+
+
+def test_yield_ci_contains_known_answer(tmp_path):
+    truth, _ = offset_pass_probability(0.2)
+    summary = run_yield(one_offset_spec(0.2), tmp_path,
+                        YieldOptions(scheduler="inline", combiner=NO_BOUNDS, progress=False,
+                                     sobol_n=0, plots=False))
+    low, high = summary["yield_ci95"]
+    assert low <= truth <= high
+    assert high - low < 0.01  # 40 000 drives: the interval is tight, the check is not vacuous
+    assert json.loads((tmp_path / "yield.json").read_text())["passed"] == summary["passed"]
+
+
+def test_combination_by_phase_matches_direct_torque_sum():
+    """Offsets (order 1) and a gain mismatch (order 2) at once: the combiner against
+    Σ e_x·i_x/ω_m (eq 7) of regulated currents i = (i_meas − offset)/(1 + g), i_c = −i_a − i_b."""
+    op = OperatingPoint(500.0, 20.0, math.radians(20.0))
+    off_a, off_b, g_a, g_b = 0.15, -0.05, 0.008, -0.006
+    theta = np.linspace(0, 2 * math.pi, 20000, endpoint=False)
+    measured = op.current_a * np.sin(theta[None, :] - op.current_angle_rad
+                                     - PHASE_OFFSETS_RAD[:, None])
+    i_a = (measured[0] - off_a) / (1 + g_a)
+    i_b = (measured[1] - off_b) / (1 + g_b)
+    currents = np.stack([i_a, i_b, -i_a - i_b])
+    emf = op.emf_peak_v * np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])
+    torque = np.sum(emf * currents, axis=0) / op.mech_speed_rad_s
+    direct = np.ptp(torque) / torque.mean()
+    params = {"ia_offset_a": [off_a], "ib_offset_a": [off_b], "ia_gain_error_pu": [g_a],
+              "ib_gain_error_pu": [g_b]}
+    combined = ripple_pu(op, {k: np.array(v) for k, v in params.items()}, 1, NO_BOUNDS)[0]
+    assert combined == pytest.approx(direct, rel=0.01)  # second-order (offset × gain) dropped
+    separate = (predict("dc_offset", op, ia_offset_a=off_a, ib_offset_a=off_b).pk_pk_pu
+                + predict("gain_mismatch", op, ia_gain_error_pu=g_a,
+                          ib_gain_error_pu=g_b).pk_pk_pu)
+    assert separate > 1.15 * direct  # adding pk-pk values instead would be far off
+
+
+def test_combiner_reproduces_single_source_models():
+    op = OperatingPoint(1000.0, 15.0, 0.1)
+    one = lambda **p: ripple_pu(op, {k: np.array([v]) for k, v in p.items()}, 1, NO_BOUNDS)[0]
+    assert one(ia_offset_a=0.1, ib_offset_a=0.2) == pytest.approx(
+        predict("dc_offset", op, ia_offset_a=0.1, ib_offset_a=0.2).pk_pk_pu, rel=1e-3)
+    assert one(ia_gain_error_pu=0.01) == pytest.approx(
+        predict("gain_mismatch", op, ia_gain_error_pu=0.01).pk_pk_pu, rel=1e-3)
+    full_band = predict("dead_time", op, dead_time_s=2e-6, model="average_voltage",
+                        current_loop_bandwidth_hz=1600.0, current_loop_delay_s=1.5 / 20000)
+    spectrum = np.fft.rfft(full_band.waveform_pu)  # the model's waveform, orders 1..64 kept
+    spectrum[65:] = 0.0
+    band_limited = np.ptp(np.fft.irfft(spectrum, n=full_band.waveform_pu.size))
+    assert one(dead_time_s=2e-6) == pytest.approx(band_limited, rel=0.01)
+    assert band_limited < 0.95 * full_band.pk_pk_pu  # the band limit matters here
+
+
+def test_sobol_ranks_the_dominant_tolerance_first(tmp_path):
+    doc = {"drives": 2000, "seed": 3,
+           "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": 1.0}},
+           "operating_point": [{"speed_rpm": 800, "current_a": 15}],
+           "parameters": {
+               "ia_gain_error_pu": {"distribution": "normal", "sigma": 0.0005},
+               "ia_offset_a": {"distribution": "normal", "sigma": 0.005},
+               "dead_time_s": {"distribution": "uniform", "mean": 2e-6, "half_width": 2e-6}}}
+    options = YieldOptions(scheduler="inline", combiner=NO_BOUNDS, progress=False, sobol_n=256,
+                           plots=False)
+    sobol = run_yield(parse_tolerances(doc), tmp_path / "a", options)["sobol"]
+    assert sobol["ranking"][0] == "dead_time_s" and sobol["ranked_by"] == "ST of failure"
+    assert sobol["indices"]["failure"]["dead_time_s"]["ST"] > 0.8
+    doc["parameters"]["ia_offset_a"]["sigma"] = 0.3  # now the offset dominates
+    doc["parameters"]["dead_time_s"]["half_width"] = 0.1e-6
+    sobol = run_yield(parse_tolerances(doc), tmp_path / "b", options)["sobol"]
+    assert sobol["ranking"][0] == "ia_offset_a"
+
+
+def test_inverse_design_one_tolerance_has_a_known_answer():
+    """One normal offset, target 99 %: σ ≤ threshold/2.576; the design is the loosest ladder
+    step (2^(k/4)) under it."""
+    target = 0.99
+    _, threshold = offset_pass_probability(1.0)
+    sigma_max = threshold / 2.5758293035489
+    design = inverse_design(one_offset_spec(0.3), target, drives=20_000, check_drives=50_000,
+                            settings=NO_BOUNDS)
+    sigma = design["parameters"]["ia_offset_a"]["design_spread"]
+    assert sigma_max / 2 ** 0.25 * 0.97 <= sigma <= sigma_max * 1.03
+    assert design["alone"]["ia_offset_a"]["spread"] == pytest.approx(sigma)
+    assert design["check"]["yield_ci95"][1] >= target - 0.002
+    unreachable = parse_tolerances({
+        "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": 1.0}},
+        "operating_point": [{"speed_rpm": 500, "current_a": 20}],
+        "parameters": {"ia_offset_a": {"distribution": "normal", "sigma": 0.01},
+                       "ib_offset_a": {"distribution": "fixed", "value": 0.5}}})
+    assert inverse_design(unreachable, target, drives=2000, check_drives=2000,
+                          settings=NO_BOUNDS)["feasible"] is False
+
+
+def test_hil_yield_cli_on_the_example(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "hil", "yield", str(EXAMPLE), "--drives", "20000",
+                           "--sobol-n", "64", "--scheduler", "inline", "--out", str(tmp_path),
+                           "--json"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)
+    assert summary["drives"] == 20000 and 0.0 < summary["yield"] < 1.0
+    assert summary["yield_ci95"][0] <= summary["yield"] <= summary["yield_ci95"][1]
+    assert len(summary["sobol"]["ranking"]) == 6
+    assert (tmp_path / "histogram.png").stat().st_size > 1000
+    assert (tmp_path / "histogram.svg").read_text().lstrip().startswith("<?xml")
