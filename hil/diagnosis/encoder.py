@@ -10,7 +10,7 @@ and its amplitude is within a factor :data:`AMPLITUDE_FACTOR` of the eq 7-9 stai
 (``hil.model.encoder``, through the transducer's response) at every point, at the line and its
 second harmonic. Eq 7 assumes ideal
 regulation; a real loop overshoots each count step (README: +20..30 % on the twin), hence the
-factor rather than a fit.
+factor rather than a fit, widened above by the loop's resonance at the line's frequency.
 """
 
 from __future__ import annotations
@@ -61,6 +61,16 @@ def candidate_decimations(counts_per_rev: int, pole_pairs: int, max_mech_order: 
     return out
 
 
+def loop_peak(spectrum: OrderSpectrum, setup: sig.DriveSetup, mech_order: int) -> float:
+    """max(1, |T(±jω)|) of the current loop at the line's frequency: near its bandwidth the loop
+    amplifies each count step (its resonance), which the ideal-regulation eq 7 leaves out."""
+    op = sig.operating_point(spectrum.speed_rpm, spectrum.current_a, spectrum.current_angle_rad,
+                             setup)
+    omega = mech_order * spectrum.speed_rpm / 60.0 * 2.0 * math.pi
+    return max(1.0, abs(sig.loop_tracking(omega, op, setup)),
+               abs(sig.loop_tracking(-omega, op, setup)))
+
+
 def _line_ratios(spectra, setup, counts_per_rev, decimation, max_mech) -> np.ndarray | None:
     """|measured|/|eq 7| at every point and every in-band harmonic of the count line whose
     prediction stands clear of the noise; None when any lies outside the accepted factor (a
@@ -73,7 +83,8 @@ def _line_ratios(spectra, setup, counts_per_rev, decimation, max_mech) -> np.nda
             if abs(predicted) <= DETECTION_Z * spectrum.sigma_nm[m] and m != mech:
                 continue
             ratio = abs(spectrum.coefficients_nm[m]) / abs(predicted)
-            if not 1.0 / AMPLITUDE_FACTOR <= ratio <= AMPLITUDE_FACTOR:
+            peak = loop_peak(spectrum, setup, m)
+            if not 1.0 / AMPLITUDE_FACTOR <= ratio <= AMPLITUDE_FACTOR * peak:
                 return None
             ratios.append(ratio)
     return np.array(ratios)

@@ -6,7 +6,9 @@ coefficient of spectrum s at mechanical order m. Each complex row gives two real
 1/σ² with σ² = (type-A)² + Σ_j (u_rel,j·|J·p_j|)²/2 — the model uncertainty of each source,
 relative to its own contribution, so the weights are refined from the estimate (a few fixed-point
 iterations). The covariance (JᵀWJ)⁻¹ is scaled by the Birge ratio χ²/ν when that exceeds 1 (the
-data disagree with the model more than the stated uncertainties allow).
+data disagree with the model more than the stated uncertainties allow), and the model errors are
+also propagated as errors *common to all points* (a source's model is wrong the same way at every
+point, so averaging points does not reduce it): see :func:`_systematic_covariance`.
 
 Identifiability: columns of the weighted Jacobian are scaled to unit norm; a singular value below
 :data:`WEAK_SINGULAR_VALUE` of the largest marks a parameter combination these observations cannot
@@ -113,6 +115,31 @@ def _solve(a: np.ndarray, b: np.ndarray, keep: np.ndarray):
     return p, cov
 
 
+def _systematic_covariance(problem: LinearProblem, p: np.ndarray, keep: np.ndarray,
+                           sigma_total: np.ndarray) -> np.ndarray:
+    """Covariance of the estimates from each source's model error taken as *common* to all
+    points (a relative error ε_j of its signature, complex: scale and phase, each of standard
+    uncertainty u_rel/√2): the sensitivity of the estimates to ε_j, times its variance."""
+    size = len(problem.names)
+    cov = np.zeros((size, size))
+    if not keep.any():
+        return cov
+    a, _ = _real_system(problem, sigma_total)
+    a = a[:, keep]
+    normal_inverse = np.linalg.pinv(a.T @ a)
+    weights = np.concatenate([sigma_total, sigma_total])
+    for j in np.flatnonzero(keep):
+        error = problem.model_rel[:, j] * problem.jacobian[:, j] * p[j]
+        if not np.any(error):
+            continue
+        for part in (error, 1j * error):
+            shift = normal_inverse @ (a.T @ (np.concatenate([part.real, part.imag]) / weights))
+            full = np.zeros(size)
+            full[keep] = shift
+            cov += 0.5 * np.outer(full, full)
+    return cov
+
+
 def fit(problem: LinearProblem) -> FitResult:
     """Solve ``problem`` (module docstring)."""
     sigma_total = problem.sigma.copy()
@@ -134,6 +161,7 @@ def fit(problem: LinearProblem) -> FitResult:
     birge = chi2 / dof if dof > 0 else float("nan")
     if dof > 0 and birge > 1.0:
         cov = cov * birge
+    cov = cov + _systematic_covariance(problem, p, keep, sigma_total)
     return FitResult(names=list(problem.names), estimate=p, covariance=cov, identifiable=keep,
                      chi2=chi2, dof=dof, birge_ratio=birge, singular_values_rel=s_rel,
                      weak_directions=weak, condition_number=condition, residual=residual,
