@@ -41,7 +41,7 @@ import numpy as np
 from hil.model import dc_offset, gain_mismatch
 from hil.model.core import OperatingPoint
 from hil.model.dead_time import average_model_torque_pu
-from hil.model.pwm_resolution import closed_loop_bound_pu
+from hil.model.pwm_resolution import closed_loop_bound_pu, voltage_phasor
 from hil.model.word_length import FULL_SCALE_CURRENT_A, paper_pk_pk_pu
 
 #: The simulated drive's loop (hil.sim.FirmwareModel): bandwidth per PWM frequency, delay in periods.
@@ -113,6 +113,18 @@ def bound_terms_pu(op: OperatingPoint, params: dict[str, np.ndarray], n: int) ->
         rows = f_pwm == freq
         pwm[rows] = closed_loop_bound_pu(op, 1.0, LOOP_BANDWIDTH_PER_PWM * freq) / counts[rows]
     return word + pwm
+
+
+def linear_range_warning(op: OperatingPoint) -> str | None:
+    """A warning when the point needs more phase voltage than SVPWM gives (V_dc/√3 peak): the
+    current is then not regulated and every closed form here (ideal regulation) is void."""
+    needed_v = math.sqrt(2.0) * abs(voltage_phasor(op))
+    available_v = op.dc_bus_v / math.sqrt(3.0)
+    if needed_v <= available_v:
+        return None
+    return (f"{op.speed_rpm:g} rpm, {op.current_a:g} A: needs {needed_v:.2f} V peak phase "
+            f"voltage, beyond SVPWM's {available_v:.2f} V at {op.dc_bus_v:g} V dc: the current "
+            "is not regulated there and the closed form does not apply")
 
 
 def ripple_pu(op: OperatingPoint, params: dict[str, np.ndarray], n: int,
