@@ -161,6 +161,9 @@ class TorqueConfig:
     baudrate: int | None = _key(None, "int", lo=300, hi=921_600)
     dialect: str = _key("magtrol", "str", choices=TORQUE_DIALECTS)
     full_scale_nm: float = _key(5.0, "float", lo=0.01, hi=10_000.0, required=_REAL)
+    #: The transducer's -3 dB bandwidth (first-order response) from its data sheet; the ripple
+    #: diagnosis corrects the order coefficients' phase and amplitude with it. None: not stated.
+    bandwidth_hz: float | None = _key(None, "float", lo=1.0, hi=1e6)
     timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
 
     def __post_init__(self) -> None:
