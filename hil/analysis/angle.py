@@ -56,7 +56,9 @@ def check_finite(name: str, values: np.ndarray) -> np.ndarray:
                          f"{np.asarray(values).dtype} values") from None
     if values.ndim != 1:
         raise InputError(f"channel {name!r} must be one-dimensional, got shape {values.shape}")
-    if math.isfinite(np.add.reduce(values)):
+    with np.errstate(all="ignore"):
+        total = np.add.reduce(values)
+    if math.isfinite(total):
         return values               # a NaN or inf would make the sum non-finite (one fast pass)
     bad = ~np.isfinite(values)
     if bad.any():
