@@ -6,12 +6,13 @@ non-printable bytes are dropped, so line noise before an answer does not break a
 each question the input buffer is flushed (stale or garbage bytes from earlier). An answer that
 does not parse is asked again ``retries`` times, then raises ProtocolError; silence raises
 InstrumentTimeout; an error message from the instrument (Himmelstein ``!...``, Magtrol alarm
-``A``) raises DeviceFault. Readings are returned in SI (``Reading.torque_nm``) whatever unit the
+``A`` or ``COMMAND ERROR``) raises DeviceFault. Readings are returned in SI (``Reading.torque_nm``) whatever unit the
 instrument is set to.
 
 Line settings follow the dialect's published family defaults (``transducer_dialects.LINE_SETTINGS``:
 Magtrol 300..19200 baud, default 19200; Himmelstein 38400; both 8N1) unless stated; a rate the
-family does not publish is refused.
+family does not publish is refused. ``dialect_options`` go to the dialect (Magtrol ``channel``
+1/2 for a DSP7000 and the ``unit`` it displays; Himmelstein ``timestamped``).
 
 ``stream(n)``: neither dialect has a free-running output in the command sets we follow, so a
 stream is ``n`` back-to-back readings requested in pipelined chunks (``STREAM_CHUNK`` requests
