@@ -88,12 +88,19 @@ BENCHMARKS: tuple[Benchmark, ...] = (
         "CANopen drive: SDO round trips and PDO frames per second (virtual and remote bus)",
         sectioned=True),
     Benchmark(
-        "modbus", "modbus_bench.py", (), ("--samples", "2000"),
+        "modbus", "modbus_bench.py", (), ("--samples", "2000", "--points-per-plan", "1"),
         (Pattern(r"(?m)^Modbus (?P<label>[^:]+): buffer paging\s*" + _v(r"registers/s"),
                  "{label} registers_per_s", "registers/s"),
          Pattern(r"(?m)^Modbus (?P<label>[^:]+): whole capture.*\(" + _v(r"samples/s"),
-                 "{label} capture_samples_per_s", "samples/s")),
-        "Modbus DAQ: registers per second (TCP loopback, RTU on a pty)"),
+                 "{label} capture_samples_per_s", "samples/s"),
+         Pattern(r"(?m)^Modbus run \((?P<label>\w+)\):.*projected TCP at 2 ms round trip\s*"
+                 + _v("s"), "run_{label}_tcp_2ms_s", "s"),
+         Pattern(r"(?m)^Modbus run \((?P<label>\w+)\):.*RTU at 115200 baud 8E1\s*" + _v("s"),
+                 "run_{label}_rtu_115200_s", "s"),
+         Pattern(r"(?m)^Modbus run \((?P<label>\w+)\): (?P<value>[\d,]+) requests",
+                 "run_{label}_requests", "1")),
+        "Modbus DAQ: transfer per plan before/after issue 17 (projected at 2 ms TCP, RTU "
+        "115200 baud); registers per second (TCP loopback, RTU on a pty)"),
     Benchmark(
         "transducer", "transducer_bench.py", (), ("--samples", "500"),
         (Pattern(r"(?m)^(?P<label>\w+ [^:]+): (?P<how>polled read\(\)|stream\(\d+\)):\s*"
@@ -108,6 +115,19 @@ BENCHMARKS: tuple[Benchmark, ...] = (
          Pattern(r"hil report on that record:\s*" + _v(r"wall s"), "report_wall_s", "s",
                  required=False)),
         "the whole `hil run` on the simulated bench (all plans), then `hil report`"),
+    Benchmark(
+        "yield", "yield_bench.py", (), ("--quick",),
+        (Pattern(r"closed form, one core:\s*" + _v(r"drives/s"), "closed_form_drives_per_s",
+                 "drives/s"),
+         Pattern(r"hil yield closed form, .*?2 workers:\s*" + _v(r"wall s"),
+                 "closed_form_campaign_wall_s", "s"),
+         Pattern(r"(?m)^twin on (?P<workers>\d+) worker\(s\):\s*" + _v(r"drive-s per wall s"),
+                 "twin_{workers}_workers_drive_s_per_wall_s", "s/s"),
+         Pattern(r"(?m)^dask overhead per task, (?P<workers>\d+) worker\(s\):\s*" + _v(r"ms"),
+                 "dask_overhead_per_task_{workers}_workers_ms", "ms"),
+         Pattern(r"N=(?P<n>\d+):\s*" + _v(r"h"), "projected_1e6_twin_drives_N{n}_h", "h",
+                 required=False)),
+        "yield campaigns: closed-form drives/s, twin drive-s per wall s on 1 and 2 Dask workers"),
 )
 
 

@@ -90,6 +90,13 @@ class PointPlan:
         needed = self.electrical_frequency_hz(pole_pairs) * self.max_order * POINTS_PER_PERIOD
         return float(min(20_000.0, max(1_000.0, math.ceil(needed / 500.0) * 500.0)))
 
+    def capture_channels(self) -> tuple[str, ...]:
+        """The DAQ channels this point captures: those its analysis reads (issue 17: the
+        transfer is the cost), plus the phase currents ``Bench.check_capture`` checks against
+        the current limit."""
+        return ("ia_a", "ib_a", "rotor_angle_mech_rad") + (
+            ("torque_nm",) if self.analysis == "torque" else ())
+
 
 @dataclass
 class PointOutcome:
@@ -250,14 +257,11 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
         bench.drive.set_current_command_a(plan.current_a)
         bench.drive.enable()
         bench.check_health()
-        # only the DAQ channels the analysis reads (issue 17: the transfer is the cost), plus
-        # the phase currents that bench.check_capture checks against the current limit
-        channels = ("ia_a", "ib_a", "rotor_angle_mech_rad") + (
-            ("torque_nm",) if plan.analysis == "torque" else ())
         failure = None
         try:
             capture = bench.daq.capture(duration_s, rate_hz, settle_s=plan.settle_s,
-                                        timeout_s=max(30.0, 10 * duration_s), channels=channels)
+                                        timeout_s=max(30.0, 10 * duration_s),
+                                        channels=plan.capture_channels())
         except Exception as exc:
             # a capture that failed its integrity check carries the data as received
             # (drivers.modbus_daq.CaptureIntegrityError): record it, then fail the point

@@ -40,6 +40,7 @@ import select
 import threading
 import time
 import tty
+from dataclasses import dataclass
 
 import numpy as np
 from pymodbus.constants import ExcCodes
@@ -74,6 +75,36 @@ class Refusal(Exception):
     def __init__(self, code: int, why: str = "") -> None:
         super().__init__(f"exception {code}{': ' + why if why else ''}")
         self.code = int(code)
+
+
+@dataclass
+class Traffic:
+    """Requests the device answered and their PDU bytes (function code + data; a transport adds
+    7 bytes of MBAP header on TCP, 3 of address and CRC on RTU), split by whether the DAQ was
+    capturing (status polls, which overlap the capture itself on a real bench)."""
+
+    requests: int = 0
+    request_pdu_bytes: int = 0
+    response_pdu_bytes: int = 0
+    requests_while_capturing: int = 0
+    pdu_bytes_while_capturing: int = 0
+
+    def add(self, request_bytes: int, response_bytes: int, capturing: bool) -> None:
+        self.requests += 1
+        self.request_pdu_bytes += request_bytes
+        self.response_pdu_bytes += response_bytes
+        if capturing:
+            self.requests_while_capturing += 1
+            self.pdu_bytes_while_capturing += request_bytes + response_bytes
+
+
+def pdu_sizes(function_code: int, count: int, refused: bool) -> tuple[int, int]:
+    """(request, response) PDU bytes of a register request (Modbus Application Protocol
+    V1.1b3 §6.3/6.4/6.6/6.12; an exception answer is 2 bytes)."""
+    request = 6 + 2 * count if function_code == 16 else 5
+    if refused:
+        return request, 2
+    return request, (2 + 2 * count if function_code in (3, 4) else 5)
 
 
 class DaqDevice:
@@ -125,11 +156,25 @@ class DaqDevice:
             words = reg.encode(values[reg.name]) if reg.name in values else [0] * reg.words
             self._image[reg.table].update(zip(range(reg.address, reg.address + reg.words), words))
         self.fail_next_kind: str | None = None
+        self.traffic = Traffic()
 
     # ------------------------------------------------------------------ requests
     def handle(self, function_code: int, address: int, count: int,
                values: list[int] | None = None) -> list[int] | None:
-        """One request: the words read (function codes 3, 4) or None (6, 16); raises Refusal."""
+        """One request: the words read (function codes 3, 4) or None (6, 16); raises Refusal.
+        ``traffic`` counts it."""
+        capturing = self._state == self.map.states["capturing"]
+        size = len(values) if function_code in _WRITE_FCS and values else count
+        try:
+            words = self._handle(function_code, address, count, values)
+        except Refusal:
+            self.traffic.add(*pdu_sizes(function_code, size, True), capturing)
+            raise
+        self.traffic.add(*pdu_sizes(function_code, size, False), capturing)
+        return words
+
+    def _handle(self, function_code: int, address: int, count: int,
+                values: list[int] | None) -> list[int] | None:
         if self.fail_next_kind == "exception":
             self.fail_next_kind = None
             raise Refusal(EXC_DEVICE_FAILURE, "injected failure")
@@ -487,7 +532,10 @@ class SimulatedDaq:
         """pymodbus SimDevice hook: the device answers; its words go into pymodbus's image.
         (pymodbus calls it again without values after a write, to echo it: a holding read.)"""
         if function_code in _WRITE_FCS and not set_values:
-            function_code = 3
+            image = self.device._image["holding"]           # the echo: not a request
+            registers[address - start_address:address - start_address + count] = [
+                image.get(a, 0) for a in range(address, address + count)]
+            return None
         try:
             words = self.device.handle(function_code, address, count, set_values or None)
         except Refusal as refusal:

@@ -69,15 +69,26 @@ def test_every_transfer_mode_reads_the_same_buffer(daq_server, options):
 def test_round_trips_of_a_readout_before_and_after(daq_server):
     """Readout round trips: status, configuration, (first value,) mode, then the buffer."""
     samples = 2000
+    traffic = daq_server.device.traffic
     with tcp(daq_server) as new, \
             ModbusDaq(ModbusTcpSettings(*daq_server.address), transfer=LEGACY_TRANSFER) as old:
+        old.identity()
+        requests = traffic.requests - traffic.requests_while_capturing
         before = old.capture(samples / RATE_HZ, RATE_HZ, settle_s=0.0).meta["daq_transfer"]
+        served = traffic.requests - traffic.requests_while_capturing - requests
+        new.identity()
+        requests = traffic.requests - traffic.requests_while_capturing
         after = new.capture(samples / RATE_HZ, RATE_HZ, settle_s=0.0,
                             channels=["torque_nm", "rotor_angle_mech_rad"]).meta["daq_transfer"]
+        served_after = traffic.requests - traffic.requests_while_capturing - requests
     pages_before = math.ceil(samples * 6 / 125)        # 5 int16 + the 32-bit encoder
     pages_after = math.ceil(samples * 3 / 125)
     assert before["round_trips_readout"] == 3 + 2 * pages_before
     assert after["round_trips_readout"] == 4 + math.ceil(pages_after / 8)
+    # the DAQ counts the same requests (the pipelined ones all, but in fewer round trips),
+    # plus the status poll that finds the capture done (the others came while it captured)
+    assert served == before["round_trips_setup"] + before["round_trips_readout"] + 1
+    assert served_after == after["round_trips_setup"] + 4 + pages_after + 1
 
 
 def test_the_packed_encoder_is_the_32_bit_counter(daq):
