@@ -195,8 +195,8 @@ class MagtrolDialect(Dialect):
 
     def identity(self, io) -> dict:
         raw = io.query("*IDN?")
-        if not raw or raw.upper().startswith(MAGTROL_COMMAND_ERROR):
-            raise DialectError(f"*IDN? answered {raw!r}")
+        if raw.upper().startswith(MAGTROL_COMMAND_ERROR):
+            raise DeviceReportedError(f"*IDN? answered {raw!r}")
         if "," in raw:
             fields = [f.strip() for f in raw.split(",")]
             vendor, model, serial, firmware = (fields + ["", "", ""])[:3] + [",".join(fields[3:])]

@@ -102,7 +102,7 @@ def test_magtrol_identity_is_parsed_tolerantly(idn, model, serial, firmware):
 
 
 def test_magtrol_identity_refuses_an_error_answer():
-    with pytest.raises(DialectError):
+    with pytest.raises(DeviceReportedError, match="COMMAND ERROR"):
         MagtrolDialect().identity(Recorder({"*IDN?": "COMMAND ERROR"}))
 
 
