@@ -105,6 +105,19 @@ class DriveConfig:
     current_loop_delay_periods: float = _key(1.0, "float", choices=(0.0, 0.5, 1.0, 1.5))
     current_loop_angle_compensation: bool = _key(False, "bool")
 
+    def current_loop_equivalent_bandwidth_hz(self, pwm_frequency_hz: float = 20_000.0
+                                             ) -> float | None:
+        """Bandwidth of the continuous-design PI (Kp = L·ωc, Ki = R·ωc) that the closed-form
+        predictions assume, with the same integral gain as the stated loop (what rejects the
+        low-order dead-time and PWM-resolution disturbances): the stated bandwidth for
+        ``"continuous"``; f_pwm·(1 − e^(−2π·bw/f_pwm))/(2π) for the pole-matched ``"discrete"``
+        design (its Ki = R·(1 − e^(−ωc·Ts))/Ts). None when the bandwidth is not stated."""
+        bandwidth = self.current_loop_bandwidth_hz
+        if bandwidth is None or self.current_loop_design == "continuous":
+            return bandwidth
+        return -pwm_frequency_hz * math.expm1(-2.0 * math.pi * bandwidth / pwm_frequency_hz) \
+            / (2.0 * math.pi)
+
 
 @dataclass(frozen=True)
 class DaqConfig:

@@ -168,6 +168,12 @@ def test_dead_time_ripple_with_discrete_design_and_decoupling():
     both = order6(FirmwareModel(design="discrete", decoupling=True))
     assert discrete / default == pytest.approx(expected_ratio, rel=0.03)
     assert both / default == pytest.approx(expected_ratio, rel=0.08)
+    # the continuous design at the bench file's equivalent bandwidth (same Ki) matches it
+    bench = default_sim_bench().with_overrides({"drive": {"current_loop_design": "discrete"}})
+    equivalent_hz = bench.drive.current_loop_equivalent_bandwidth_hz(PWM_HZ)
+    assert equivalent_hz == pytest.approx(1600.0 / expected_ratio)
+    assert order6(FirmwareModel(bandwidth_per_pwm=equivalent_hz / PWM_HZ)) \
+        == pytest.approx(discrete, rel=0.03)
 
 
 # ---- configuration ---------------------------------------------------------------------------
