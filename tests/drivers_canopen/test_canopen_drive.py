@@ -19,16 +19,10 @@ from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, Ins
                             LimitError)
 from hil.errors import InputError
 from hil.motor import TABLE_I
+from canopen_helpers import NON_DEFAULT, eventually, poll_until_heartbeat_lost
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(30)]
 
-# A non-default value for every knob, each exactly representable in the EDS encoding.
-NON_DEFAULT = {
-    "ia_offset_a": 0.25, "ib_offset_a": -1.5, "ia_gain_error_pu": 0.02, "ib_gain_error_pu": -0.05,
-    "encoder_decimation": 100, "hall_mode": True, "word_length_bits": 12,
-    "pwm_period_counts": 500, "pwm_frequency_hz": 10000, "dead_time_s": 2.5e-6,
-    "current_angle_rad": 0.5,
-}
 
 
 def test_identity_and_initial_state(drive):
@@ -180,13 +174,7 @@ def test_heartbeat_loss_is_detected_at_the_consumer_time(drive, sim_drive, bus_s
         sim_drive.stop_heartbeat()
         stamps = heartbeat_frames(spy, 5, 0.3 * period_s)   # one may still be in flight
         last = stamps[-1] if stamps else None
-        while True:
-            try:
-                drive.check_health()
-            except HeartbeatLost as exc:
-                detected, message = time.time(), str(exc)
-                break
-            time.sleep(0.002)
+        detected, message = poll_until_heartbeat_lost(drive, clock=time.time)
     if last is None:        # the stop came right after a frame: take it from the drive's view
         last = detected - (time.monotonic() - drive._last_heartbeat)
     silence_s = detected - last
@@ -214,15 +202,6 @@ def test_a_heartbeat_within_one_producer_period_after_the_consumer_time_is_late_
     time.sleep(timeout_s + 1.5 * period_s)
     with pytest.raises(HeartbeatLost):
         drive.check_health()
-
-
-def eventually(predicate, timeout_s=2.0):
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.005)
-    return True
 
 
 def test_sdo_is_not_answered_while_nmt_stopped(drive, sim_drive):

@@ -21,6 +21,7 @@ from drivers.cia402 import Cia402Drive
 from drivers.errors import DeviceFault, InjectionRangeError
 from drivers.simulated.can_heartbeat import ConsumerEntry
 from hil.errors import InputError
+from canopen_helpers import eventually as wait_until
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(30)]
 
@@ -31,12 +32,8 @@ INJECTED = {"ia_offset_a": 0.5, "dead_time_s": 2e-6, "encoder_decimation": 100}
 
 
 def eventually(predicate, timeout_s=3.0):
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
+    """``canopen_helpers.eventually`` with this file's longer default (master-loss actions)."""
+    return wait_until(predicate, timeout_s)
 
 
 def crash(master: Cia402Drive) -> None:

@@ -15,18 +15,13 @@ import pytest
 
 from drivers.canopen_eds import injection_objects
 from drivers.cia402 import Cia402Drive
-from drivers.errors import DeviceFault, HeartbeatLost, InjectionRangeError
+from drivers.errors import DeviceFault, InjectionRangeError
+from canopen_helpers import NON_DEFAULT, eventually, poll_until_heartbeat_lost
 from durand_drive import DurandDrive
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
 NODE = 5
-NON_DEFAULT = {
-    "ia_offset_a": 0.25, "ib_offset_a": -1.5, "ia_gain_error_pu": 0.02, "ib_gain_error_pu": -0.05,
-    "encoder_decimation": 100, "hall_mode": True, "word_length_bits": 12,
-    "pwm_period_counts": 500, "pwm_frequency_hz": 10000, "dead_time_s": 2.5e-6,
-    "current_angle_rad": 0.5,
-}
 
 
 @pytest.fixture
@@ -39,15 +34,6 @@ def responder(bus_settings):
 def driver(responder, bus_settings):
     with Cia402Drive(bus_settings, node_id=NODE, heartbeat_timeout_s=0.5) as drive:
         yield drive
-
-
-def eventually(predicate, timeout_s=2.0):
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.005)
-    return True
 
 
 def test_connects_and_identifies(driver, responder):
@@ -114,13 +100,7 @@ def test_detects_heartbeat_loss_at_the_consumer_time(driver, responder):
     driver.check_health()
     responder.stop_heartbeat()
     stopped = time.monotonic()
-    while True:
-        try:
-            driver.check_health()
-        except HeartbeatLost as exc:
-            detected, message = time.monotonic(), str(exc)
-            break
-        time.sleep(0.002)
+    detected, message = poll_until_heartbeat_lost(driver)
     # the last heartbeat came at most one period before the stop
     assert timeout_s - period_s <= detected - stopped <= timeout_s + period_s + 0.02
     stated_s = float(re.search(r"for (\d+\.\d+) s", message).group(1))
