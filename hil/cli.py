@@ -1,33 +1,51 @@
 """The ``hil`` command line: one sub-command per module in ``hil.commands``.
 
 Each command module defines ``register(subparsers)``, which adds its parser and sets
-``func(args) -> int``. Errors: bad input prints one line on stderr and exits 2; an instrument or
-run failure prints one line and exits 1; ``--json`` output is one JSON object on stdout.
+``func(args) -> int``. Errors: bad input (including a usage error) prints one line on stderr and
+exits 2; an instrument or run failure prints one line and exits 1; Ctrl-C exits 130. ``--json``
+output is one JSON object on stdout; with ``--json`` an error is also one JSON object on stdout,
+``{"error": {"command", "kind" (usage | input | failed | interrupted), "message",
+"exit_status"}}``, beside the one-line message on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import sys
 
 from hil import __version__
 from hil.errors import HilError, InputError
+
+DESCRIPTION = ("ripple-hil: hardware-in-the-loop bench tests of the torque ripple a PMSM drive's "
+               "controller adds, judged against the closed-form predictions of Chen, Namuduri "
+               "and Mir (IEEE Trans. Ind. Appl. 38(5), 2002).")
+EPILOG = ("Run 'hil COMMAND --help' for a command's options. Bad input exits 2 with one line on "
+          "stderr, a failed run exits 1; with --json an error is also a JSON object on stdout.")
 
 #: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
 COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "predict", "budget",
                               "yield_cmd"]
 
 
+class UsageError(Exception):
+    """A command line argparse refused; ``prog`` is the (sub)command that refused it."""
+
+    def __init__(self, prog: str, message: str) -> None:
+        super().__init__(message)
+        self.prog = prog
+
+
 class OneLineErrorParser(argparse.ArgumentParser):
-    """argparse that reports a usage error on one stderr line and exits 2 (no usage dump)."""
+    """argparse whose usage errors become :class:`UsageError` (one line, exit 2, no usage dump)."""
 
     def error(self, message: str) -> None:  # noqa: D102 - argparse API
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        raise UsageError(self.prog, message)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = OneLineErrorParser(prog="hil", description=__doc__.splitlines()[0])
+    parser = OneLineErrorParser(prog="hil", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"ripple-hil {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND",
                                        parser_class=OneLineErrorParser)
@@ -37,20 +55,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def report_error(command: str, kind: str, message: str, status: int, as_json: bool) -> int:
+    """Print an error (one stderr line; with ``as_json`` also a JSON object on stdout)."""
+    label = {"usage": "error", "input": "error", "failed": "failed",
+             "interrupted": "interrupted"}[kind]
+    text = f"{command}: {label}" + (f": {message}" if message else "")
+    print(text, file=sys.stderr)
+    if as_json:
+        print(json.dumps({"error": {"command": command, "kind": kind, "message": message,
+                                    "exit_status": status}}))
+    return status
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    as_json = "--json" in argv
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except UsageError as exc:
+        return report_error(exc.prog, "usage", str(exc), 2, as_json)
+    command = f"hil {args.command}"
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
-        print(f"hil {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return report_error(command, "input", str(exc), 2, as_json)
     except HilError as exc:
-        print(f"hil {args.command}: failed: {exc}", file=sys.stderr)
-        return 1
+        return report_error(command, "failed", str(exc), 1, as_json)
     except KeyboardInterrupt:
-        print(f"hil {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return report_error(command, "interrupted", "", 130, as_json)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,10 @@
-"""``hil budget --limit-pct P``: the loosest controller parameters that meet a pk-pk ripple limit.
+"""hil budget --limit-pct P: the loosest controller parameters that meet a pk-pk ripple limit.
 
-With source options (as in ``hil predict``, e.g. ``--encoder-decimation 100 --offset-a-pct 1``)
-it also combines those sources at the operating point and checks them against the limit.
+Every source gets a share, PWM switching included; the output says which model each share uses
+(``--model paper`` for the paper's forms throughout; by default the derived forms where the
+paper's do not describe a closed-loop drive). With source options (as in ``hil predict``, e.g.
+``--encoder-decimation 100 --offset-a-pct 1``) it also combines those sources at the operating
+point and checks them against the limit.
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ from hil.model.core import check_range
 
 #: Options that configure a model rather than inject a fault; they go to every source taking them.
 SHARED_SETTINGS = ("model", "pwm_frequency_hz", "nominal_current_a", "current_loop_bandwidth_hz",
-                   "current_loop_delay_s", "voltage_step_basis", "modulation")
+                   "current_loop_delay_s", "voltage_step_basis", "modulation", "adc_bits",
+                   "trig_values", "max_order")
 
 
 def given_sources(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
@@ -61,11 +65,12 @@ def run(args: argparse.Namespace) -> int:
     op = operating_point(args)
     try:
         spec = invert(op, limit_pct / 100.0, allocation=args.allocation,
-                      dead_time_model=args.model if args.model == "average_voltage" else "paper",
+                      forms="paper" if args.model == "paper" else "derived",
                       nominal_current_a=args.nominal_current_a,
                       pwm_frequency_hz=args.pwm_frequency_hz or 20000.0,
                       current_loop_bandwidth_hz=args.current_loop_bandwidth_hz,
-                      current_loop_delay_s=(args.current_loop_delay_s or 0.0) * 1e-6)
+                      current_loop_delay_s=(None if args.current_loop_delay_s is None
+                                            else args.current_loop_delay_s * 1e-6))
         sources = given_sources(args)
         combination = combine_sources(op, sources) if sources else None
     except InputError as error:
@@ -78,33 +83,53 @@ def run(args: argparse.Namespace) -> int:
             data["combination"]["meets_rss"] = combination.rss_pu <= spec.limit_pu
         print(json.dumps(data))
         return 0
-    limits = spec.limits
+    print("\n".join(format_specification(spec, op, limit_pct)))
+    if combination:
+        print("\n".join(format_combination(combination, spec.limit_pu)))
+    return 0
+
+
+def format_specification(spec, op, limit_pct: float) -> list[str]:
+    """The budget's lines: each source's limit and the model its share uses."""
+    limits, models = spec.limits, spec.models
+    word = limits["word_length"]
+    counts = limits["pwm_resolution"]
+    switching = limits["pwm_switching"]
+    rows = [
+        ("encoder", f"coarsest {limits['encoder']['resolution_elec_deg']:.4g}° electrical "
+                    f"(decimation {limits['encoder']['encoder_decimation']} of 7200 counts; "
+                    f">= {limits['encoder']['encoder_counts_per_rev_min']} counts/rev)"),
+        ("word_length", f"shortest {word['word_length_bits']} bits" if word["met"]
+         else "NOT MET by any word length up to 32 bits"),
+        ("dc_offset", f"largest {100 * limits['dc_offset']['offset_pu']:.4g} % of I "
+                      f"({limits['dc_offset']['offset_a']:.4g} A)"),
+        ("gain_mismatch", f"largest {100 * limits['gain_mismatch']['gain_error_pu']:.4g} %"),
+        ("pwm_resolution", f"coarsest counter {counts['pwm_period_counts_min']} counts per half "
+                           "period" if counts["met"] else "NOT MET by any counter up to 65535"),
+        ("pwm_switching", f"lowest {switching['pwm_frequency_hz_min'] / 1000:.4g} kHz"
+         if switching["met"] else "NOT MET at 50 kHz (the switching ripple alone exceeds the "
+                                  "share)"),
+        ("dead_time", f"longest {limits['dead_time']['dead_time_us']:.4g} µs")]
     lines = [f"ripple limit {limit_pct:g} % pk-pk of the mean torque {op.mean_torque_nm:.4g} N·m "
              f"at {op.speed_rpm:g} rpm, {op.current_a:g} A",
-             f"allocation {spec.allocation}: each source may use {100 * spec.share_pu:.4g} %",
-             f"  encoder         coarsest {limits['encoder']['resolution_elec_deg']:.4g}° electrical"
-             f" (decimation {limits['encoder']['encoder_decimation']} of 7200 counts; "
-             f">= {limits['encoder']['encoder_counts_per_rev_min']} counts/rev)",
-             f"  word_length     shortest {limits['word_length']['word_length_bits']} bits",
-             f"  dc_offset       largest {100 * limits['dc_offset']['offset_pu']:.4g} % of I "
-             f"({limits['dc_offset']['offset_a']:.4g} A), worst case",
-             f"  gain_mismatch   largest {100 * limits['gain_mismatch']['gain_error_pu']:.4g} %, "
-             "worst case",
-             f"  pwm_resolution  coarsest counter {limits['pwm_resolution']['pwm_period_counts_min']}"
-             " counts per half period",
-             f"  dead_time       longest {limits['dead_time']['dead_time_us']:.4g} µs "
-             f"({limits['dead_time']['model']} model)",
-             f"  check: worst-case sum {100 * spec.check.worst_case_sum_pu:.4g} %, "
-             f"root-sum-square {100 * spec.check.rss_pu:.4g} %"]
-    if combination:
-        lines += format_combination(combination, spec.limit_pu)
-    print("\n".join(lines))
-    return 0
+             f"allocation {spec.allocation}: each of {len(rows)} sources may use "
+             f"{100 * spec.share_pu:.4g} %; {spec.forms} forms"]
+    lines += [f"  {source:<15} {text}\n  {'':<15}   model: {models[source]}"
+              for source, text in rows]
+    if spec.loop:
+        loop = spec.loop
+        lines.append(f"  current loop    {loop['current_loop_bandwidth_hz']:g} Hz, delay "
+                     f"{1e6 * loop['current_loop_delay_s']:.4g} µs"
+                     + (f" — assumed: {loop['assumed']}; give --current-loop-bandwidth-hz and "
+                        "--current-loop-delay-us for your drive" if loop["assumed"] else ""))
+    lines.append(f"  check: worst-case sum {100 * spec.check.worst_case_sum_pu:.4g} %, "
+                 f"root-sum-square {100 * spec.check.rss_pu:.4g} % (every source at its limit)")
+    return lines
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("budget", help="invert a ripple limit into controller limits",
-                                   description=__doc__.splitlines()[0])
+                                   description=__doc__.split("\n\n")[0])
     parser.add_argument("--limit-pct", type=float, required=True,
                         help="pk-pk ripple limit, %% of the mean torque")
     parser.add_argument("--allocation", choices=ALLOCATIONS, default="equal_sum",

@@ -1,12 +1,14 @@
-"""``hil predict SOURCE``: the paper's closed-form ripple prediction for one source.
+"""hil predict SOURCE: the paper's closed-form ripple prediction for one source (or a derived form).
 
 Options are in the units engineers use (deg, %, µs, bits, rpm, A), the unit in the name; they are
-converted to the SI keyword arguments of ``hil.model.predict``.
+converted to the SI keyword arguments of ``hil.model.predict``. Every keyword a source accepts has
+an option, so no error names a Python keyword.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import re
@@ -16,6 +18,7 @@ from typing import Any, Callable
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, SOURCES, predict
 from hil.model.core import check_range
+from hil.model.encoder import current_angle_for_ripple, encoder_resolution_elec_rad
 
 
 @dataclass(frozen=True)
@@ -68,8 +71,9 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
     SourceOption("--voltage-step-basis", "voltage_step_basis", ("pwm_resolution",),
                  "ΔV relative to the operating voltage (paper) or from the dc bus",
                  str, kind=str, choices=("paper", "dc_bus")),
-    SourceOption("--pwm-frequency-hz", "pwm_frequency_hz", ("pwm_switching", "dead_time"),
-                 "PWM switching frequency", float, 2000.0, 50000.0),
+    SourceOption("--pwm-frequency-hz", "pwm_frequency_hz",
+                 ("pwm_switching", "dead_time", "pwm_resolution", "word_length"),
+                 "PWM switching frequency (default 20000)", float, 2000.0, 50000.0),
     SourceOption("--dead-time-us", "dead_time_s", ("dead_time",), "inverter dead time, µs",
                  lambda us: us * 1e-6, 0.0, 10.0),
     SourceOption("--nominal-current-a", "nominal_current_a", ("dead_time",),
@@ -78,17 +82,29 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  ("dead_time", "pwm_resolution"),
                  "PI current-loop bandwidth for model=average_voltage or closed_loop", float, 0.0,
                  25000.0, True),
-    SourceOption("--current-loop-delay-us", "current_loop_delay_s", ("dead_time",),
-                 "current-loop delay for model=average_voltage, µs (the drive: 1.5 PWM periods)",
-                 lambda us: us * 1e-6, 0.0, 1000.0),
+    SourceOption("--current-loop-delay-us", "current_loop_delay_s",
+                 ("dead_time", "pwm_resolution"),
+                 "current-loop delay for model=average_voltage or derived, µs (the simulated "
+                 "drive: 75, i.e. 1.5 PWM periods)", lambda us: us * 1e-6, 0.0, 1000.0),
+    SourceOption("--adc-bits", "adc_bits", ("word_length",),
+                 "current ADC resolution for model=derived (default 12)", int, 6, 24, kind=int),
+    SourceOption("--trig-values", "trig_values", ("word_length",),
+                 "model=derived: sines of phases b, c by identities from a sin/cos table "
+                 "(default) or a table entry per phase", str, kind=str,
+                 choices=("identities", "tables")),
+    SourceOption("--max-order", "max_order", ("word_length", "pwm_resolution"),
+                 "model=derived: highest electrical order the analysis keeps (default 64)", int,
+                 1, 10000, kind=int),
     SourceOption("--modulation", "modulation", ("pwm_switching",),
                  "svpwm (default, the drive's) or sine, for model=switched_torque", str, kind=str,
                  choices=("svpwm", "sine")),
-    SourceOption("--model", "model", ("pwm_switching", "dead_time", "pwm_resolution"),
+    SourceOption("--model", "model",
+                 ("pwm_switching", "dead_time", "pwm_resolution", "word_length"),
                  "paper (default) or a physically derived form: switched_torque "
-                 "(pwm_switching), average_voltage (dead_time), closed_loop (pwm_resolution)",
+                 "(pwm_switching), average_voltage (dead_time), closed_loop or derived "
+                 "(pwm_resolution), derived (word_length)",
                  str, kind=str, choices=("paper", "switched_torque", "average_voltage",
-                                         "closed_loop")),
+                                         "closed_loop", "derived")),
 )
 
 
@@ -96,7 +112,7 @@ def add_operating_point_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speed-rpm", type=float, default=1000.0, help="dyno speed (default 1000)")
     parser.add_argument("--current-a", type=float, default=20.0,
                         help="peak phase-current amplitude (default 20 A)")
-    parser.add_argument("--current-angle-deg", type=float, default=0.0,
+    parser.add_argument("--current-angle-deg", type=float, default=None,
                         help="lag of the current behind the EMF, electrical degrees (default 0)")
     parser.add_argument("--dc-bus-v", type=float, default=None, help="dc bus (default 12 V)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -122,11 +138,15 @@ def option_unit(option: SourceOption) -> str:
 def operating_point(args: argparse.Namespace) -> OperatingPoint:
     check_range("--speed-rpm", args.speed_rpm, -3000.0, 3000.0, unit=" rpm")
     check_range("--current-a", args.current_a, 0.0, 100.0, unit=" A", low_open=True)
-    check_range("--current-angle-deg", args.current_angle_deg, -90.0, 90.0, unit=" deg")
+    angle_deg = 0.0 if args.current_angle_deg is None else args.current_angle_deg
+    check_range("--current-angle-deg", angle_deg, -90.0, 90.0, unit=" deg")
     if args.dc_bus_v is not None:
         check_range("--dc-bus-v", args.dc_bus_v, 0.0, 1000.0, unit=" V", low_open=True)
-    return OperatingPoint(args.speed_rpm, args.current_a, math.radians(args.current_angle_deg),
-                          dc_bus_v=args.dc_bus_v)
+    try:
+        return OperatingPoint(args.speed_rpm, args.current_a, math.radians(angle_deg),
+                              dc_bus_v=args.dc_bus_v)
+    except InputError as error:
+        raise in_option_names(error) from None
 
 
 def source_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
@@ -155,27 +175,56 @@ def format_prediction(pred: Prediction) -> str:
     lines = [f"{pred.source}: {100 * pred.pk_pk_pu:.4g} % pk-pk ({pred.pk_pk_nm:.4g} N·m)",
              f"  base: {pred.base} = {pred.base_nm:.4g} N·m",
              f"  order: {order}; {pred.equations}"]
+    if pred.expected_range_pu is not None:
+        low, high = pred.expected_range_pu
+        lines.append(f"  expected range: {100 * low:.4g} … {100 * high:.4g} % (the model's own "
+                     "uncertainty)")
     lines += [f"  {key} = {value:.6g}" if isinstance(value, float) else f"  {key} = {value}"
               for key, value in pred.inputs.items() if value is not None]
     lines += [f"  assumes: {text}" for text in pred.assumptions]
     return "\n".join(lines)
 
 
+#: Keyword names of the model that are not source options, and the CLI options that set them.
+OTHER_NAMES = {"speed_rpm": "--speed-rpm", "current_a": "--current-a", "dc_bus_v": "--dc-bus-v",
+               "current_angle_rad": "--current-angle-deg", "hall_mode": "--hall-mode",
+               "target_pu": "--target-pct"}
+
+
 def in_option_names(error: InputError) -> InputError:
     """The same error with the model's keyword names replaced by the CLI options that set them."""
     message = str(error)
-    for option in SOURCE_OPTIONS:
-        message = re.sub(rf"(?<![\w-]){option.param}(?=[=,]| \(|$)", option.flag, message)
-    for name in ("speed_rpm", "current_a", "dc_bus_v"):
-        flag = "--" + name.replace("_", "-")
-        message = re.sub(rf"(?<![\w-]){name}(?=[=,]| \(| !|$)", flag, message)
+    names = {option.param: option.flag for option in SOURCE_OPTIONS} | OTHER_NAMES
+    for name, flag in names.items():
+        message = re.sub(rf"(?<![\w-]){name}(?![\w-])", flag, message)
     return InputError(message)
+
+
+def encoder_target(args: argparse.Namespace, op: OperatingPoint,
+                   params: dict[str, Any]) -> float | None:
+    """With ``--target-pct``: the current angle φ (rad, lagging) giving that encoder ripple."""
+    target = getattr(args, "target_pct", None)
+    if target is None:
+        return None
+    if args.source != "encoder":
+        raise InputError(f"--target-pct does not apply to source {args.source} "
+                         "(allowed for: encoder)")
+    if args.current_angle_deg is not None:
+        raise InputError("--target-pct finds the current angle: give it without "
+                         "--current-angle-deg (allowed: one of them)")
+    check_range("--target-pct", target, 0.0, 1e6, unit=" %", low_open=True)
+    resolution = encoder_resolution_elec_rad(pole_pairs=op.motor.pole_pairs, **params)
+    return current_angle_for_ripple(resolution, target / 100.0)
 
 
 def run(args: argparse.Namespace) -> int:
     op = operating_point(args)
     try:
-        pred = predict(args.source, op, **source_params(args, args.source))
+        params = source_params(args, args.source)
+        angle = encoder_target(args, op, params)
+        if angle is not None:
+            op = dataclasses.replace(op, current_angle_rad=angle)
+        pred = predict(args.source, op, **params)
     except InputError as error:
         raise in_option_names(error) from None
     if args.json:
@@ -183,19 +232,28 @@ def run(args: argparse.Namespace) -> int:
         if not args.waveform:
             data.pop("angle_rad")
             data.pop("waveform_pu")
+        if angle is not None:
+            data["target"] = {"pk_pk_pct": args.target_pct, "current_angle_deg":
+                              math.degrees(angle), "branch": "lagging"}
         print(json.dumps(data))
     else:
+        if angle is not None:
+            print(f"current angle for {args.target_pct:g} % pk-pk: {math.degrees(angle):.4g}° "
+                  "electrical, lagging the EMF")
         print(format_prediction(pred))
     return 0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("predict", help="closed-form ripple prediction of one source",
-                                   description=__doc__.splitlines()[0])
+                                   description=__doc__.split("\n\n")[0])
     parser.add_argument("source", metavar="SOURCE", choices=list(SOURCES),
                         help=f"one of: {', '.join(SOURCES)}")
     add_operating_point_options(parser)
     add_source_options(parser)
     parser.add_argument("--waveform", action="store_true",
                         help="with --json: include angle_rad and waveform_pu (3600 points)")
+    parser.add_argument("--target-pct", type=float, default=None, metavar="PCT",
+                        help="[encoder] find the current angle (lagging the EMF) whose ripple "
+                             "is PCT %% of the mean torque, and predict there")
     parser.set_defaults(func=run)

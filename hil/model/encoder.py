@@ -32,11 +32,24 @@ STAIRCASE_MEAN_BASE = ("mean torque (3/2)·E·I/ω_m·mean(cos(γ+φ)) of the st
 
 
 def encoder_resolution_elec_rad(*, pole_pairs: int, resolution_elec_rad: float | None = None,
-                        encoder_counts_per_rev: int | None = None, encoder_decimation: int = 1,
+                        encoder_counts_per_rev: int | None = None,
+                        encoder_decimation: int | None = None,
                         hall_mode: bool = False) -> float:
-    """Angle resolution θ_res in electrical radians from one of the ways to state it."""
+    """Angle resolution θ_res in electrical radians from one of the ways to state it: Hall
+    sectors, a resolution, or an encoder (counts per revolution, decimation); stating it two ways
+    at once is refused (one would be ignored)."""
+    if resolution_elec_rad is not None and (encoder_decimation is not None
+                                            or encoder_counts_per_rev is not None):
+        raise InputError("give resolution_elec_rad or encoder_decimation/encoder_counts_per_rev, "
+                         "not both (allowed: one way to state the resolution)")
+    if hall_mode and (resolution_elec_rad is not None or encoder_decimation not in (None, 1)
+                      or encoder_counts_per_rev is not None):
+        raise InputError("hall_mode sets a 60° resolution: give it without resolution_elec_rad, "
+                         "encoder_decimation or encoder_counts_per_rev (allowed: one of them)")
     if hall_mode:
         return HALL_RESOLUTION_ELEC_RAD
+    if encoder_decimation is None:
+        encoder_decimation = 1
     if resolution_elec_rad is not None:
         return check_range("resolution_elec_rad", resolution_elec_rad, 0.0, math.pi, unit=" rad",
                            low_open=True)
@@ -109,7 +122,8 @@ def current_angle_for_ripple(resolution_rad: float, target_pu: float) -> float:
 
 
 def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = None,
-                    encoder_counts_per_rev: int | None = None, encoder_decimation: int = 1,
+                    encoder_counts_per_rev: int | None = None,
+                    encoder_decimation: int | None = None,
                     hall_mode: bool = False) -> Prediction:
     """Staircase ripple of a quantized rotor angle (eqs 7-9), per unit of its own mean torque."""
     res = encoder_resolution_elec_rad(

@@ -43,8 +43,8 @@ def test_worst_case_sum_bounds_the_torque_sum_of_offset_plus_gain():
 def test_inverted_limits_are_the_loosest_that_meet_the_share(allocation):
     spec = invert(OP, 0.02, allocation=allocation)
     share = spec.share_pu
-    assert share == pytest.approx({"alone": 0.02, "equal_sum": 0.02 / 6,
-                                   "equal_rss": 0.02 / math.sqrt(6)}[allocation])
+    assert share == pytest.approx({"alone": 0.02, "equal_sum": 0.02 / 7,
+                                   "equal_rss": 0.02 / math.sqrt(7)}[allocation])
 
     def rebased(source, **params):
         return predict(source, OP, **params).pk_pk_nm / OP.mean_torque_nm
@@ -57,8 +57,8 @@ def test_inverted_limits_are_the_loosest_that_meet_the_share(allocation):
     assert rebased("encoder", encoder_decimation=decimation + 1) > share
 
     bits = spec.limits["word_length"]["word_length_bits"]
-    assert rebased("word_length", word_length_bits=bits) <= share
-    assert rebased("word_length", word_length_bits=bits - 1) > share
+    assert rebased("word_length", word_length_bits=bits, model="derived") <= share
+    assert rebased("word_length", word_length_bits=bits - 1, model="derived") > share
 
     offset = spec.limits["dc_offset"]["offset_a"]
     assert rebased("dc_offset", ia_offset_a=offset, ib_offset_a=offset) == pytest.approx(share)
@@ -69,15 +69,26 @@ def test_inverted_limits_are_the_loosest_that_meet_the_share(allocation):
                 for a in (-1, 0, 1) for b in (-1, 0, 1))
     assert worst == pytest.approx(share, rel=1e-6)
 
+    loop = {"current_loop_bandwidth_hz": 1600.0}  # the drive's, assumed when none is given
+    assert spec.loop["current_loop_bandwidth_hz"] == 1600.0 and spec.loop["assumed"]
     counts = spec.limits["pwm_resolution"]["pwm_period_counts_min"]
-    assert rebased("pwm_resolution", pwm_period_counts=counts) <= share
-    assert rebased("pwm_resolution", pwm_period_counts=counts - 1) > share
+    assert rebased("pwm_resolution", pwm_period_counts=counts, model="closed_loop", **loop) <= share
+    assert rebased("pwm_resolution", pwm_period_counts=counts - 1, model="closed_loop",
+                   **loop) > share
+
+    switching = spec.limits["pwm_switching"]
+    if switching["met"]:
+        frequency = switching["pwm_frequency_hz_min"]
+        assert rebased("pwm_switching", pwm_frequency_hz=frequency,
+                       model="switched_torque") == pytest.approx(share, rel=1e-6)
+    else:  # even 50 kHz is too coarse for this share
+        assert rebased("pwm_switching", pwm_frequency_hz=50000.0, model="switched_torque") > share
 
     dead = spec.limits["dead_time"]["dead_time_s"]
-    assert rebased("dead_time", dead_time_s=dead) == pytest.approx(share, rel=1e-6)
-    if allocation == "equal_sum":
-        assert spec.check.worst_case_sum_pu <= 0.02 * (1 + 1e-9)
+    assert rebased("dead_time", dead_time_s=dead, model="average_voltage",
+                   current_loop_delay_s=75e-6, **loop) == pytest.approx(share, rel=1e-6)
     assert set(spec.check.contributions_pu) == set(DESIGN_SOURCES)
+    assert set(spec.models) == set(DESIGN_SOURCES) and "eq 38" in spec.models["dead_time"]
 
 
 def test_largest_offset_meets_the_limit_in_the_torque_sum():
@@ -93,14 +104,27 @@ def test_largest_offset_meets_the_limit_in_the_torque_sum():
     assert worst == pytest.approx(0.02, rel=1e-4)
 
 
-def test_dead_time_inversion_with_the_average_model():
+def test_dead_time_inversion_with_a_stated_loop_and_with_the_paper_forms():
     op = OperatingPoint(speed_rpm=1000, current_a=20.0)
-    spec = invert(op, 0.02, allocation="alone", dead_time_model="average_voltage",
-                  current_loop_bandwidth_hz=1000.0)
+    spec = invert(op, 0.02, allocation="alone", current_loop_bandwidth_hz=1000.0,
+                  current_loop_delay_s=0.0)
+    assert spec.loop["assumed"] is None
     dead = spec.limits["dead_time"]["dead_time_s"]
     pred = predict("dead_time", op, dead_time_s=dead, model="average_voltage",
                    current_loop_bandwidth_hz=1000.0)
     assert pred.pk_pk_nm / op.mean_torque_nm == pytest.approx(0.02, rel=1e-5)
+    paper = invert(op, 0.02, allocation="alone", forms="paper")
+    assert paper.limits["dead_time"]["model"] == "paper"
+    # eq 38 is well above the closed-loop average model: it allows a much shorter dead time
+    assert paper.limits["dead_time"]["dead_time_s"] < 0.6 * dead
+    assert paper.models["word_length"].startswith("eq 14")
+
+
+def test_equal_sum_allocation_meets_the_limit_when_every_share_is_met():
+    op = OperatingPoint(speed_rpm=300, current_a=20.0)
+    spec = invert(op, 0.2, allocation="equal_sum")
+    assert all(limit.get("met", True) for limit in spec.limits.values())
+    assert spec.check.worst_case_sum_pu <= 0.2 * (1 + 1e-9)
 
 
 def test_bad_budget_inputs():
@@ -108,3 +132,5 @@ def test_bad_budget_inputs():
         invert(OP, 0.0)
     with pytest.raises(InputError, match="allocation"):
         invert(OP, 0.02, allocation="greedy")
+    with pytest.raises(InputError, match="forms"):
+        invert(OP, 0.02, forms="mixed")

@@ -9,6 +9,7 @@ import pytest
 
 from hil.cli import main
 from hil.model import OperatingPoint, predict
+from hil.model.budget import invert
 
 
 def run_cli(capsys, *argv):
@@ -101,9 +102,14 @@ def test_budget_json(capsys):
     assert code == 0 and err == ""
     data = json.loads(out)
     assert data["limit_pu"] == pytest.approx(0.02) and data["allocation"] == "equal_sum"
-    assert data["check"]["worst_case_sum_pu"] <= 0.02
+    # at 1000 rpm, 20 A the switching ripple alone exceeds its share even at 50 kHz: said so,
+    # and the check (every source at its limit) shows the sum over the limit
+    assert data["limits"]["pwm_switching"]["met"] is False
+    assert "pwm_switching" in data["check"]["contributions_pu"]
+    assert data["check"]["worst_case_sum_pu"] > 0.02
     assert set(data["limits"]) == {"encoder", "word_length", "dc_offset", "gain_mismatch",
-                                   "pwm_resolution", "dead_time"}
+                                   "pwm_resolution", "pwm_switching", "dead_time"}
+    assert set(data["models"]) == set(data["limits"])
     combination = data["combination"]
     assert set(combination["contributions_pu"]) == {"encoder", "dc_offset"}
     assert combination["meets_worst_case"] is (combination["worst_case_sum_pu"] <= 0.02)
@@ -111,7 +117,9 @@ def test_budget_json(capsys):
 
 def test_budget_human(capsys):
     code, out, _ = run_cli(capsys, "budget", "--limit-pct", "2", "--allocation", "alone")
-    assert code == 0 and "shortest 13 bits" in out and "worst-case sum" in out
+    bits = invert(OperatingPoint(1000, 20.0), 0.02, allocation="alone").limits["word_length"]
+    assert code == 0 and f"shortest {bits['word_length_bits']} bits" in out
+    assert "worst-case sum" in out
 
 
 def test_predict_json_waveform_on_request(capsys):
