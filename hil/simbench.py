@@ -22,13 +22,14 @@ TWIN_PWM_HZ = 20_000.0
 
 def twin_config(bench: BenchConfig):
     """The ``hil.sim.DriveConfig`` of the drive a simulated bench file describes: its
-    ``[motor]`` nameplate and its ``[drive]`` current loop (the twin's defaults otherwise).
+    ``[motor]`` nameplate, its ``[drive]`` current loop and its ``[torque]`` transducer
+    bandwidth (the twin's defaults otherwise).
 
     ``current_loop_bandwidth_hz`` is the bandwidth at the twin's default 20 kHz PWM; a stated
     ``current_loop_delay_s`` must equal the twin's (``current_loop_delay_periods`` + 0.5) PWM
     periods, since the plans predict with it: InputError naming both keys otherwise.
     """
-    from hil.sim import DriveConfig, FirmwareModel, MotorModel
+    from hil.sim import DriveConfig, FirmwareModel, MotorModel, TransducerModel
 
     drive = bench.drive
     loop = {"design": drive.current_loop_design, "decoupling": drive.current_loop_decoupling,
@@ -52,7 +53,11 @@ def twin_config(bench: BenchConfig):
                          f"current_loop_delay_periods = {drive.current_loop_delay_periods:g}: the "
                          f"simulated drive's loop delay is ({drive.current_loop_delay_periods:g} "
                          f"+ 0.5) / {TWIN_PWM_HZ:g} Hz = {delay_s:g} s")
-    return DriveConfig(motor=MotorModel(parameters=bench.motor), firmware=firmware)
+    transducer = TransducerModel()
+    if bench.torque.bandwidth_hz is not None:
+        transducer = TransducerModel(bandwidth_hz=bench.torque.bandwidth_hz)
+    return DriveConfig(motor=MotorModel(parameters=bench.motor), firmware=firmware,
+                       transducer=transducer)
 
 
 class SimulatedBench:

@@ -17,7 +17,8 @@ from golden_loop import GOLDEN, run_cases
 from hil.config import default_sim_bench
 from hil.errors import InputError
 from hil.motor import TABLE_I
-from hil.sim import DriveConfig, DriveTwin, DynoModel, FirmwareModel, Injection
+from hil.sim import (DriveConfig, DriveTwin, DynoModel, FirmwareModel, Injection,
+                     TransducerModel)
 from hil.sim import layout as L
 from hil.sim.kernel import run_drive
 from hil.sim.packing import new_state, pack_params
@@ -188,6 +189,9 @@ def test_firmware_model_refuses_unknown_options():
 def test_simulated_bench_builds_its_loop_from_the_bench_file():
     default = twin_config(default_sim_bench())
     assert default.firmware == FirmwareModel() and default.motor.parameters == TABLE_I
+    assert default.transducer == TransducerModel()
+    assert twin_config(default_sim_bench().with_overrides({"torque": {"bandwidth_hz": 250.0}})
+                       ).transducer.bandwidth_hz == 250.0
     bench = default_sim_bench().with_overrides({"drive": {
         "current_loop_design": "discrete", "current_loop_decoupling": True,
         "current_loop_emf_feedforward": True, "current_loop_delay_periods": 1.5,
