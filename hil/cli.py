@@ -25,8 +25,8 @@ EPILOG = ("Run 'hil COMMAND --help' for a command's options. Bad input exits 2 w
           "stderr, a failed run exits 1; with --json an error is also a JSON object on stdout.")
 
 #: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
-COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "predict", "budget",
-                              "yield_cmd"]
+COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "verify", "predict", "budget",
+                              "yield_cmd", "diagnose"]
 
 
 class UsageError(Exception):

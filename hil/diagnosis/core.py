@@ -30,6 +30,7 @@ from hil.diagnosis.fit import LinearProblem, fit, identifiability
 from hil.diagnosis.orders import OrderSpectrum, spectrum_from_capture
 from hil.diagnosis.result import Diagnosis, ParameterEstimate
 from hil.errors import InputError
+from hil.model.encoder import DRIVE_COUNTS_PER_REV
 
 #: Electrical orders of the controller signatures fitted (offset 1, gain 2, dead time 6 and 12).
 CONTROLLER_ELEC_ORDERS = (1, 2, 6, 12)
@@ -57,7 +58,8 @@ def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = 
 
     ``setup``: the drive's current loop, PWM frequency and the transducer's bandwidth (module
     :mod:`.signatures`); ``transducer_class_pct``: accuracy class in % of reading used as a model
-    uncertainty; ``encoder_counts_per_rev``: the drive's encoder (default: the captures' meta).
+    uncertainty; ``encoder_counts_per_rev``: the drive's encoder (default: the captures' meta,
+    else the drive contract's 7200).
     """
     spectra = list(inputs)
     if not spectra:
@@ -72,9 +74,15 @@ def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = 
         raise InputError(f"spectra must reach mechanical order {12 * p} (electrical 12); "
                          f"they reach {max_mech}")
     cpr = encoder_counts_per_rev or spectra[0].meta.get("encoder_counts_per_rev")
+    if not cpr:
+        cpr = DRIVE_COUNTS_PER_REV
+        notes_cpr = [f"encoder counts per revolution not in the captures: the drive contract's "
+                     f"{DRIVE_COUNTS_PER_REV} assumed"]
+    else:
+        notes_cpr = []
     encoder = enc.detect(spectra, setup, int(cpr) if cpr else None)
     excluded = set(encoder.get("excluded_mech_orders", []))
-    notes = []
+    notes = list(notes_cpr)
     model_spectra = spectra
     if encoder.get("detected"):
         # θ_d = θ − γ with γ uniform over a count: the currents lag by half a count on average
@@ -221,9 +229,12 @@ def _unexplained(problem, result, spectra, fit_orders, p) -> list[dict]:
         limit = float(stats.chi2.ppf(UNEXPLAINED_QUANTILE, dof))
         if chi2 > limit:
             worst = int(np.argmax(np.abs(r)))
+            at = spectra[int(rows[mask][worst, 0])]
             out.append({"mech_order": m, "elec_order": m / p, "chi2": chi2, "dof": dof,
                         "limit_chi2": limit, "largest_residual_nm": float(np.abs(r[worst])),
-                        "at": spectra[int(rows[mask][worst, 0])].label,
+                        "largest_residual_pct_of_mean":
+                            100.0 * float(np.abs(r[worst])) / abs(at.mean_torque_nm),
+                        "at": at.label,
                         "note": "not explained by the controller models: the amplitude, phase or "
                                 "scaling across the points contradicts the sources' signatures"})
     return out

@@ -238,10 +238,10 @@ class Diagnosis:
 
     def table(self) -> str:
         """The attribution table and calibration as text (the CLI prints it)."""
-        lines = [f"{'source':40s} {'estimate ± U (k=2)':44s} {'share of pk-pk':>14s}"]
+        lines = [f"{'source':40s} {'share of pk-pk':>14s}  estimate ± U (k = 2)"]
         for row in self.attribution():
-            lines.append(f"{row['title'][:40]:40s} {row['estimate_text'][:44]:44s} "
-                         f"{100 * row['share_of_pk_pk']:13.1f}%")
+            lines.append(f"{row['title'][:40]:40s} {100 * row['share_of_pk_pk']:13.1f}%  "
+                         f"{row['estimate_text']}")
         cal = self.calibration()
         lines.append("")
         lines.append("calibration to apply:")
@@ -264,7 +264,9 @@ class Diagnosis:
                          f"to check: {alias['separate_by']}")
         for item in self.unexplained:
             lines.append(f"mech order {item['mech_order']} (elec {item['elec_order']:g}): "
-                         f"{item['note']} (χ² {item['chi2']:.3g} > {item['limit_chi2']:.3g})")
+                         f"{item['note']} (χ² {item['chi2']:.3g} > {item['limit_chi2']:.3g}; "
+                         f"largest residual {item['largest_residual_pct_of_mean']:.3g} % of the "
+                         f"mean torque at {item['at']})")
         return "\n".join(lines)
 
 

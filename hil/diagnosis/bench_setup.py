@@ -1,0 +1,92 @@
+"""The diagnosis' :class:`DriveSetup` from a bench (file or a record's copy of it), and each
+capture's operating point from the run record it belongs to."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import fields
+from pathlib import Path
+
+from hil.capture import Capture
+from hil.diagnosis.signatures import DriveSetup
+from hil.motor import MotorParameters
+
+#: The drive's PWM frequency when nothing states another (the EDS default), Hz.
+DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
+
+
+def setup_from_bench_dict(bench: dict, **overrides) -> tuple[DriveSetup, float]:
+    """(DriveSetup, transducer accuracy class in %) from a bench as ``BenchConfig.to_dict()``
+    writes it (also the ``bench.loaded`` of a record). ``overrides``: DriveSetup fields that are
+    not None replace the bench's."""
+    motor_table = bench.get("motor", {}) or {}
+    names = {f.name for f in fields(MotorParameters)}
+    motor = MotorParameters(**{k: v for k, v in motor_table.items() if k in names})
+    drive = bench.get("drive", {}) or {}
+    torque = bench.get("torque", {}) or {}
+    values = {"motor": motor,
+              "current_loop_bandwidth_hz": drive.get("current_loop_bandwidth_hz"),
+              "current_loop_delay_s": drive.get("current_loop_delay_s") or 0.0,
+              "pwm_frequency_hz": DEFAULT_PWM_FREQUENCY_HZ,
+              "transducer_bandwidth_hz": torque.get("bandwidth_hz")}
+    values.update({k: v for k, v in overrides.items() if v is not None})
+    class_pct = 0.0
+    for entry in bench.get("instrument", []) or []:
+        if entry.get("role") == "torque" and entry.get("accuracy_class"):
+            text = str(entry["accuracy_class"]).split("%")[0].strip()
+            try:
+                class_pct = float(text)
+            except ValueError:
+                class_pct = 0.0
+    return DriveSetup(**values), class_pct
+
+
+def find_record(capture_path: Path) -> dict | None:
+    """The run record (record.json) a capture file sits in (``<record>/captures/x.npz``)."""
+    candidate = capture_path.resolve().parent.parent / "record.json"
+    if not candidate.is_file():
+        return None
+    try:
+        from hil.record import load_record
+
+        return load_record(candidate.parent)
+    except Exception:  # noqa: BLE001 - a damaged record only means: no operating point from it
+        try:
+            return json.loads(candidate.read_text())
+        except (OSError, ValueError):
+            return None
+
+
+def operating_point_of(capture_path: Path, capture: Capture, record: dict | None) -> dict:
+    """current_a, current_angle_rad, speed_rpm and a label for one capture: from its test entry
+    in the record, else from the capture's meta (simulated captures), else {}."""
+    name = capture_path.name
+    if record:
+        for test in record.get("tests", []):
+            cap = test.get("capture") or {}
+            if isinstance(cap, dict) and Path(str(cap.get("file", ""))).name == name:
+                op = test.get("operating_point") or {}
+                if "current_a" in op:
+                    return {"current_a": op["current_a"],
+                            "current_angle_rad": op.get("current_angle_rad", 0.0),
+                            "speed_rpm": op.get("speed_rpm"),
+                            "label": test.get("test_id", name)}
+    meta = capture.meta
+    if "current_command_a" in meta:
+        injection = meta.get("injection") or {}
+        return {"current_a": meta["current_command_a"],
+                "current_angle_rad": injection.get("current_angle_rad", 0.0),
+                "label": meta.get("test_id", name)}
+    return {"label": meta.get("test_id", name)}
+
+
+def check_setup_known(setup: DriveSetup) -> list[str]:
+    """Warnings for what the bench does not state (the fit then assumes the ideal case)."""
+    out = []
+    if setup.current_loop_bandwidth_hz is None:
+        out.append("current-loop bandwidth not stated: ideal current regulation assumed "
+                   "(the paper's assumption)")
+    if setup.transducer_bandwidth_hz is None:
+        out.append("transducer bandwidth not stated: a flat transducer response assumed")
+    return out
+
