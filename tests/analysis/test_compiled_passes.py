@@ -158,3 +158,22 @@ def test_bootstrap_draw_sums_equal_the_matrix_products(dtype):
     sums, sizes = _draw_sums(counts, block_sums, block_sizes)
     np.testing.assert_allclose(sums, counts @ block_sums, rtol=1e-13, atol=1e-13)
     np.testing.assert_array_equal(sizes, counts @ block_sizes)
+
+
+def test_strided_read_only_and_byte_swapped_channels_give_the_same_result():
+    """Captures may hold columns of one table, memory-mapped (read-only) or big-endian files."""
+    from hil.analysis import analyze_torque
+
+    time_s = np.arange(6000) / 1e4
+    angle = np.mod(2 * np.pi * 40.0 * time_s, TWO_PI)
+    torque = 1.0 + 0.02 * np.cos(6 * angle) + np.random.default_rng(2).normal(0.0, 0.01, 6000)
+    plain = analyze_torque(time_s, torque, angle, max_order=16)
+    table = np.stack([time_s, torque, angle], axis=1)
+    read_only = [channel.copy() for channel in (time_s, torque, angle)]
+    for channel in read_only:
+        channel.setflags(write=False)
+    for channels in ((table[:, 0], table[:, 1], table[:, 2]), read_only,
+                     [channel.astype(">f8") for channel in (time_s, torque, angle)]):
+        result = analyze_torque(*channels, max_order=16)
+        np.testing.assert_array_equal(result.revolution_matrix_nm, plain.revolution_matrix_nm)
+        assert result.pk_pk_pu == plain.pk_pk_pu
