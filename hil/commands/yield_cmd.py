@@ -51,7 +51,9 @@ def run(args: argparse.Namespace) -> int:
     if args.target_yield is not None and args.engine != "closed-form":
         raise InputError("--target-yield runs on the closed-form engine (--engine closed-form)")
     options = YieldOptions(engine=args.engine, scheduler=args.scheduler, n_workers=args.workers,
-                           chunk_size=args.chunk_size, sobol_n=args.sobol_n,
+                           chunk_size=args.chunk_size,
+                           sobol_n=args.sobol_n if args.sobol_n is not None
+                           else (1024 if args.engine == "closed-form" else 32),
                            combiner=CombinerSettings(bounds=not args.no_bounds),
                            twin=TwinSettings(revolutions=args.revolutions),
                            progress=not args.no_progress and sys.stderr.isatty())
@@ -152,8 +154,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--workers", type=int, help="LocalCluster workers (default: cores)")
     parser.add_argument("--chunk-size", type=int, help="drives per chunk (default 50000 "
                         "closed-form, 16 twin)")
-    parser.add_argument("--sobol-n", type=int, default=1024,
-                        help="Sobol' base samples, a power of 2 (N·(D+2) evaluations; 0: none)")
+    parser.add_argument("--sobol-n", type=int,
+                        help="Sobol' base samples, a power of 2: N·(D+2) evaluations "
+                        "(default 1024 closed-form, 32 twin; 0: none)")
     parser.add_argument("--revolutions", type=int, default=2,
                         help="twin: electrical revolutions analysed per drive and point")
     parser.add_argument("--no-bounds", action="store_true",
