@@ -23,6 +23,22 @@ from hil.errors import HilError
 logger = logging.getLogger(__name__)
 
 
+#: Exit code of ``hil run`` / ``pytest`` when the bench could not be opened (nothing was run).
+EXIT_BENCH_NOT_OPENED = 6
+#: Exit code when the bench was lost mid-run (the remaining tests were not run).
+EXIT_BENCH_LOST = 7
+
+
+class BenchOpenError(HilError):
+    """The bench could not be opened: which instrument, what was tried, why it failed."""
+
+    def __init__(self, instrument: str, tried: str, reason: str) -> None:
+        self.instrument = instrument
+        self.tried = tried
+        self.reason = reason
+        super().__init__(f"{instrument}: {tried}: {reason}")
+
+
 class SafeStateError(HilError):
     """One or more steps of bringing the bench to a safe state failed (listed in ``failures``)."""
 
@@ -63,27 +79,30 @@ class Bench:
     def open(cls, config: BenchConfig, *, seed: int = 0) -> "Bench":
         """Start the simulated instruments if needed, then connect the drivers.
 
-        A simulated bench file without addresses (the shipped one) starts its instruments in
-        this process; one with addresses (written by ``hil sim-bench``) connects to them. If
-        anything fails part-way, everything opened so far is closed again before raising.
+        Order (issue 11 item 5): the DAQ and the torque transducer are connected and identified
+        first; only then is the drive connected (its first CAN write). A simulated bench file
+        without addresses (the shipped one) starts its instruments in this process; one with
+        addresses (written by ``hil sim-bench``) connects to them. If anything fails part-way,
+        everything opened so far is closed again and :class:`BenchOpenError` names the
+        instrument, what was tried and why it failed.
         """
         simulated = None
         opened: list = []
+        identities: dict[str, dict] = {}
         try:
             if config.simulated and not has_addresses(config):
                 from hil.simbench import SimulatedBench
 
                 simulated = SimulatedBench(config, seed=seed)
-                config = simulated.start()
-            drive = _make_drive(config)
-            drive.connect()
-            opened.append(drive)
-            daq = _make_daq(config)
-            daq.connect()
-            opened.append(daq)
-            torque = _make_torque(config)
-            torque.connect()
-            opened.append(torque)
+                config = _opening("simulated bench", "start the simulated instruments",
+                                  simulated.start)
+            for role, make in (("daq", _make_daq), ("torque", _make_torque),
+                               ("drive", _make_drive)):
+                instrument = _opening(role, _tried(role, config), lambda: make(config))
+                _opening(role, _tried(role, config), instrument.connect)
+                opened.append(instrument)
+                identities[role] = _opening(role, f"identify ({_tried(role, config)})",
+                                            instrument.identity)
         except BaseException:
             for instrument in reversed(opened):
                 with contextlib.suppress(Exception):
@@ -91,7 +110,9 @@ class Bench:
             if simulated is not None:
                 simulated.stop()
             raise
+        daq, torque, drive = opened
         bench = cls(config, drive, daq, torque, simulated)
+        bench._identities = identities
         bench.make_safe("bench opened")
         return bench
 
@@ -113,14 +134,33 @@ class Bench:
         self.close()
 
     def identities(self) -> list[dict]:
-        """Each instrument's identity as it answers it (for the record's instrument table)."""
+        """Each instrument's identity as it answered when the bench was opened (for the record's
+        instrument table); queried again if the bench was built without :meth:`open`."""
         rows = []
         for role, instrument in (("drive", self.drive), ("daq", self.daq), ("torque", self.torque)):
+            known = getattr(self, "_identities", {}).get(role)
             try:
-                rows.append({"role": role, **instrument.identity()})
+                rows.append({"role": role, **(known if known is not None
+                                               else instrument.identity())})
             except InstrumentError as exc:
                 rows.append({"role": role, "error": str(exc)})
         return rows
+
+    def probe(self) -> list[InstrumentError]:
+        """Ask each instrument one cheap question; the errors of those that do not answer.
+
+        Used after an instrument error to tell a lost bench (a transport gone: the session must
+        stop) from a one-off fault (the next test may still run)."""
+        failures = []
+        for role, ask in (("drive", lambda: self.drive.statusword),
+                          ("daq", self.daq.status), ("torque", self.torque.identity)):
+            try:
+                ask()
+            except InstrumentError as exc:
+                failures.append(exc)
+            except Exception as exc:  # noqa: BLE001 - an untyped driver error is a loss too
+                failures.append(InstrumentError(role, "probe", f"{type(exc).__name__}: {exc}"))
+        return failures
 
     # ------------------------------------------------------------------ limits
     def check_command(self, *, current_a: float, speed_rpm: float) -> None:
@@ -209,6 +249,54 @@ class Bench:
             if raise_on_failure:
                 raise SafeStateError(report.failures)
         return report
+
+
+def _opening(role: str, tried: str, step):
+    """Run one step of opening the bench; any failure becomes one :class:`BenchOpenError`."""
+    try:
+        return step()
+    except BenchOpenError:
+        raise
+    except InstrumentError as exc:
+        raise BenchOpenError(role, tried, _reason(exc.detail, role, tried)) from exc
+    except Exception as exc:  # noqa: BLE001 - e.g. a CAN interface whose library is missing
+        raise BenchOpenError(role, tried, f"{type(exc).__name__}: {exc}") from exc
+
+
+def _tried(role: str, config: BenchConfig) -> str:
+    """What connecting ``role`` tries, in the bench file's words."""
+    if role == "drive":
+        drive = config.drive
+        return (f"connect CANopen node {drive.node_id} on {drive.interface} channel "
+                f"{drive.channel!r} at {drive.bitrate} bit/s")
+    if role == "daq":
+        daq = config.daq
+        if daq.transport == "rtu":
+            return f"connect Modbus RTU on {daq.serial_port} at {daq.baudrate or 115200} baud"
+        return f"connect Modbus TCP {daq.host}:{daq.port} unit {daq.unit_id}"
+    torque = config.torque
+    return (f"open serial port {torque.serial_port} at {torque.baudrate} baud "
+            f"({torque.dialect} dialect)")
+
+
+def _reason(detail: str, role: str, tried: str) -> str:
+    """The driver's detail, with the operating system's reason when it gave only settings."""
+    if role == "daq" and detail.startswith("cannot open") and "Modbus TCP" in tried:
+        host_port = tried.split("Modbus TCP ", 1)[1].split(" ", 1)[0]
+        host, _, port = host_port.rpartition(":")
+        return f"cannot connect: {tcp_connect_reason(host, int(port))}"
+    return detail
+
+
+def tcp_connect_reason(host: str, port: int, timeout_s: float = 2.0) -> str:
+    """Why a TCP connection to ``host:port`` fails (e.g. "[Errno 111] Connection refused")."""
+    import socket
+
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            return "the port accepts connections but the Modbus client did not connect"
+    except OSError as exc:
+        return str(exc) or type(exc).__name__
 
 
 def has_addresses(config: BenchConfig) -> bool:

@@ -1,8 +1,15 @@
 """``build_report(record_dir, out_pdf)``: the PDF report as a pure function of a record folder.
 
 Every figure printed comes from ``record.json`` and the raw captures it names (see
-``reports.angle_view`` for the one plot that needs the capture). The creation date is the
-record's, so the same record gives the same PDF.
+``reports.angle_view`` for the one plot that needs the capture). Every hash is checked again
+(``hil.record.verify_record``): a record or capture that does not match makes page 1 say
+INVALID and name the files. The creation date is the record's, so the same record and revision
+give the same PDF; a second report of a record is a new revision (``reports.revisions``).
+
+Page 1 carries the ISO/IEC 17025 §7.8.2 content: laboratory, customer, item tested and when it
+was received and tested, method, operator, environment, calibration overrides, the four separate
+statements (requirements, model validation, bench self-check, run status and integrity) and the
+overall one, "results relate only to the item tested", revision, authorizer and signature line.
 """
 
 from __future__ import annotations
@@ -13,15 +20,15 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-
 from hil.capture import Capture, atomic_write_bytes
 from hil.errors import InputError
-from hil.record import RECORD_FILE, capture_path, load_record, verify_captures
-from reports import figures
+from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_record
+from reports import figures, revisions
 from reports.angle_view import angle_view
 from reports.content import (DECISIONS, NOT_DETERMINED, RIPPLE_DEFINITION, ReportContent,
                              SourceSection, fmt, fmt_pct, report_content, status_text)
 from reports.document import ReportPDF
+from reports.revisions import Revision
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
@@ -33,19 +40,20 @@ BUDGET_WIDTHS = {"value": 16, "unit": 11, "distribution": 24, "divisor": 12, "se
                  "sensitivity_unit": 16, "contribution_pu": 18, "combination": 16}
 #: Captures larger than this in total are listed with their hashes but not attached.
 MAX_ATTACHED_BYTES = 25 * 1024 * 1024
+REFERENCE = ("S. Chen, C. Namuduri, S. Mir, Controller-induced parasitic torque ripples in a PM "
+             "synchronous motor, IEEE Trans. Ind. Appl. 38(5), 2002")
 
 STATEMENTS = {
     "pass": "PASS: every point meets its acceptance limits with the guard band w = U "
-            "(ILAC-G8); conformity is stated.",
+            "(ILAC-G8).",
     "conditional pass": "CONDITIONAL PASS: every point is within its limits, but at least one "
-                        "lies inside the guard band; conformity cannot be stated with 95 % "
+                        "lies inside the guard band; agreement cannot be stated with 95 % "
                         "confidence.",
     "conditional fail": "CONDITIONAL FAIL: at least one point lies outside its limits but "
-                        "within the guard band; non-conformity is likely, not certain.",
+                        "within the guard band; disagreement is likely, not certain.",
     "fail": "FAIL: at least one point lies outside its limits beyond the guard band, or shows "
             "a ripple order other than the predicted one.",
-    NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped, has no verdict, or the run "
-                    "is incomplete.",
+    NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped or not run, or has no verdict.",
 }
 
 
@@ -67,19 +75,43 @@ class RenderedReport:
         return path
 
 
-def build_report(record_dir: str | Path, out_pdf: str | Path) -> Path:
-    """Write the PDF report of the record in ``record_dir`` to ``out_pdf`` (atomically)."""
-    return render_report(record_dir).save(out_pdf)
+def build_report(record_dir: str | Path, out_pdf: str | Path, *, reason: str | None = None
+                 ) -> Path:
+    """Issue the next report revision of the record in ``record_dir`` as ``out_pdf``."""
+    issue_report(record_dir, out_pdf, reason=reason)
+    return Path(out_pdf)
 
 
-def render_report(record_dir: str | Path) -> RenderedReport:
+def issue_report(record_dir: str | Path, out_pdf: str | Path, *, reason: str | None = None
+                 ) -> "RenderedReport":
+    """Issue the next report revision of the record in ``record_dir`` as ``out_pdf``.
+
+    Rev. 1 needs no reason; a later revision does (InputError otherwise), and an existing PDF is
+    never overwritten. The revision is logged in the record folder (``reports.jsonl``)."""
+    record_dir, out_pdf = Path(record_dir), Path(out_pdf)
+    if record_dir.name == RECORD_FILE:
+        record_dir = record_dir.parent
+    revisions.refuse_overwrite(out_pdf)
+    now = utc_now()
+    revision = revisions.next_revision(record_dir, reason, now)
+    rendered = render_report(record_dir, revision=revision)
+    rendered.save(out_pdf)
+    revisions.log_revision(record_dir, revision, rendered.content.report_id, out_pdf, now)
+    return rendered
+
+
+def render_report(record_dir: str | Path, *, revision: Revision | None = None
+                  ) -> RenderedReport:
     """The report's PDF bytes and what it states; InputError if the record is unreadable."""
     record_dir = Path(record_dir)
     record = load_record(record_dir)
-    content = report_content(record, record_dir, verify_captures(record_dir, record))
+    content = report_content(record, record_dir, verify_record(record_dir, record), revision)
     created = _record_date(record)
-    pdf = ReportPDF(content.report_id, created, content.partial)
+    banner = ("INVALID - a hash does not verify" if content.capture_problems else
+              f"INCOMPLETE RUN ({record.get('status')})" if content.partial else "")
+    pdf = ReportPDF(content.report_id, created, banner)
     _summary_page(pdf, content)
+    _statements_pages(pdf, content)
     _method_pages(pdf, content, record_dir)
     for section in content.sources:
         _source_pages(pdf, section, record_dir)
@@ -102,41 +134,137 @@ def _record_date(record: dict) -> datetime:
 def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
     record = content.record
     loaded = (record.get("bench") or {}).get("loaded") or {}
-    lab = loaded.get("lab") or {}
+    lab = (loaded.get("lab") or {}) | {k: v for k, v in (record.get("lab") or {}).items() if v}
+    run = record.get("run") or {}
     motor = loaded.get("motor") or {}
     drive = _instrument(record, "drive")
+    statement = content.statement
+    revision = content.revision
     pdf.add_page()
-    pdf.set_font("sans", "B", 16)
-    pdf.multi_cell(0, 8, "Controller-induced torque ripple\nTest report", new_x="LMARGIN",
+    pdf.set_font("sans", "B", 15)
+    pdf.multi_cell(0, 7, "Controller-induced torque ripple: test report", new_x="LMARGIN",
                    new_y="NEXT")
-    pdf.ln(2)
+    if record.get("sim_defects"):
+        pdf.para("SIMULATED DRIVE WITH TEST-ONLY DEFECTS: " + ", ".join(
+            f"{k} = {v}" for k, v in record["sim_defects"].items())
+            + " (a mutation test of the bench software; not a real drive)", size=9, style="B")
+    rev_text = f"Rev. {revision.number}"
+    if revision.number > 1:
+        rev_text += (f" of {revision.issued_utc}, reason: {revision.reason}; supersedes "
+                     f"{(revision.supersedes or {}).get('report_id')}")
+    operator = run.get("operator")
     pdf.key_values([
-        ("Report ID", content.report_id),
-        ("Record", f"{record['record_id']} (status: {record.get('status')})"),
-        ("Run started / finished (UTC)", f"{record.get('created_utc')} / "
-                                         f"{record.get('finished_utc') or 'not finished'}"),
-        ("Report date", f"{_record_date(record).date().isoformat()} (the record's last date; "
-                        f"the same record gives the same report)"),
-        ("Tests", ", ".join(f"{n} {o}" for o, n in _outcome_counts(record).items() if n)
-                  or "none recorded"),
+        ("Report ID / revision", f"{content.report_id} ({rev_text})"),
         ("Laboratory", ", ".join(x for x in (lab.get("name"), lab.get("address")) if x) or "—"),
-        ("Operator", lab.get("operator") or "—"),
-        ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
-                  f"{record['bench'].get('path')}"),
+        ("Customer", lab.get("customer") or "not stated"),
         ("Item tested: motor", f"{motor.get('model') or '—'}, "
                                f"s/n {motor.get('serial_number') or '—'} "
                                f"({motor.get('pole_count')} poles, "
                                f"Ke {motor.get('ke_v_s_per_rad')} V·s/rad, "
                                f"{motor.get('dc_bus_v')} V dc bus)"),
         ("Item tested: drive", _drive_text(drive)),
+        ("Item received", fmt(lab.get("item_received")) if lab.get("item_received")
+         else "not stated"),
+        ("Tested (UTC)", f"{record.get('created_utc')} to "
+                         f"{record.get('finished_utc') or 'not finished'}"),
+        ("Report date", f"{_record_date(record).date().isoformat()} (the record's last date)"),
+        ("Method", f"ripple-hil test plans; reference: {REFERENCE}"),
+        ("Operator", f"{operator} (given on the command line)" if operator else
+         f"{lab.get('operator')} (bench file; none given on the command line)"
+         if lab.get("operator") else "not given"),
+        ("Environment", lab.get("environment") or "not recorded"),
+        ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
+                  f"{record['bench'].get('path')}"),
+        ("Run", f"{status_text(record.get('status'))}; exit status "
+                f"{fmt(run.get('exit_status'))}; tests: "
+                + (", ".join(f"{n} {o}" for o, n in _outcome_counts(record).items() if n)
+                   or "none recorded")),
+        ("Command line", run.get("command_line") or "not recorded"),
+        ("Selection", _selection_text(run.get("selection") or {})),
     ])
-    if content.partial:
-        pdf.para(f"PARTIAL RECORD: {status_text(record.get('status'))}. This report covers the "
-                 f"{len(record.get('tests', []))} test(s) recorded; it makes no overall statement "
-                 f"of conformity.", size=9.5, style="B")
-    pdf.heading("Statement of conformity")
-    pdf.para("Decision rule per ILAC-G8 with a guard band equal to the expanded uncertainty U "
-             "(k = 2); the rule was recorded before the first measurement (see Method).")
+    for override in record.get("calibration_overrides", []):
+        pdf.para(f"CALIBRATION OVERRIDE: {override.get('role')} s/n "
+                 f"{override.get('serial_number')} used past its due date {override.get('due')}; "
+                 f"reason: {override.get('reason')}; by {override.get('by')}.", size=8.5,
+                 style="B")
+    if (run.get("abort") or {}):
+        abort = run["abort"]
+        pdf.para(f"BENCH LOST: {abort.get('instrument')} at {abort.get('utc')} during "
+                 f"{abort.get('step')}: {abort.get('error')}", size=8.5, style="B")
+    pdf.heading("Statements", 2, keep_with_mm=40)
+    pdf.key_values([
+        ("1. Requirements conformity", statement.requirements
+         + (f" (demonstration requirement(s): {', '.join(statement.demonstration)})"
+            if statement.demonstration else "")),
+        ("2. Model validation (vs the paper)", "; ".join(
+            f"{source}: {decision.upper()}" for source, decision in statement.model.items())
+         or "no model verdict recorded"),
+        ("3. Bench self-check", statement.self_check
+         + (f" ({'; '.join(statement.failed_checks)})" if statement.failed_checks else "")),
+        ("4. Run status and integrity", f"{statement.run}; {statement.integrity}"),
+    ], key_width=56)
+    if content.capture_problems:
+        pdf.bullets([f"INVALID: {problem}" for problem in content.capture_problems[:12]]
+                    + ([f"... and {len(content.capture_problems) - 12} more"]
+                       if len(content.capture_problems) > 12 else []), size=7.5)
+    pdf.para(f"Overall: {statement.overall}" + (f" ({statement.reason})" if statement.reason
+                                                  else ""), size=11, style="B")
+    pdf.para("The results relate only to the item tested, as received, under the conditions "
+             "stated. This report shall not be reproduced except in full.", size=7.5, style="I")
+    authorizer = lab.get("authorizer")
+    pdf.para(f"Authorized by: {authorizer or 'not stated'}"
+             + (f", {lab.get('authorizer_function')}" if lab.get("authorizer_function") else ""),
+             size=8.5)
+    pdf.signature_line("Signature:")
+
+
+def _selection_text(selection: dict) -> str:
+    if not selection:
+        return "not recorded"
+    parts = [f"{selection.get('selected')} of {selection.get('collected')} collected test(s) "
+             f"selected"]
+    if selection.get("deselected"):
+        parts.append(f"{selection['deselected']} deselected")
+    if selection.get("keyword"):
+        parts.append(f"-k {selection['keyword']}")
+    if selection.get("markers"):
+        parts.append(f"-m {selection['markers']}")
+    if selection.get("sources"):
+        parts.append("sources: " + ", ".join(str(s) for s in selection["sources"] if s))
+    return "; ".join(parts)
+
+
+# ---------------------------------------------------------------------- statements in detail
+
+def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
+    record = content.record
+    pdf.add_page()
+    pdf.heading("Requirements")
+    requirements = [(t, r) for t in record.get("tests", []) for r in t.get("requirements") or []]
+    listed = (record.get("requirements") or {}).get("lines") or []
+    if requirements:
+        pdf.grid(["id", "requirement", "point", "measured ± U (k = 2)", "rule", "decision"],
+                 [[r.get("id"), f"{r.get('name')} {r.get('limit_text') or _limit(r)}",
+                   t.get("test_id", "").split("::")[-1],
+                   f"{fmt(r.get('measured'))} ± {fmt(r.get('expanded_uncertainty'), 2)} "
+                   f"{r.get('unit') or ''}", r.get("rule"),
+                   str(r.get("decision", "")).upper()
+                   + (" (demonstration)" if r.get("demonstration") else "")]
+                  for t, r in requirements], widths=(16, 0, 38, 30, 15, 26))
+    else:
+        pdf.para("No requirement was judged." if listed else "No requirements were given for "
+                 "this run (give --requirements SPEC.toml).")
+    judged = {r.get("id") for _, r in requirements}
+    unjudged = [line for line in listed if line.get("id") not in judged]
+    if unjudged:
+        pdf.para("Requirements given but applied to no measured point: " + ", ".join(
+            str(line.get("id")) for line in unjudged), size=7.5)
+    source = record.get("requirements_source") or (record.get("requirements") or {})
+    if source.get("sha256"):
+        pdf.para(f"Requirements file {source.get('path') or source.get('source')}, SHA-256 "
+                 f"{source.get('sha256')}.", size=7)
+
+    pdf.heading("Model validation (measured against the paper's prediction)", 2)
     rows = []
     for section in content.sources:
         counts = {d: sum(p.decision == d for p in section.points)
@@ -146,8 +274,41 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
                      section.statement.upper()])
     pdf.grid(["source", "points", "decisions", "statement"], rows, widths=(38, 14, 0, 36))
     for section in content.sources:
-        pdf.para(f"{section.name}: {STATEMENTS[section.statement]}", size=8)
-    pdf.para(f"Overall: {STATEMENTS[content.overall]}", size=10, style="B")
+        pdf.para(f"{section.name}: {STATEMENTS[section.statement]}", size=7.5)
+
+    pdf.heading("Bench self-check", 2)
+    if content.self_checks:
+        pdf.grid(["check", "measured", "expected", "tolerance", "unit", "result", "detail"],
+                 [[c.get("name"), fmt(c.get("measured")), fmt(c.get("expected")),
+                   fmt(c.get("tolerance")), c.get("unit") or "",
+                   "pass" if c.get("passed") else "FAILED", c.get("detail") or ""]
+                  for c in content.self_checks], widths=(30, 17, 17, 17, 12, 14, 0), size=7)
+    else:
+        pdf.para("No bench self-check was run.")
+    if content.map_cells:
+        pdf.heading("Ripple map (the drive as it is, nothing injected)", 2, keep_with_mm=70)
+        figures.heat_map(pdf, content.map_cells, "pk-pk torque ripple over speed × current")
+    diagnosis = record.get("diagnosis")
+    if diagnosis:
+        try:
+            from reports.diagnosis_section import add_diagnosis_section
+        except ImportError:
+            pdf.para("A diagnosis was recorded, but this installation cannot draw it "
+                     "(reports.diagnosis_section missing).")
+        else:
+            add_diagnosis_section(pdf, diagnosis)
+
+
+def _limit(requirement: dict) -> str:
+    limit = requirement.get("limit") or {}
+    unit = requirement.get("unit") or ""
+    if "min" in limit and "max" in limit:
+        return f"{limit['min']}..{limit['max']} {unit}"
+    if "max" in limit:
+        return f"≤ {limit['max']} {unit}"
+    if "min" in limit:
+        return f"≥ {limit['min']} {unit}"
+    return ""
 
 
 def _outcome_counts(record: dict) -> dict[str, int]:
@@ -277,9 +438,9 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
     pdf.add_page()
     pdf.heading(f"Source: {section.name}")
     pdf.para(f"Statement: {STATEMENTS[section.statement]}", style="B")
-    pdf.svg(figures.sweep_svg(section),
-            "Measured ripple with its expanded uncertainty (k = 2), the paper's prediction and "
-            "the tolerance limits of the decision rule where recorded.")
+    if figures.sweep(pdf, section):
+        pdf.caption("Measured ripple with its expanded uncertainty (k = 2), the paper's "
+                    "prediction and the tolerance limits of the decision rule where recorded.")
     pdf.heading("Points", 2)
     pdf.grid(["injected", "test", "measured", "U (k = 2)", "predicted", "pred. order", "outcome",
               "verdict"],
@@ -308,15 +469,12 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
             switching = view.analysis == "switching"
             what = ("pk-pk of the estimated torque within each PWM period" if switching
                     else "torque")
-            pdf.svg(figures.angle_svg(view.angle_grid_rad, view.revolution_matrix_nm,
-                                      view.sync_average_nm,
-                                      f"{section.name}: {what} against rotor angle",
-                                      ylabel=f"{'within-period pk-pk' if switching else 'torque'}"
-                                             " (N·m)"))
+            figures.angle(pdf, view.angle_grid_rad, view.revolution_matrix_nm,
+                          view.sync_average_nm, f"{section.name}: {what} against rotor angle",
+                          ylabel=f"{'within-period pk-pk' if switching else 'torque'} (N·m)")
         if view.orders is not None and view.amplitude_nm is not None:
-            pdf.svg(figures.spectrum_svg(view.orders, view.amplitude_nm, worst.predicted_order,
-                                         f"{section.name}: order spectrum of the synchronous "
-                                         f"average"))
+            figures.spectrum(pdf, view.orders, view.amplitude_nm, worst.predicted_order,
+                             f"{section.name}: order spectrum of the synchronous average")
         pdf.para(f"Source of the curves: {view.how}.", size=7, style="I")
         if view.mismatch:
             pdf.para(f"Warning: {view.mismatch}", style="B")
@@ -350,8 +508,10 @@ def _budget(pdf: ReportPDF, entry: dict) -> None:
 def _deviations_and_traceability(pdf: ReportPDF, content: ReportContent) -> None:
     record = content.record
     pdf.add_page()
-    pdf.heading("Deviations and disagreements with the paper's assumptions")
+    pdf.heading("Deviations from the method")
     pdf.bullets(content.deviations or ["None."])
+    pdf.heading("Method notes: the models' assumptions and the plans' expectations", 2)
+    pdf.bullets(content.method_notes or ["None."], size=7.5)
     pdf.heading("Traceability: raw captures")
     pdf.para("SHA-256 of each raw capture as written before analysis. The captures and "
              "record.json are attached to this PDF where their size allows (see below).", size=7.5)
@@ -362,11 +522,11 @@ def _deviations_and_traceability(pdf: ReportPDF, content: ReportContent) -> None
     pdf.grid(["test / capture file", "SHA-256"], rows, widths=(0, 96), size=7,
              mono_columns=(1,))
     if content.capture_problems:
-        pdf.para("Capture check found problems: " + "; ".join(content.capture_problems),
-                 style="B")
+        pdf.para("INVALID: integrity check found problems: " + "; ".join(
+            content.capture_problems), style="B")
     else:
-        pdf.para("Capture check: every capture named in the record is present and its SHA-256 "
-                 "matches.")
+        pdf.para("Integrity check: record.json matches its seal, and every capture named in the "
+                 "record is present and its SHA-256 matches.")
 
 
 def _attach(pdf: ReportPDF, content: ReportContent, record_dir: Path, created: datetime) -> None:

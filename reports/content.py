@@ -15,6 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from hil.record import RECORD_FILE
+from reports.revisions import Revision
+from reports.statement import STATUS_TEXT, Statement, overall_statement
 
 #: ILAC-G8 decisions from best to worst; a source's statement is the worst of its points.
 DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
@@ -60,30 +62,77 @@ class ReportContent:
     report_id: str
     partial: bool
     sources: list[SourceSection]
-    overall: str
-    deviations: list[str]
-    capture_problems: list[str]
+    overall: str                    # the overall statement (reports.statement)
+    deviations: list[str]           # real deviations from the method only
+    capture_problems: list[str]     # every integrity problem (seal and captures)
+    statement: Statement | None = None
+    method_notes: list[str] = field(default_factory=list)
+    revision: Revision | None = None
+    map_cells: list[dict] = field(default_factory=list)
+    self_checks: list[dict] = field(default_factory=list)
 
 
-def report_id(record: dict, record_json: bytes) -> str:
-    """Unique and reproducible: the record id plus the first 8 hex digits of record.json's hash."""
-    return f"RHR-{record['record_id']}-{hashlib.sha256(record_json).hexdigest()[:8]}"
+#: Test kinds with their own report section instead of a source sweep.
+OWN_SECTION_KINDS = ("ripple_map", "self_check")
 
 
-def report_content(record: dict, record_dir: Path, capture_problems: list[str]) -> ReportContent:
+def report_id(record: dict, record_json: bytes, revision: int = 1) -> str:
+    """Unique and reproducible: the record id, the first 8 hex digits of record.json's hash and
+    the report revision."""
+    return (f"RHR-{record['record_id']}-{hashlib.sha256(record_json).hexdigest()[:8]}"
+            f"-R{revision}")
+
+
+def report_content(record: dict, record_dir: Path, capture_problems: list[str],
+                   revision: Revision | None = None) -> ReportContent:
+    """What the report states; ``capture_problems``: every integrity problem found."""
     record_json = (Path(record_dir) / RECORD_FILE).read_bytes()
-    partial = record.get("status") != "complete"
+    statement = overall_statement(record, capture_problems)
     groups: dict[str, list[dict]] = {}
     for entry in record.get("tests", []):
+        if entry.get("kind") in OWN_SECTION_KINDS:
+            continue
         groups.setdefault(source_of(entry), []).append(entry)
     sources = [_section(name, entries) for name, entries in groups.items()]
-    overall = worst_decision([s.statement for s in sources]) if sources else NOT_DETERMINED
-    if partial:
-        overall = NOT_DETERMINED
-    return ReportContent(record=record, report_id=report_id(record, record_json), partial=partial,
-                         sources=sources, overall=overall,
+    revision = revision or Revision(1, None, None, None)
+    return ReportContent(record=record, report_id=report_id(record, record_json, revision.number),
+                         partial=record.get("status") != "complete", sources=sources,
+                         overall=statement.overall,
                          deviations=deviations(record, sources, capture_problems),
-                         capture_problems=capture_problems)
+                         capture_problems=capture_problems, statement=statement,
+                         method_notes=method_notes(record, sources), revision=revision,
+                         map_cells=map_cells(record), self_checks=self_checks(record))
+
+
+def map_cells(record: dict) -> list[dict]:
+    """The ripple map's cells: speed, current, pk-pk % of mean and dominant order."""
+    cells = []
+    for entry in record.get("tests", []):
+        if entry.get("kind") != "ripple_map":
+            continue
+        op, measured = entry.get("operating_point") or {}, entry.get("measured") or {}
+        if _number(op.get("speed_rpm")) is None or _number(op.get("current_a")) is None:
+            continue
+        value = _number(measured.get("pk_pk_pu"))
+        cells.append({"speed_rpm": op["speed_rpm"], "current_a": op["current_a"],
+                      "pk_pk_pct": None if value is None else 100 * value,
+                      "order": measured.get("dominant_order"), "outcome": entry.get("outcome"),
+                      "test_id": entry.get("test_id")})
+    return cells
+
+
+def self_checks(record: dict) -> list[dict]:
+    """Every self-check of the run (``{test_id, outcome, name, measured, expected, ...}``)."""
+    rows = []
+    for entry in record.get("tests", []):
+        if entry.get("kind") != "self_check" and not entry.get("checks"):
+            continue
+        for check in entry.get("checks") or [{"name": "(no check recorded)", "passed": False,
+                                              "detail": entry.get("message") or
+                                              entry.get("error") or entry.get("outcome")}]:
+            rows.append({"test_id": entry.get("test_id"), "outcome": entry.get("outcome")}
+                        | check)
+    return rows
 
 
 def source_of(entry: dict) -> str:
@@ -165,17 +214,30 @@ def point_from_entry(entry: dict, swept: list[str],
 
 def deviations(record: dict, sources: list[SourceSection],
                capture_problems: list[str]) -> list[str]:
-    """Everything a reader must be told: partial run, overrides, problems, assumptions, misfits."""
+    """Real deviations from the method only: selection, interruption or abort, calibration
+    override, integrity, tests that errored or did not run (the models' assumptions are method
+    notes, :func:`method_notes`)."""
     out = []
     status = record.get("status")
+    run = record.get("run") or {}
     if status != "complete":
-        out.append(f"PARTIAL RECORD: {status_text(status)}; this report covers only the "
-                   f"{len(record.get('tests', []))} test(s) recorded and makes no overall "
-                   f"statement of conformity.")
+        out.append(f"INCOMPLETE RUN: {status_text(status)}; this report covers only the "
+                   f"{sum(t.get('outcome') != 'not run' for t in record.get('tests', []))} "
+                   f"test(s) that ran and makes no overall statement of conformity.")
+    abort = run.get("abort")
+    if abort:
+        out.append(f"Bench lost: {abort.get('instrument')} at {abort.get('utc')} during "
+                   f"{abort.get('step')}: {abort.get('error')}.")
+    selection = run.get("selection") or {}
+    if selection.get("deselected"):
+        out.append(f"Partial selection: {selection['deselected']} of "
+                   f"{selection.get('collected')} collected point(s) deselected "
+                   f"(-k {selection.get('keyword') or '—'}, -m {selection.get('markers') or '—'}"
+                   f"); command line: {run.get('command_line')}.")
     for item in record.get("pending_captures", []):
         out.append(f"Test '{item.get('test_id')}' was captured ({item.get('file')}, SHA-256 "
                    f"{item.get('sha256')}) but never analysed: the run stopped during that test.")
-    out += [f"Capture check: {problem}" for problem in capture_problems]
+    out += [f"INTEGRITY: {problem}" for problem in capture_problems]
     for override in record.get("calibration_overrides", []):
         out.append(f"Calibration override: {override.get('role')} s/n "
                    f"{override.get('serial_number')} was used past its due date "
@@ -184,6 +246,23 @@ def deviations(record: dict, sources: list[SourceSection],
     for row in record.get("instruments", []):
         for problem in row.get("problems", []):
             out.append(f"Instrument {row.get('role')} s/n {row.get('serial_number')}: {problem}.")
+    if record.get("sim_defects"):
+        out.append("Simulated drive with test-only defects: " + ", ".join(
+            f"{k} = {v}" for k, v in record["sim_defects"].items()) + ".")
+    for test in record.get("tests", []):
+        if test.get("outcome") in ("error", "failed", "xpassed", "not run", "skipped"):
+            reason = test.get("message") or test.get("error") or \
+                "; ".join(test.get("notes") or []) or "no reason recorded"
+            out.append(f"Test '{test.get('test_id')}' {test.get('outcome')}"
+                       f"{' in ' + test['phase'] if test.get('phase') not in (None, 'call') else ''}"
+                       f": {reason}")
+    return out
+
+
+def method_notes(record: dict, sources: list[SourceSection]) -> list[str]:
+    """How the method's models relate to this bench: the paper's assumptions, the plans'
+    expectations, disagreements measured against the paper, a simulated bench."""
+    out = []
     if (record.get("bench") or {}).get("simulated"):
         out.append("The instruments are simulated (hil.sim digital twin behind the real protocol "
                    "stacks). The simulation does not regulate current ideally, as the paper's "
@@ -196,11 +275,7 @@ def deviations(record: dict, sources: list[SourceSection],
                 users = assumptions.setdefault(str(text), [])
                 if section.name not in users:
                     users.append(section.name)
-            if point.outcome in ("error", "skipped"):
-                reason = point.entry.get("error") or "; ".join(point.entry.get("notes") or [])
-                out.append(f"Test '{point.test_id}' ({section.name}) {point.outcome}: "
-                           f"{reason or 'no reason recorded'}.")
-            elif point.decision in ("fail", "conditional fail") and point.measured_pu is not None \
+            if point.decision in ("fail", "conditional fail") and point.measured_pu is not None \
                     and point.predicted_pu is not None:
                 out.append(f"Disagreement with the paper: '{point.test_id}' measured "
                            f"{fmt_pct(point.measured_pu)} against the predicted "
@@ -241,11 +316,8 @@ def _expectations(sources) -> list[str]:
 
 def status_text(status: str | None) -> str:
     """What a record's status means, for a reader."""
-    return {"running": "the run never finished (status 'running': the process stopped before "
-                       "it could close the record)",
-            "interrupted": "the run was interrupted (status 'interrupted')",
-            "failed": "the run stopped on an error (status 'failed')",
-            }.get(status, f"the run's status is '{status}'")
+    text = STATUS_TEXT.get(status, f"unknown status {status!r}")
+    return text if text.startswith(str(status).replace("-", " ")) else f"{status}: {text}"
 
 
 def fmt_pct(value: float | None, digits: int = 2) -> str:

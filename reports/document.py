@@ -1,32 +1,46 @@
-"""The PDF layout (fpdf2): header and footer on every page, sections, tables and vector plots.
+"""The PDF layout (fpdf2): header and footer on every page, sections, tables; plots are drawn
+with fpdf2's primitives (``reports.plot``).
 
-fpdf2 rather than ReportLab: it is installed already, pure Python, imports matplotlib's SVG as
-vector paths, embeds files as PDF/A-3 associated files, replaces the total page count alias, and
-lets us fix the creation date and file ID, so one record always gives the same PDF.
+fpdf2 rather than ReportLab: it is installed already, pure Python, embeds files as PDF/A-3
+associated files, replaces the total page count alias, and lets us fix the creation date and
+file ID, so one record always gives the same PDF. Table cells may break after ``_ / = , [ ( -``
+(a zero-width space is inserted there), never in the middle of a word.
 """
 
 from __future__ import annotations
 
-import io
-import logging
+import importlib.util
+import re
 from datetime import datetime
 from pathlib import Path
 
-import matplotlib
 from fpdf import FPDF
 from fpdf.enums import XPos, YPos
 
 TITLE = "Controller-induced torque ripple: test report"
-_FONT_DIR = Path(matplotlib.get_data_path()) / "fonts" / "ttf"
+# matplotlib's DejaVu fonts, found without importing matplotlib (~0.3 s)
+_FONT_DIR = (Path(importlib.util.find_spec("matplotlib").submodule_search_locations[0])
+             / "mpl-data" / "fonts" / "ttf")
+#: Characters after which a table cell may break a long token (ids, knob names, paths).
+_BREAK_AFTER = re.compile(r"([_/=,\[\-:])(?=\S)")
+#: Tokens longer than this get break opportunities (shorter ones wrap as whole words).
+LONG_TOKEN = 18
+ZERO_WIDTH_SPACE = "\u200b"
+
+
+def breakable(text: str) -> str:
+    """``text`` with a zero-width space after each break opportunity inside long tokens."""
+    return re.sub(r"\S{%d,}" % (LONG_TOKEN + 1),
+                  lambda m: _BREAK_AFTER.sub(lambda b: b.group(1) + ZERO_WIDTH_SPACE, m.group(0)),
+                  text)
 _FONTS = {("sans", ""): "DejaVuSans.ttf", ("sans", "B"): "DejaVuSans-Bold.ttf",
           ("sans", "I"): "DejaVuSans-Oblique.ttf", ("mono", ""): "DejaVuSansMono.ttf"}
-logging.getLogger("fpdf.svg").setLevel(logging.ERROR)
 
 
 class ReportPDF(FPDF):
     """A4 pages with the title, report ID and "Page x of y" on each."""
 
-    def __init__(self, report_id: str, created: datetime, partial: bool) -> None:
+    def __init__(self, report_id: str, created: datetime, partial: bool | str) -> None:
         super().__init__(orientation="P", unit="mm", format="A4",
                          enforce_compliance="PDF/A-3B")
         self.report_id = report_id
@@ -50,8 +64,9 @@ class ReportPDF(FPDF):
         self.set_text_color(80)
         self.set_xy(self.l_margin, 8)
         self.cell(0, 4, TITLE, new_x=XPos.LMARGIN, new_y=YPos.NEXT)
-        self.cell(0, 4, f"Report ID: {self.report_id}"
-                        + ("    PARTIAL RECORD - run not complete" if self.partial else ""))
+        banner = self.partial if isinstance(self.partial, str) else \
+            "PARTIAL RECORD - run not complete" if self.partial else ""
+        self.cell(0, 4, f"Report ID: {self.report_id}" + (f"    {banner}" if banner else ""))
         self.set_draw_color(160)
         self.line(self.l_margin, 17, self.w - self.r_margin, 17)
         self.set_text_color(0)
@@ -120,16 +135,22 @@ class ReportPDF(FPDF):
                         row.cell(str(text))
                         self.set_font("sans", "", size)
                     else:
-                        row.cell(str(text))
+                        row.cell(breakable(str(text)))
         self.ln(2)
 
-    def svg(self, data: bytes | None, caption: str = "") -> None:
-        if data is None:
-            return
-        width = self.w - self.l_margin - self.r_margin
-        self.image(io.BytesIO(data), w=width)
-        if caption:
-            self.para(caption, size=7, style="I")
+    def caption(self, text: str) -> None:
+        self.para(text, size=7, style="I")
+
+    def signature_line(self, label: str) -> None:
+        """``label`` then a line to sign on and a date line."""
+        self.ln(6)
+        self.set_font("sans", "", 8.5)
+        y = self.get_y()
+        self.text(self.l_margin, y, label)
+        self.line(self.l_margin + 60, y + 0.5, self.l_margin + 120, y + 0.5)
+        self.text(self.l_margin + 124, y, "Date:")
+        self.line(self.l_margin + 134, y + 0.5, self.w - self.r_margin, y + 0.5)
+        self.ln(4)
 
 
 def _xmp(report_id: str, created: datetime) -> str:

@@ -1,8 +1,15 @@
-"""``hil report RECORD_DIR -o FILE.pdf``: the PDF test report of a run record."""
+"""``hil report RECORD_DIR [-o FILE.pdf] [--reason TEXT]``: the PDF test report of a run record.
+
+Every hash is checked again first: a record or capture that does not verify makes page 1 say
+INVALID, names the files, and the command exits 1 (the PDF is still written). A report is never
+overwritten: the first report of a record is Rev. 1; a later one is a new revision, needs
+``--reason`` and goes to a new file (default ``RECORD_DIR/report-rev<N>.pdf``).
+"""
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 
@@ -10,35 +17,53 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "report", help="PDF test report of a run record",
         description="Build the PDF report of a record folder (record.json + captures/): "
-                    "statement of conformity, method, instruments, per-source plots and tables, "
-                    "capture hashes; record.json and the captures are attached. Works on a "
-                    "partial (interrupted) record and says so.")
+                    "statements of conformity, method, instruments, per-source plots and tables, "
+                    "integrity check; record.json and the captures are attached. Works on a "
+                    "partial (interrupted) record and says so. Exit 1 if a hash does not verify.")
     parser.add_argument("record_dir", metavar="RECORD_DIR", type=Path,
                         help="record folder (or its record.json)")
     parser.add_argument("-o", "--output", metavar="FILE.pdf", type=Path, default=None,
-                        help="PDF to write (default: RECORD_DIR/report.pdf)")
+                        help="PDF to write; never overwritten (default: RECORD_DIR/report.pdf, "
+                             "report-rev<N>.pdf for a later revision)")
+    parser.add_argument("--reason", metavar="TEXT", default=None,
+                        help="why a new revision is issued (required from Rev. 2 on)")
     parser.add_argument("--json", action="store_true",
-                        help="print one JSON object (pdf, report_id, pages, status, statements)")
+                        help="print one JSON object (pdf, report_id, revision, pages, status, "
+                             "statements, integrity problems)")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from reports import render_report  # matplotlib and fpdf2 load only for this command
+    from hil.errors import InputError
+    from hil.record import load_record
+    from reports import issue_report  # fpdf2 loads only for this command
+    from reports.revisions import issued
 
     record_dir = args.record_dir.parent if args.record_dir.name == "record.json" \
         else args.record_dir
-    output = args.output or record_dir / "report.pdf"
-    rendered = render_report(record_dir)
-    rendered.save(output)
-    content = rendered.content
-    summary = {"pdf": str(output), "report_id": content.report_id, "pages": rendered.pages,
+    load_record(record_dir)                 # an unreadable record: one line, exit 2
+    number = len(issued(record_dir)) + 1
+    output = args.output or record_dir / ("report.pdf" if number == 1
+                                          else f"report-rev{number}.pdf")
+    if output.is_dir():
+        raise InputError(f"-o {str(output)!r} is a folder; give a file name like report.pdf")
+    rendered = issue_report(record_dir, output, reason=args.reason)
+    content, statement = rendered.content, rendered.content.statement
+    summary = {"pdf": str(output), "report_id": content.report_id,
+               "revision": content.revision.number, "pages": rendered.pages,
                "status": content.record.get("status"), "partial": content.partial,
-               "overall": content.overall,
+               "overall": content.overall, "requirements": statement.requirements,
+               "self_check": statement.self_check,
                "sources": {s.name: s.statement for s in content.sources},
-               "capture_problems": content.capture_problems}
+               "integrity_problems": content.capture_problems}
     if args.json:
         print(json.dumps(summary))
     else:
-        print(f"wrote {output}: report {content.report_id}, {rendered.pages} pages, "
-              f"overall {content.overall}{' (PARTIAL record)' if content.partial else ''}")
+        print(f"wrote {output}: report {content.report_id} (Rev. {content.revision.number}), "
+              f"{rendered.pages} pages, overall {content.overall}"
+              + (f" (run {content.record.get('status')})" if content.partial else ""))
+    if content.capture_problems:
+        print(f"hil report: INVALID record: {'; '.join(content.capture_problems)}",
+              file=sys.stderr)
+        return 1
     return 0

@@ -1,7 +1,14 @@
 """``hil run``: run the test plans (simulated bench by default), record, report.
 
 It is ``pytest testplans`` with the ripple-hil plugin's options filled in: a progress bar per
-sweep, a summary table per source at the end, the record folder and the PDF report's path.
+sweep, a summary table per source at the end, the record folder and the PDF report's path. Test
+ids are the same as those of ``pytest testplans`` run from the project folder (same rootdir).
+Third-party pytest plugins other than ripple-hil's and pytest-timeout are not loaded (e.g.
+hypothesis's costs ~1 s of start-up).
+
+Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
+input; 5 nothing collected; 6 the bench could not be opened (nothing was run); 7 the bench was
+lost mid-run (the remaining tests are recorded as not run).
 """
 
 from __future__ import annotations
@@ -22,9 +29,20 @@ def plan_modules() -> dict[str, Path]:
     return {path.stem.removeprefix("test_"): path for path in sorted(folder.glob("test_*.py"))}
 
 
+#: pytest plugins (entry-point names) that ``hil run`` keeps; every other one is not loaded.
+KEPT_PLUGINS = ("ripple_hil", "timeout")
+#: ``hil run`` option → the plugin option it fills in (each also accepted as ``--hil-...``).
+PLUGIN_OPTIONS = {"operator": "--hil-operator",
+                  "allow_expired_calibration": "--hil-allow-expired-calibration",
+                  "customer": "--hil-customer", "authorizer": "--hil-authorizer",
+                  "authorizer_function": "--hil-authorizer-function",
+                  "item_received": "--hil-item-received", "environment": "--hil-environment"}
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser("run", help="run the test plans, record the run, write the report",
-                                   description=__doc__.splitlines()[0])
+                                   description=__doc__.split("\n\n")[0].replace("``", ""),
+                                   epilog=__doc__.split("\n\n")[-1])
     parser.add_argument("--bench", metavar="FILE", help="bench file (default: simulated bench)")
     parser.add_argument("--source", action="append", metavar="NAME",
                         help="run only this source's plan (repeatable); default: all")
@@ -37,6 +55,24 @@ def register(subparsers) -> None:
     parser.add_argument("--requirements", metavar="SPEC.toml",
                         help="the user's ripple requirements, judged on every point they apply "
                              "to (e.g. hil/examples/requirements.toml)")
+    parser.add_argument("--operator", metavar="NAME",
+                        help="who runs the bench (page 1 of the report; needed with "
+                             "--allow-expired-calibration)")
+    parser.add_argument("--allow-expired-calibration", metavar="REASON",
+                        help="run although an instrument is past its calibration due date "
+                             "(recorded with --operator, stated on page 1)")
+    parser.add_argument("--customer", metavar="TEXT", help="customer named on the report")
+    parser.add_argument("--authorizer", metavar="NAME",
+                        help="person authorizing the report (default: the bench file's [lab])")
+    parser.add_argument("--authorizer-function", metavar="TEXT",
+                        help="function of the person authorizing the report")
+    parser.add_argument("--item-received", metavar="YYYY-MM-DD",
+                        help="date the item tested was received")
+    parser.add_argument("--environment", metavar="TEXT",
+                        help="environmental conditions, e.g. '23 °C, 45 %% RH'")
+    parser.add_argument("--sim-defect", action="append", metavar="KEY=VALUE", default=[],
+                        help="test-only defect of the simulated drive (repeatable), e.g. "
+                             "hidden_ia_offset_a=0.5; stated on page 1")
     parser.add_argument("-x", "--exitfirst", action="store_true", help="stop at the first failure")
     parser.add_argument("pytest_args", nargs="*", metavar="PYTEST_ARG",
                         help="extra pytest arguments (after --)")
@@ -55,8 +91,14 @@ def build_pytest_args(args) -> list[str]:
 
         load_bench(args.bench)   # a bad bench file is a one-line error here, before pytest starts
     pytest_args = [str(modules[name]) for name in selected]
-    pytest_args += ["-q", "-p", "no:cacheprovider", "--hil-progress", "--hil-seed", str(args.seed),
-                    "--hil-record", args.record_dir, "--rootdir", str(modules[selected[0]].parent)]
+    pytest_args += ["-q", "-p", "no:cacheprovider", *unrelated_plugins(), "--hil-progress",
+                    "--hil-seed", str(args.seed), "--hil-record", args.record_dir,
+                    "--rootdir", str(modules[selected[0]].parent.parent)]
+    for name, option in PLUGIN_OPTIONS.items():
+        if getattr(args, name, None):
+            pytest_args += [option, getattr(args, name)]
+    for defect in args.sim_defect:
+        pytest_args += ["--hil-sim-defect", defect]
     if args.bench:
         pytest_args += ["--bench", args.bench]
     if not args.no_report:
@@ -69,6 +111,15 @@ def build_pytest_args(args) -> list[str]:
     if args.exitfirst:
         pytest_args.append("-x")
     return pytest_args + list(args.pytest_args)
+
+
+def unrelated_plugins() -> list[str]:
+    """``-p no:NAME`` for every installed pytest plugin that a bench run does not need."""
+    import importlib.metadata
+
+    names = sorted({ep.name for ep in importlib.metadata.entry_points(group="pytest11")}
+                   - set(KEPT_PLUGINS))
+    return [arg for name in names for arg in ("-p", f"no:{name}")]
 
 
 def run(args) -> int:

@@ -327,7 +327,7 @@ def test_hil_report_refuses_a_corrupted_record_on_one_line(small_record, tmp_pat
     if damage == "record-json-truncated":
         record_json.write_text(text[: len(text) // 2])
     elif damage == "record-json-wrong-format":
-        record_json.write_text(text.replace('"ripple-hil-record/1"', '"something-else/9"'))
+        record_json.write_text(text.replace('"ripple-hil-record/2"', '"something-else/9"'))
     elif damage == "record-json-missing":
         record_json.unlink()
     else:
@@ -346,8 +346,8 @@ def test_hil_report_refuses_a_corrupted_record_on_one_line(small_record, tmp_pat
 ])
 def test_hil_report_on_a_record_with_a_damaged_capture_says_so(small_record, tmp_path, capsys,
                                                                damage):
-    """The record is intact, one capture is not: the report is still written and names the
-    problem (its hash check fails) instead of dying."""
+    """The record is intact, one capture is not: the report is still written, names the problem
+    (its hash check fails) and says INVALID; the command exits 1 instead of dying."""
     folder = copy_record(small_record, tmp_path)
     capture = sorted((folder / "captures").glob("*.npz"))[0]
     if damage == "capture-truncated":
@@ -360,8 +360,9 @@ def test_hil_report_on_a_record_with_a_damaged_capture_says_so(small_record, tmp
         capture.unlink()
     code = hil_main(["report", str(folder), "-o", str(tmp_path / "r.pdf"), "--json"])
     out = capsys.readouterr().out
-    assert code == 0
+    assert code == 1
     import json
     summary = json.loads(out)
-    assert any(capture.name in problem for problem in summary["capture_problems"]), summary
+    assert summary["overall"] == "INVALID"
+    assert any(capture.name in problem for problem in summary["integrity_problems"]), summary
     assert (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")

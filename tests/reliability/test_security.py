@@ -179,7 +179,7 @@ def test_code_in_a_record_is_only_text(small_record, tmp_path, capsys):
     data["tests"][0]["notes"] = [code, "{" + code + "}", "%s%s%n"]
     data["tests"][0]["error"] = code
     (folder / "record.json").write_text(json.dumps(data))
-    assert hil_main(["report", str(folder), "-o", str(tmp_path / "r.pdf")]) == 0
+    assert hil_main(["report", str(folder), "-o", str(tmp_path / "r.pdf")]) == 1  # seal broken
     assert not canary.exists()
     text = "".join(page.extract_text() for page in pypdf.PdfReader(tmp_path / "r.pdf").pages)
     assert "__import__" in text                       # shown as text, not run
@@ -235,7 +235,7 @@ def test_report_never_reads_or_attaches_a_file_outside_the_record(small_record, 
     (folder / "record.json").write_text(json.dumps(data))
     problems = verify_captures(folder)
     assert any("outside captures/" in p for p in problems), problems
-    assert hil_main(["report", str(folder), "-o", str(tmp_path / "r.pdf")]) == 0
+    assert hil_main(["report", str(folder), "-o", str(tmp_path / "r.pdf")]) == 1  # seal broken
     reader = pypdf.PdfReader(tmp_path / "r.pdf")
     attached = reader.attachments
     assert "secret.npz" not in " ".join(attached)

@@ -75,16 +75,71 @@ def _measure(prediction, factor, seed: int, bench):
     raise AssertionError(f"could not place a point at {target!r}")
 
 
-def write_record(root: Path, *, partial: bool = False, name: str = "run") -> Path:
+def requirement_verdict(req_id: str, measured: float, limit_max: float, u: float = 0.11,
+                        demonstration: bool = False) -> dict:
+    """A requirement verdict as ``hil.requirements.judge`` records it (record contract), with
+    the ILAC-G8 guarded decision computed from the numbers given."""
+    from hil.analysis.decision import classify
+
+    decision = classify(measured, u, float("-inf"), limit_max)
+    return {"id": req_id, "name": "total ripple", "quantity": "pk_pk_pct", "order": None,
+            "limit": {"max": limit_max}, "limit_text": f"≤ {limit_max} %", "unit": "%",
+            "measured": measured, "expanded_uncertainty": u, "rule": "guarded",
+            "decision": decision, "accepted": decision == "pass",
+            "demonstration": demonstration, "applies_to": f"{SPEED_RPM:g} rpm, {CURRENT_A:g} A"}
+
+
+def self_check_entry(passes: bool) -> dict:
+    """A bench self-check test entry (``hil.selfcheck`` dicts); ``passes=False``: a transducer
+    reading 10 % high."""
+    measured = 1.00 if passes else 1.10
+    return {"test_id": "testplans/test_self_check.py::test_bench_self_check",
+            "source": "self_check", "kind": "self_check",
+            "outcome": "passed" if passes else "failed",
+            "checks": [{"name": "torque scale", "measured": measured, "expected": 1.0,
+                        "unit": "N*m", "tolerance": 0.03, "passed": passes,
+                        "detail": "mean torque vs K_t·I·cos φ"},
+                       {"name": "speed", "measured": 500.1, "expected": 500.0, "unit": "rpm",
+                        "tolerance": 2.5, "passed": True, "detail": "encoder vs dyno"}]}
+
+
+def map_entries() -> list[dict]:
+    """Ripple-map cells over a 2 × 2 grid (pk-pk per unit and dominant order per cell)."""
+    out = []
+    for speed, current, pk_pk, order in ((250.0, 5.0, 0.012, 6), (750.0, 5.0, 0.018, 6),
+                                         (250.0, 20.0, 0.009, 1), (750.0, 20.0, 0.031, 12)):
+        out.append({"test_id": f"testplans/test_ripple_map.py::test_ripple_map[{speed:g}rpm-"
+                               f"{current:g}A]", "source": "ripple_map", "kind": "ripple_map",
+                    "outcome": "passed",
+                    "operating_point": {"speed_rpm": speed, "current_a": current},
+                    "measured": {"pk_pk_pu": pk_pk, "dominant_order": order}})
+    return out
+
+
+def write_record(root: Path, *, partial: bool = False, name: str = "run", extras: bool = False,
+                 self_check_passes: bool = True) -> Path:
     """A record of POINTS (plus a skipped and an errored test). ``partial`` stops after two
-    tests and leaves a captured-but-unanalysed test, as a Ctrl-C during analysis would."""
+    tests and leaves a captured-but-unanalysed test, as a Ctrl-C during analysis would.
+    ``extras`` adds what the lead's plans record: a bench self-check (first), requirement
+    verdicts (one a failing demonstration), ripple-map cells, a run section, lab details and a
+    test-only defect."""
     bench = default_sim_bench()
     rec = RunRecord.create(root, bench, [
         {"role": "drive", "identity": {"vendor_id": 0x00000A1B, "product_code": 402,
                                        "serial_number": "SIM-DRIVE-1",
                                        "firmware_version": "ripple-fw 1.4.2"}},
         {"role": "torque", "identity": {"model": "sim transducer", "serial_number": "SIM-TQ-0001"}}],
-        decision_rule=RULE.__dict__ | {"name": "ILAC-G8, guard band w = U (k = 2)"}, name=name)
+        decision_rule=RULE.__dict__ | {"name": "ILAC-G8, guard band w = U (k = 2)"}, name=name,
+        sections={"run": {"command_line": "hil run --requirements spec.toml", "operator":
+                          "A. Tester", "selection": {"collected": 9, "selected": 9,
+                                                     "deselected": 0, "sources": ["dc_offset"]},
+                          "exit_status": 1},
+                  "lab": {"customer": "ACME Drives GmbH", "authorizer": "Dr. B. Signer",
+                          "authorizer_function": "head of laboratory",
+                          "item_received": "2026-11-20", "environment": "23 °C, 45 % RH"},
+                  "sim_defects": {"hidden_ia_offset_a": 0.5}} if extras else None)
+    if extras:
+        rec.add_test(self_check_entry(self_check_passes))
     op = OperatingPoint(speed_rpm=SPEED_RPM, current_a=CURRENT_A)
     points = POINTS[:2] if partial else POINTS
     for index, (source, knob, value, factor) in enumerate(points):
@@ -92,8 +147,13 @@ def write_record(root: Path, *, partial: bool = False, name: str = "run") -> Pat
         prediction = predict(source, op, **{knob: value})
         capture, result, verdict = _measure(prediction, factor, index, bench)
         rec.save_capture(test_id, capture)
+        requirements = [requirement_verdict("REQ-1", 100 * result.pk_pk_pu, 30.0),
+                        requirement_verdict("REQ-9", 100 * result.pk_pk_pu, 0.5,
+                                            demonstration=True)] \
+            if extras and index == 0 else []
         rec.add_test({
             "test_id": test_id, "nodeid": test_id, "source": source,
+            "kind": "measurement", "requirements": requirements,
             "outcome": "passed" if verdict.guarded_pass else "failed",
             "started_utc": "2026-11-21T05:00:00Z", "finished_utc": "2026-11-21T05:00:05Z",
             "injection": {knob: value}, "operating_point": op.to_dict(),
@@ -104,6 +164,8 @@ def write_record(root: Path, *, partial: bool = False, name: str = "run") -> Pat
         rec.save_capture("testplans/test_dead_time.py::test_dead_time[dead_time_s=1e-06]",
                          synthetic_capture(6, 0.01, 1.0, seed=9))
         return rec.path
+    for entry in map_entries() if extras else []:
+        rec.add_test(entry)
     rec.add_test({"test_id": "testplans/test_encoder.py::test_hall", "source": "encoder",
                   "outcome": "skipped", "notes": ["no Hall sensors fitted"]})
     rec.add_test({"test_id": "testplans/test_word_length.py::test_word_length[8]",

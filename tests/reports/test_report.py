@@ -18,6 +18,7 @@ from hil.record import load_record
 from record_factory import EXPECTED_DECISIONS, POINTS, write_record
 from reports import build_report, render_report
 from reports.content import knob_display, swept_knobs, worst_decision
+from reports.document import ZERO_WIDTH_SPACE, breakable
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +37,9 @@ def full_pdf(full_record, tmp_path_factory) -> Path:
 
 
 def page_texts(pdf: Path) -> list[str]:
-    return [page.extract_text() for page in pypdf.PdfReader(pdf).pages]
+    """Each page's text, without the zero-width spaces that mark break opportunities."""
+    return [page.extract_text().replace(ZERO_WIDTH_SPACE, "")
+            for page in pypdf.PdfReader(pdf).pages]
 
 
 def flat(text: str) -> str:
@@ -56,7 +59,7 @@ def test_every_page_has_report_id_and_page_x_of_y(full_record, full_pdf):
     report_ids = set()
     for number, text in enumerate(pages, start=1):
         assert f"Page {number} of {len(pages)}" in text
-        found = re.findall(r"RHR-\d{8}T\d{6}Z-[0-9a-f]{6}-[0-9a-f]{8}", text)
+        found = re.findall(r"RHR-\d{8}T\d{6}Z-[0-9a-f]{6}-[0-9a-f]{8}-R1", text)
         assert found, f"page {number} has no report ID"
         report_ids.update(found)
     assert len(report_ids) == 1
@@ -65,14 +68,21 @@ def test_every_page_has_report_id_and_page_x_of_y(full_record, full_pdf):
     assert all("End of report" not in text for text in pages[:-1])
 
 
-def test_summary_states_conformity_per_source_and_overall(full_pdf):
-    first = page_texts(full_pdf)[0]
-    assert "Statement of conformity" in first
-    for source, statement in (("dc_offset", "CONDITIONAL PASS"), ("dead_time", "FAIL"),
-                              ("encoder", "NOT DETERMINED"), ("word_length", "NOT DETERMINED")):
-        assert re.search(rf"{source}\s+\d+\s+.*{statement}", first), source
-    assert "Overall: NOT DETERMINED" in first          # an error and a skip leave it open
+def test_page_one_states_the_four_verdicts_apart(full_pdf):
+    first = flat_lines(page_texts(full_pdf)[0])
+    assert "1. Requirements conformity no requirements given" in first
+    assert "2. Model validation (vs the paper) dc_offset: CONDITIONAL PASS; dead_time: FAIL" \
+        in first
+    assert "3. Bench self-check not run" in first
+    assert "4. Run status and integrity complete" in first and "every hash verifies" in first
+    assert "Overall: FAIL (4 test(s) failed or errored)" in first   # never PASS with failures
     assert "SIM-MOTOR-1" in first and "ripple-fw 1.4.2" in first   # item tested, firmware
+    assert "results relate only to the item tested" in first
+    assert "Signature:" in first and "Date:" in first and "Rev. 1" in first
+
+
+def flat_lines(text: str) -> str:
+    return re.sub(r"\s+", " ", text)
 
 
 def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
@@ -89,7 +99,8 @@ def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
             assert test["capture"]["sha256"] in squeezed
     assert record["bench"]["sha256"] in squeezed
     assert record["software"]["packages"]["numpy"] in text
-    assert "every capture named in the record is present and its SHA-256 matches" in text
+    assert "every capture named in the record is present and its SHA-256 matches" in \
+        flat_lines(text)
     assert "SDO abort 0x06090030" in text                # the errored test's reason
     assert "ideal current regulation" in text.lower()     # the paper's assumption, stated
     assert "Uncertainty budget" in text and "contrib.(pu)" in squeezed
@@ -97,10 +108,8 @@ def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
     assert "Warning: analysing the raw capture again" not in text
 
 
-def test_same_record_gives_the_same_pdf(full_record, full_pdf, tmp_path):
-    again = build_report(full_record, tmp_path / "again.pdf")
-    assert page_texts(again) == page_texts(full_pdf)
-    assert again.read_bytes() == full_pdf.read_bytes()
+def test_same_record_and_revision_give_the_same_pdf(full_record, full_pdf):
+    assert render_report(full_record).pdf == full_pdf.read_bytes()
 
 
 def test_page_one_renders(full_pdf, tmp_path):
@@ -137,39 +146,85 @@ def test_partial_record_says_so(partial_record, tmp_path):
     assert record["status"] == "running"
     pdf = build_report(partial_record, tmp_path / "partial.pdf")
     pages = page_texts(pdf)
-    assert all("PARTIAL RECORD" in text for text in pages)
-    text = "\n".join(pages)
+    assert all("INCOMPLETE RUN (running)" in text for text in pages)
+    text = flat_lines("\n".join(pages))
     assert "no overall statement of conformity" in text
-    assert "Overall: NOT DETERMINED" in text
+    assert "Overall: NOT STATED (never finished" in text
     pending = record["pending_captures"][0]
     assert pending["sha256"] in flat(text)
     assert "captured, not analysed" in text and "End of report" in pages[-1]
 
 
-def test_altered_capture_and_disagreeing_reanalysis_are_reported(full_record, tmp_path):
+def test_tampered_record_is_invalid_on_page_one(full_record, tmp_path, capsys):
+    """One byte flipped in a capture, another capture deleted, a verdict edited in record.json:
+    page 1 says INVALID and names the files; hil report and hil verify exit 1."""
+    copy = tmp_path / "copy"
+    shutil.copytree(full_record, copy)
+    (copy / "reports.jsonl").unlink(missing_ok=True)
+    data = json.loads((copy / "record.json").read_text())
+    flipped = copy / data["tests"][0]["capture"]["file"]
+    raw = bytearray(flipped.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    flipped.write_bytes(bytes(raw))
+    deleted = copy / data["tests"][1]["capture"]["file"]
+    deleted.unlink()
+    rendered = render_report(copy)
+    assert rendered.content.overall == "INVALID"
+    first = flat_lines(page_texts(rendered.save(tmp_path / "tampered.pdf"))[0])
+    assert "Overall: INVALID" in first and "INVALID - a hash does not verify" in first
+    assert flipped.name in flat(first) and deleted.name in flat(first)
+    assert main(["verify", str(copy)]) == 1
+    out = capsys.readouterr().out
+    assert "INVALID (2 problem(s))" in out and deleted.name in out
+    assert main(["report", str(copy), "-o", str(tmp_path / "cli.pdf")]) == 1
+    assert "INVALID record" in capsys.readouterr().err
+    # an edited verdict breaks the seal of record.json itself
+    text = (copy / "record.json").read_text().replace('"conditional fail"', '"pass"')
+    (copy / "record.json").write_text(text)
+    assert "changed after the run finished" in render_report(copy).content.capture_problems[0]
+
+
+def test_disagreeing_reanalysis_is_reported(full_record, tmp_path):
+    from hil.record import SEAL_FILE, _sha256_file
+
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
     data = json.loads((copy / "record.json").read_text())
-    target = copy / data["tests"][0]["capture"]["file"]
-    raw = bytearray(target.read_bytes())
-    raw[len(raw) // 2] ^= 0xFF                       # a flipped byte in one raw capture
-    target.write_bytes(bytes(raw))
     worst = max((t for t in data["tests"] if t["source"] == "dead_time"),
                 key=lambda t: t["verdict"]["measured_pk_pk_pu"])
     worst["measured"]["pk_pk_pu"] *= 1.5            # as if another analysis version wrote it
     (copy / "record.json").write_text(json.dumps(data))
-    rendered = render_report(copy)
-    assert len(rendered.content.capture_problems) == 1
-    text = "\n".join(page_texts(rendered.save(tmp_path / "altered.pdf")))
-    assert "Capture check found problems" in text
+    (copy / SEAL_FILE).write_text(f"{_sha256_file(copy / 'record.json')}  record.json\n")
+    text = "\n".join(page_texts(render_report(copy).save(tmp_path / "altered.pdf")))
     assert "Warning: analysing the raw capture again gives pk-pk" in text
+
+
+def test_a_second_report_is_a_new_revision(full_record, tmp_path, capsys):
+    copy = tmp_path / "copy"
+    shutil.copytree(full_record, copy)
+    (copy / "reports.jsonl").unlink(missing_ok=True)
+    assert main(["report", str(copy)]) == 0
+    first = page_texts(copy / "report.pdf")[0]
+    assert main(["report", str(copy)]) == 2                      # no reason: refused
+    assert "give --reason TEXT to issue Rev. 2" in capsys.readouterr().err
+    assert main(["report", str(copy), "-o", str(copy / "report.pdf"), "--reason", "x"]) == 2
+    assert "never overwritten" in capsys.readouterr().err
+    assert main(["report", str(copy), "--reason", "customer address corrected", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["revision"] == 2 and summary["report_id"].endswith("-R2")
+    second = flat_lines(page_texts(Path(summary["pdf"]))[0])
+    assert "Rev. 2" in second and "customer address corrected" in second
+    assert re.search(r"RHR-\S+-R1", first) and "supersedes RHR-" in second
 
 
 def test_cli_writes_the_report(full_record, tmp_path, capsys):
     out = tmp_path / "cli.pdf"
-    assert main(["report", str(full_record), "-o", str(out), "--json"]) == 0
+    copy = tmp_path / "copy"
+    shutil.copytree(full_record, copy)
+    (copy / "reports.jsonl").unlink(missing_ok=True)
+    assert main(["report", str(copy), "-o", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["pdf"] == str(out) and out.is_file()
+    assert summary["pdf"] == str(out) and out.is_file() and summary["overall"] == "FAIL"
     assert summary["sources"] == {"dc_offset": "conditional pass", "dead_time": "fail",
                                   "encoder": "not determined", "word_length": "not determined"}
     assert summary["pages"] == len(page_texts(out))
@@ -202,5 +257,75 @@ def test_a_record_without_any_test_still_gives_a_report(tmp_path):
     record.finish("failed")
     pages = page_texts(build_report(record.path, tmp_path / "empty.pdf"))
     text = "\n".join(pages)
-    assert "PARTIAL RECORD" in text and "status 'failed'" in text.replace("\n", " ")
+    assert "INCOMPLETE RUN (failed)" in text and "internal error" in flat_lines(text)
     assert f"Page {len(pages)} of {len(pages)}" in pages[-1] and "End of report" in pages[-1]
+
+
+@pytest.fixture(scope="module")
+def extras_pdf(tmp_path_factory) -> Path:
+    record = write_record(tmp_path_factory.mktemp("records"), name="extras", extras=True)
+    return build_report(record, tmp_path_factory.mktemp("pdf") / "extras.pdf")
+
+
+def test_page_one_carries_the_17025_content_and_every_statement(extras_pdf):
+    first = flat_lines(page_texts(extras_pdf)[0])
+    assert "SIMULATED DRIVE WITH TEST-ONLY DEFECTS: hidden_ia_offset_a = 0.5" in first
+    assert "Customer ACME Drives GmbH" in first
+    assert "Item received 2026-11-20" in first and "Environment 23 °C, 45 % RH" in first
+    assert "Operator A. Tester (given on the command line)" in first
+    assert "Authorized by: Dr. B. Signer, head of laboratory" in first
+    assert "1. Requirements conformity FAIL: REQ-9" in first and "demonstration" in first
+    assert "3. Bench self-check PASS" in first
+    assert "Command line hil run --requirements spec.toml" in first
+
+
+def test_requirements_map_and_self_check_sections(extras_pdf):
+    text = flat_lines("\n".join(page_texts(extras_pdf)))
+    assert re.search(r"REQ-1 total ripple ≤ 30.0 %.*PASS", text)
+    assert "FAIL (demonstration)" in text
+    assert "torque scale" in text and "pk-pk torque ripple over speed × current" in text
+    assert "3.10 %" in text and "order 12" in text          # a heat-map cell and its order
+
+
+def test_a_failed_self_check_voids_the_other_statements(tmp_path):
+    record = write_record(tmp_path, name="bad-bench", extras=True, self_check_passes=False)
+    first = flat_lines(page_texts(build_report(record, tmp_path / "r.pdf"))[0])
+    assert "3. Bench self-check FAILED: the other verdicts of this run are not stated" in first
+    assert "1. Requirements conformity NOT STATED (bench self-check FAILED)" in first
+    assert "Overall: NOT STATED (bench self-check FAILED)" in first
+
+
+def test_long_tokens_break_only_after_separators():
+    assert breakable("short words stay whole") == "short words stay whole"
+    marked = breakable("test_dc_offset[ia_offset_a=0.2]")
+    assert marked.replace(ZERO_WIDTH_SPACE, "") == "test_dc_offset[ia_offset_a=0.2]"
+    for piece in marked.split(ZERO_WIDTH_SPACE)[:-1]:
+        assert piece[-1] in "_/=,[-:"
+
+
+def test_wide_sweeps_get_a_log_axis_and_spectra_are_in_db(tmp_path):
+    from datetime import datetime, timezone
+
+    from reports import figures
+    from reports.content import Point, SourceSection
+    from reports.document import ReportPDF
+
+    def point(x, measured):
+        return Point(test_id=f"t{x}", outcome="passed", x=x, label=f"d = {x}",
+                     measured_pu=measured, u_pu=measured / 10, predicted_pu=measured,
+                     predicted_order=None, lower_pu=None, upper_pu=None, decision="pass")
+
+    pdf = ReportPDF("RHR-test", datetime(2026, 1, 1, tzinfo=timezone.utc), False)
+    pdf.add_page()
+    hall_beside_encoder = SourceSection("encoder", ["encoder_decimation"],
+                                        [point(1, 0.002), point(10, 0.01), point(100, 0.3)],
+                                        "pass", None)
+    narrow = SourceSection("dc_offset", ["ia_offset_a"], [point(1, 0.02), point(2, 0.04)],
+                           "pass", None)
+    assert figures.sweep(pdf, hall_beside_encoder) and figures.sweep(pdf, narrow)
+    figures.spectrum(pdf, np.arange(0, 13), np.r_[0.0, 1e-4, 0.05, np.full(10, 1e-5)], 2.0,
+                     "spectrum")
+    (tmp_path / "plots.pdf").write_bytes(bytes(pdf.output()))
+    text = page_texts(tmp_path / "plots.pdf")[0]
+    assert text.count("(log axis)") == 1
+    assert "dB re the largest order" in text and "-80" in text
