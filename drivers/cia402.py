@@ -151,6 +151,8 @@ class Cia402Drive:
             variable.raw = value
         with self._lock:
             self._sdo(action, write)
+            if index == 0x6076:
+                self._rated_torque_cache_nm = None   # motor rated torque (rw) changed
 
     def _sdo_variable(self, index: int, subindex: int, action: str):
         node = self._require_node(action)

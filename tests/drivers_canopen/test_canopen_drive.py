@@ -267,3 +267,11 @@ def test_a_drive_without_the_optional_identity_objects_connects(twin, bus_settin
         drive.enable()
         assert twin.enabled
     assert identity == {"vendor": 0, "product": 0x402, "revision": 0x00010000, "serial": 7}
+
+
+def test_writing_the_rated_torque_rescales_the_torque_commands(drive, twin):
+    """0x6076 is rw (CiA 402): the per-mille target torque follows the value written."""
+    drive.sdo_write(0x6076, 0, 2000)                      # 2 N*m rated
+    drive.set_target_torque_nm(1.0)                       # 500 per mille
+    assert drive.sdo_read(0x6071) == 500
+    assert twin.current_command_a == pytest.approx(1.0 / TABLE_I.torque_constant_nm_per_a)
