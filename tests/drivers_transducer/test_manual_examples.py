@@ -163,3 +163,18 @@ def test_silence_is_a_timeout_not_a_reading():
     with ScriptedInstrument({}) as unit, magtrol(unit) as tt:
         with pytest.raises(InstrumentTimeout):
             tt.read()
+
+
+def test_bench_file_baudrate_follows_the_dialect_and_the_record_states_it():
+    from hil.config import default_sim_bench
+    bench = default_sim_bench()
+    assert "baudrate" not in bench.raw["torque"]
+    assert bench.torque.baudrate == 19200 and bench.to_dict()["torque"]["baudrate"] == 19200
+    himmelstein = bench.with_overrides({"torque": {"dialect": "himmelstein"}})
+    assert himmelstein.torque.baudrate == 38400
+    with pytest.raises(InputError, match="torque.baudrate = 115200 is not published for the "
+                                         "magtrol dialect"):
+        bench.with_overrides({"torque": {"baudrate": 115200}})
+    with pytest.raises(InputError, match="torque.baudrate = 19200 .* himmelstein"):
+        bench.with_overrides({"torque": {"dialect": "himmelstein", "baudrate": 19200}})
+    assert bench.with_overrides({"torque": {"baudrate": 300}}).torque.baudrate == 300
