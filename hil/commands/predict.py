@@ -95,8 +95,9 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
     SourceOption("--max-order", "max_order", ("word_length", "pwm_resolution"),
                  "model=derived: highest electrical order the analysis keeps (default 64)", int,
                  1, 10000, kind=int),
-    SourceOption("--modulation", "modulation", ("pwm_switching",),
-                 "svpwm (default, the drive's) or sine, for model=switched_torque", str, kind=str,
+    SourceOption("--modulation", "modulation", ("pwm_switching", "pwm_resolution"),
+                 "svpwm (default, the drive's) or sine, for model=switched_torque "
+                 "(pwm_switching) or derived (pwm_resolution)", str, kind=str,
                  choices=("svpwm", "sine")),
     SourceOption("--model", "model",
                  ("pwm_switching", "dead_time", "pwm_resolution", "word_length"),
