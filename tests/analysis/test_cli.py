@@ -85,7 +85,7 @@ def test_missing_file_and_bad_option(tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
     path = _capture(tmp_path / "c.npz")
     assert main(["analyze", str(path), "--max-order", "0"]) == 2
-    assert "max_order" in capsys.readouterr().err
+    assert "--max-order" in capsys.readouterr().err  # the option, not a Python name
 
 
 def test_json_of_a_single_revolution_has_null_uncertainty(tmp_path, capsys):
