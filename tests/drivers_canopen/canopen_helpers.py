@@ -15,6 +15,10 @@ NON_DEFAULT = {
 }
 
 
+#: Scheduling slack allowed on a loaded machine between a loss and the poll that sees it, s.
+POLL_SLACK_S = 0.05
+
+
 def eventually(predicate, timeout_s: float = 2.0) -> bool:
     """True as soon as ``predicate()`` is, False if it is not within ``timeout_s``."""
     deadline = time.monotonic() + timeout_s

@@ -19,7 +19,7 @@ from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, Ins
                             LimitError)
 from hil.errors import InputError
 from hil.motor import TABLE_I
-from canopen_helpers import NON_DEFAULT, eventually, poll_until_heartbeat_lost
+from canopen_helpers import POLL_SLACK_S, NON_DEFAULT, eventually, poll_until_heartbeat_lost
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(30)]
 
@@ -178,9 +178,9 @@ def test_heartbeat_loss_is_detected_at_the_consumer_time(drive, sim_drive, bus_s
     if last is None:        # the stop came right after a frame: take it from the drive's view
         last = detected - (time.monotonic() - drive._last_heartbeat)
     silence_s = detected - last
-    assert timeout_s - period_s <= silence_s <= timeout_s + period_s + 0.02, silence_s
+    assert timeout_s - period_s <= silence_s <= timeout_s + period_s + POLL_SLACK_S, silence_s
     stated_s = float(re.search(r"for (\d+\.\d+) s", message).group(1))
-    assert stated_s == pytest.approx(silence_s, abs=0.02)
+    assert stated_s == pytest.approx(silence_s, abs=POLL_SLACK_S)
     assert f"consumer time {timeout_s:g} s" in message and "node 5" in message
     with pytest.raises(HeartbeatLost):
         drive.enable()

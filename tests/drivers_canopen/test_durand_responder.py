@@ -16,7 +16,7 @@ import pytest
 from drivers.canopen_eds import injection_objects
 from drivers.cia402 import Cia402Drive
 from drivers.errors import DeviceFault, InjectionRangeError
-from canopen_helpers import NON_DEFAULT, eventually, poll_until_heartbeat_lost
+from canopen_helpers import POLL_SLACK_S, NON_DEFAULT, eventually, poll_until_heartbeat_lost
 from durand_drive import DurandDrive
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
@@ -102,6 +102,6 @@ def test_detects_heartbeat_loss_at_the_consumer_time(driver, responder):
     stopped = time.monotonic()
     detected, message = poll_until_heartbeat_lost(driver)
     # the last heartbeat came at most one period before the stop
-    assert timeout_s - period_s <= detected - stopped <= timeout_s + period_s + 0.02
+    assert timeout_s - period_s <= detected - stopped <= timeout_s + period_s + POLL_SLACK_S
     stated_s = float(re.search(r"for (\d+\.\d+) s", message).group(1))
-    assert timeout_s <= stated_s <= timeout_s + period_s + 0.02
+    assert timeout_s <= stated_s <= timeout_s + period_s + POLL_SLACK_S
