@@ -18,9 +18,10 @@ record of 7.3 revolutions gives 7.
 
 Speed (issue 17): the cumulative integral, its evaluation at the bin edges (a merge of two sorted
 sequences instead of a binary search), the bin averages and their placement in the matrix are one
-compiled pass over the samples (:func:`_bin_averages`); the histogram of angle steps is two
-(:func:`_step_histogram`). Both reproduce the numpy formulation they replaced operation for
-operation, under ``fastmath=False`` (see :mod:`hil.sim.kernel`), so the results are unchanged.
+compiled pass over the samples (:func:`_bin_averages`); the weighted histogram of angle steps
+is two (:func:`_step_range`, :func:`_step_histogram`). They reproduce the numpy formulation
+they replaced operation for operation, under ``fastmath=False`` (see :mod:`hil.sim.kernel`),
+so the results are unchanged bit for bit.
 """
 
 from __future__ import annotations
@@ -88,7 +89,8 @@ def resample_revolutions(travel: TravelAngle, torque_nm: np.ndarray,
 
 @njit(cache=True, error_model="numpy", fastmath=False)
 def _bin_averages(s, torque, offset, first_edge, bin_rad, shift, reverse, matrix):
-    """Fill the revolutions × bins ``matrix`` with ``(1/Δ)∫ τ ds`` over the bins ``[(first_edge + k)·Δ, +Δ)``.
+    """Fill the revolutions × bins ``matrix`` with ``(1/Δ)∫ τ ds`` over the bins
+    ``[(first_edge + k)·Δ, (first_edge + k + 1)·Δ)``.
 
     The integral of the piecewise-linear interpolant ``τ(s)`` runs from ``s[0]`` as a cumulative
     trapezoid sum; at each edge ``e`` (the last one clipped to ``s[-1]``) it is completed by the
@@ -109,8 +111,9 @@ def _bin_averages(s, torque, offset, first_edge, bin_rad, shift, reverse, matrix
         edge = float(first_edge + k) * bin_rad
         if k == total and edge > s[n - 1]:
             edge = s[n - 1]
-        while i < n - 2 and s[i + 1] <= edge:
-            cumulative += 0.5 * ((torque[i + 1] - offset) + (torque[i] - offset)) * (s[i + 1] - s[i])
+        while i < n - 2 and s[i + 1] <= edge:          # the trapezoid of segment i, in order
+            cumulative += (0.5 * ((torque[i + 1] - offset) + (torque[i] - offset))
+                           * (s[i + 1] - s[i]))
             i += 1
         tau = torque[i] - offset
         u = edge - s[i]
