@@ -6,7 +6,8 @@ f = 2^(k/4), k = −24..+8 (1/64 … 4× the file's tolerance). Cost: Σ_p w_p /
 costs in inverse proportion to its width, the file's tolerances costing w_p each (w_p = 1
 unless given). Yield: the passing fraction of a fixed sample of drives (common random numbers:
 the same uniforms u mapped through each candidate's inverse CDFs, so yield differences between
-candidates are not sampling noise).
+candidates are not sampling noise); a candidate reaches the target when the lower end of its
+95 % Wilson interval on that sample does (a margin for the sample's own noise).
 
 Algorithm (greedy marginal cost, a heuristic — no global optimality claimed):
 1. tighten: while yield < target, take one ladder step down on the parameter with the largest
@@ -48,7 +49,8 @@ def toleranced(spec: ToleranceSpec) -> list[str]:
 
 def yield_function(spec: ToleranceSpec, drives: int, seed: int,
                    settings: CombinerSettings) -> Callable[[dict[str, float]], float]:
-    """yield(factors) on a fixed sample of uniforms (common random numbers)."""
+    """The lower end of the 95 % Wilson interval of yield(factors) on a fixed sample of uniforms
+    (common random numbers): a design must reach the target with that margin."""
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2**31,)))
     unit = {name: rng.random(drives) for name in spec.varied}
     limit_pu = spec.requirement.limit_pu
@@ -57,7 +59,7 @@ def yield_function(spec: ToleranceSpec, drives: int, seed: int,
         scaled = spec.with_spreads(factors)
         params = parameters_from_unit(scaled, unit, drives)
         ripple = closed_form_ripple(spec.operating_points, params, drives, settings)
-        return float(np.mean(ripple.max(axis=1) <= limit_pu))
+        return wilson_interval(int(np.count_nonzero(ripple.max(axis=1) <= limit_pu)), drives)[0]
 
     return evaluate
 
@@ -100,7 +102,7 @@ def inverse_design(spec: ToleranceSpec, target_yield: float, *, drives: int = 20
                 gain = at(trial) - current
                 options.append((gain / (cost(trial) - cost(ks)), gain, name, trial))
         if not options:
-            return {"feasible": False, "target_yield": target_yield, "start_yield": start_yield,
+            return {"feasible": False, "target_yield": target_yield, "start_yield_lower95": start_yield,
                     "reason": f"yield {100 * current:.3g} % with every tolerance at 1/"
                               f"{1 / factor(K_MIN):g} of the file's: the fixed parameters or "
                               "the choices alone miss the limit", "steps": steps}
@@ -136,7 +138,7 @@ def inverse_design(spec: ToleranceSpec, target_yield: float, *, drives: int = 20
     design = spec.with_spreads({n: factor(k) for n, k in ks.items()})
     check = _fresh_check(design, check_drives, seed, settings)
     return {
-        "feasible": True, "target_yield": target_yield, "start_yield": start_yield,
+        "feasible": True, "target_yield": target_yield, "start_yield_lower95": start_yield,
         "design_drives": drives, "cost_weights": weights,
         "cost": {"file": cost({n: 0 for n in names}), "design": cost(ks)},
         "algorithm": "greedy marginal cost on a 2^(k/4) ladder with common random numbers "
@@ -146,7 +148,7 @@ def inverse_design(spec: ToleranceSpec, target_yield: float, *, drives: int = 20
                            "design_spread": design.parameters[n].spread,
                            "spread_kind": "sigma" if isinstance(spec.parameters[n], Normal)
                            else "half_width"} for n in names},
-        "design_yield_on_design_sample": current, "check": check, "alone": alone, "steps": steps}
+        "design_yield_lower95_on_design_sample": current, "check": check, "alone": alone, "steps": steps}
 
 
 def _loosest_alone(yield_at: Callable[[int], float], target: float) -> int | None:
