@@ -204,16 +204,16 @@ def _alias_probe(spectra, params, signatures, fit_orders, setup, class_pct, p, m
     a = np.concatenate([problem.jacobian.real, problem.jacobian.imag]) / \
         np.concatenate([problem.sigma, problem.sigma])[:, None]
     _, weak, _, _, _ = identifiability(a, problem.names)
-    out = []
-    for w in weak:
-        names = list(w["combination"])
-        if any(n.startswith(f"cogging_m{p}_") for n in names):
-            out.append({"assumed_absent": f"motor-side torque fixed in the rotor angle at "
-                                          f"mechanical order {p} (electrical 1), e.g. cogging",
-                        "parameters": names,
-                        "consequence": "the order-1 torque is attributed to the sensor offsets",
-                        "separate_by": _separate_by(names, all_params)})
-    return out
+    names = sorted({n for w in weak for n in w["combination"]
+                    if any(m.startswith(f"cogging_m{p}_") for m in w["combination"])},
+                   key=problem.names.index)
+    if not names:
+        return []
+    return [{"assumed_absent": f"motor-side torque fixed in the rotor angle at mechanical order "
+                               f"{p} (electrical 1), e.g. cogging",
+             "parameters": names,
+             "consequence": "the order-1 torque is attributed to the sensor offsets",
+             "separate_by": _separate_by(names, all_params)}]
 
 
 def _unexplained(problem, result, spectra, fit_orders, p) -> list[dict]:

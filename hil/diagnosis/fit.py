@@ -13,7 +13,8 @@ point, so averaging points does not reduce it): see :func:`_systematic_covarianc
 Identifiability: columns of the weighted Jacobian are scaled to unit norm; a singular value below
 :data:`WEAK_SINGULAR_VALUE` of the largest marks a parameter combination these observations cannot
 determine (its right singular vector); parameters with a loading above :data:`WEAK_LOADING` in such
-a direction are reported as not identifiable and left out of the solution (truncated SVD).
+a direction are reported as not identifiable; the solution leaves that direction out (truncated
+SVD), so the torque they share is still fitted (minimum-norm) and the rest stays determined.
 """
 
 from __future__ import annotations
@@ -22,8 +23,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: Relative singular value below which a parameter combination counts as not determined.
-WEAK_SINGULAR_VALUE = 1e-3
+#: Relative singular value below which a parameter combination counts as not determined: with
+#: unit-norm columns, signatures that differ by less than ~5 % across the points are told apart
+#: only by the loop and transducer corrections (a few % of a signature, themselves uncertain by
+#: a fifth: hil.diagnosis.parameters), so such a separation is not trusted.
+WEAK_SINGULAR_VALUE = 0.05
 #: Loading of a parameter in a weak direction above which it is reported as not identifiable.
 WEAK_LOADING = 0.1
 MODEL_WEIGHT_ITERATIONS = 4
@@ -56,7 +60,7 @@ class FitResult:
     condition_number: float
     residual: np.ndarray                 # complex, per observation row
     sigma_total: np.ndarray              # per component, per observation row
-    fitted_contributions: np.ndarray     # complex n×p: J·p (zero where not identifiable)
+    fitted_contributions: np.ndarray     # complex n×p: J·p of the solution (weak directions: min-norm)
 
     def standard_uncertainty(self) -> np.ndarray:
         return np.sqrt(np.diag(self.covariance))
@@ -101,42 +105,44 @@ def identifiability(weighted: np.ndarray, names: list[str]):
     return s_rel, weak, identifiable, norms, condition
 
 
-def _solve(a: np.ndarray, b: np.ndarray, keep: np.ndarray):
-    p = np.full(a.shape[1], np.nan)
-    cov = np.full((a.shape[1], a.shape[1]), np.nan)
-    if keep.any():
-        sub = a[:, keep]
-        norms = np.linalg.norm(sub, axis=0)
-        scaled = sub / norms
-        solution, *_ = np.linalg.lstsq(scaled, b, rcond=None)
-        p[keep] = solution / norms
-        inverse = np.linalg.pinv(scaled.T @ scaled)
-        cov[np.ix_(keep, keep)] = inverse / np.outer(norms, norms)
-    return p, cov
+def _solve(a: np.ndarray, b: np.ndarray, live: np.ndarray):
+    """Truncated-SVD least squares over the ``live`` columns (column-scaled): directions with a
+    relative singular value below :data:`WEAK_SINGULAR_VALUE` are left out, so a combination the
+    data cannot determine gets its minimum-norm share (its torque is still accounted for) without
+    blowing up the rest. Returns (solution, covariance, operator M with solution = M·b, rank)."""
+    size = a.shape[1]
+    x = np.zeros(size)
+    cov = np.zeros((size, size))
+    operator = np.zeros((size, a.shape[0]))
+    if not live.any():
+        return x, cov, operator, 0
+    sub = a[:, live]
+    norms = np.linalg.norm(sub, axis=0)
+    u, s, vt = np.linalg.svd(sub / norms, full_matrices=False)
+    kept = s >= WEAK_SINGULAR_VALUE * s[0]
+    v = vt[kept].T / norms[:, None]
+    m = v @ (u[:, kept].T / s[kept][:, None])
+    operator[live] = m
+    x = operator @ b
+    cov[np.ix_(live, live)] = (v / s[kept] ** 2) @ v.T
+    return x, cov, operator, int(kept.sum())
 
 
-def _systematic_covariance(problem: LinearProblem, p: np.ndarray, keep: np.ndarray,
+def _systematic_covariance(problem: LinearProblem, p: np.ndarray, operator: np.ndarray,
                            sigma_total: np.ndarray) -> np.ndarray:
     """Covariance of the estimates from each source's model error taken as *common* to all
     points (a relative error ε_j of its signature, complex: scale and phase, each of standard
     uncertainty u_rel/√2): the sensitivity of the estimates to ε_j, times its variance."""
     size = len(problem.names)
     cov = np.zeros((size, size))
-    if not keep.any():
-        return cov
-    a, _ = _real_system(problem, sigma_total)
-    a = a[:, keep]
-    normal_inverse = np.linalg.pinv(a.T @ a)
     weights = np.concatenate([sigma_total, sigma_total])
-    for j in np.flatnonzero(keep):
+    for j in range(size):
         error = problem.model_rel[:, j] * problem.jacobian[:, j] * p[j]
         if not np.any(error):
             continue
         for part in (error, 1j * error):
-            shift = normal_inverse @ (a.T @ (np.concatenate([part.real, part.imag]) / weights))
-            full = np.zeros(size)
-            full[keep] = shift
-            cov += 0.5 * np.outer(full, full)
+            shift = operator @ (np.concatenate([part.real, part.imag]) / weights)
+            cov += 0.5 * np.outer(shift, shift)
     return cov
 
 
@@ -144,25 +150,29 @@ def fit(problem: LinearProblem) -> FitResult:
     """Solve ``problem`` (module docstring)."""
     sigma_total = problem.sigma.copy()
     a, _ = _real_system(problem, sigma_total)
-    s_rel, weak, keep, _, condition = identifiability(a, problem.names)
-    p = np.zeros(len(problem.names))
+    s_rel, weak, keep, norms, condition = identifiability(a, problem.names)
+    live = norms > 0
     for _ in range(MODEL_WEIGHT_ITERATIONS):
         a, b = _real_system(problem, sigma_total)
-        p, cov = _solve(a, b, keep)
-        contributions = problem.jacobian * np.where(keep, p, 0.0)[None, :]
+        x, cov, operator, rank = _solve(a, b, live)
+        contributions = problem.jacobian * x[None, :]
         model_var = 0.5 * np.sum((problem.model_rel * np.abs(contributions)) ** 2, axis=1)
         sigma_total = np.sqrt(problem.sigma ** 2 + model_var)
     a, b = _real_system(problem, sigma_total)
-    p, cov = _solve(a, b, keep)
-    contributions = problem.jacobian * np.where(keep, p, 0.0)[None, :]
+    x, cov, operator, rank = _solve(a, b, live)
+    contributions = problem.jacobian * x[None, :]
     residual = problem.y - contributions.sum(axis=1)
     chi2 = float(np.sum((residual.real / sigma_total) ** 2 + (residual.imag / sigma_total) ** 2))
-    dof = 2 * len(problem.y) - int(keep.sum())
+    dof = 2 * len(problem.y) - rank
     birge = chi2 / dof if dof > 0 else float("nan")
     if dof > 0 and birge > 1.0:
         cov = cov * birge
-    cov = cov + _systematic_covariance(problem, p, keep, sigma_total)
-    return FitResult(names=list(problem.names), estimate=p, covariance=cov, identifiable=keep,
-                     chi2=chi2, dof=dof, birge_ratio=birge, singular_values_rel=s_rel,
-                     weak_directions=weak, condition_number=condition, residual=residual,
-                     sigma_total=sigma_total, fitted_contributions=contributions)
+    cov = cov + _systematic_covariance(problem, x, operator, sigma_total)
+    estimate = np.where(keep, x, np.nan)
+    cov[~keep, :] = np.nan
+    cov[:, ~keep] = np.nan
+    return FitResult(names=list(problem.names), estimate=estimate, covariance=cov,
+                     identifiable=keep, chi2=chi2, dof=dof, birge_ratio=birge,
+                     singular_values_rel=s_rel, weak_directions=weak,
+                     condition_number=condition, residual=residual, sigma_total=sigma_total,
+                     fitted_contributions=contributions)

@@ -104,13 +104,18 @@ def transducer_response(mech_order: int, speed_rpm: float, setup: DriveSetup) ->
     return 1.0 / (1.0 + 1j * frequency_hz / setup.transducer_bandwidth_hz)
 
 
-def electrical_grid() -> np.ndarray:
-    return np.arange(GRID_POINTS) * (2 * math.pi / GRID_POINTS)
+#: Grid for the dead-time model, whose harmonic series runs to n = 601 (no aliasing below 1024).
+DEAD_TIME_GRID_POINTS = 2048
+
+
+def electrical_grid(points: int = GRID_POINTS) -> np.ndarray:
+    return np.arange(points) * (2 * math.pi / points)
 
 
 def waveform_orders(torque_nm: np.ndarray) -> np.ndarray:
-    """c_k (k = 0..GRID/2 − 1) with τ(θ) = Re Σ c_k e^{jkθ} of a waveform on the electrical grid."""
-    spectrum = np.fft.rfft(torque_nm) / GRID_POINTS
+    """c_k (k = 0..GRID/2 − 1) with τ(θ) = Re Σ c_k e^{jkθ} of a waveform on an electrical grid
+    (``torque_nm.size`` points; orders above GRID/2 − 1 of the default grid are dropped)."""
+    spectrum = np.fft.rfft(torque_nm) / torque_nm.size
     spectrum[1:] *= 2.0
     return spectrum[: GRID_POINTS // 2]
 
@@ -163,7 +168,7 @@ def gain_sum_orders(op: OperatingPoint, setup: DriveSetup) -> np.ndarray:
 def dead_time_orders(op: OperatingPoint, setup: DriveSetup) -> np.ndarray:
     """Torque coefficients per microsecond of effective dead time (average-voltage model with the
     bench's loop; hil.model.dead_time)."""
-    theta = electrical_grid()
+    theta = electrical_grid(DEAD_TIME_GRID_POINTS)
     torque_pu = average_model_torque_pu(theta, op, 1e-6, setup.pwm_frequency_hz,
                                         setup.current_loop_bandwidth_hz,
                                         setup.current_loop_delay_s)
