@@ -52,7 +52,7 @@ def test_magtrol_answer_round_trip(speed, torque, direction, noise):
 
 
 def himmelstein() -> HimmelsteinDialect:
-    dialect = HimmelsteinDialect()
+    dialect = HimmelsteinDialect(timestamped=True)   # the YC time-stamp mode (assumed layout)
     dialect.scale_pos_lbf_in = dialect.scale_neg_lbf_in = 5.0 / LBF_IN_NM / 30000
     return dialect
 
