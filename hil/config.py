@@ -31,7 +31,7 @@ from typing import Any, NoReturn
 import can
 
 from hil.errors import InputError
-from hil.motor import MotorParameters
+from hil.motor import KE_DEFINITIONS, MotorParameters
 
 #: python-can interface names accepted in ``drive.interface``.
 CAN_INTERFACES: tuple[str, ...] = tuple(sorted(can.interfaces.VALID_INTERFACES))
@@ -575,8 +575,9 @@ def _parse_motor(table: Any, ctx: _Context) -> tuple[MotorParameters, MotorIdent
     values = {}
     for f in fields(MotorParameters):
         if f.name in table:
-            kind = "int" if isinstance(f.default, int) else "float"
-            values[f.name] = _coerce(_Spec(kind), table[f.name], f"motor.{f.name}", ctx)
+            spec = (_Spec("str", choices=tuple(KE_DEFINITIONS)) if f.name == "ke_definition"
+                    else _Spec("int" if isinstance(f.default, int) else "float"))
+            values[f.name] = _coerce(spec, table[f.name], f"motor.{f.name}", ctx)
     try:
         motor = MotorParameters(**values)
     except ValueError as exc:

@@ -4,11 +4,14 @@ Conventions (all sources): rotor electrical angle θ with phase-a back EMF e_a =
 (paper eq 1, E the peak phase EMF = sqrt(2)·Ke·ω_m); ideal phase currents i_a = I·sin(θ − φ)
 (eq 4, I the peak phase current, φ the lag of the current behind the EMF). The torque is
 T = Σ e_x·i_x / ω_m (eq 7), whose mean for ideal currents is (3/2)·E·I·cos φ / ω_m =
-(3/2)·sqrt(2)·Ke·I·cos φ — finite at standstill, so no division by ω_m is ever needed.
+K_t·I·cos φ — finite at standstill, so no division by ω_m is ever needed. E/ω_m follows from Ke
+and its stated definition (``hil.motor.MotorParameters``). A point that needs more than V_dc/√3
+of phase voltage (SVPWM's linear limit) is refused.
 """
 
 from __future__ import annotations
 
+import cmath
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -50,7 +53,10 @@ class OperatingPoint:
     """Where a prediction is made: dyno speed, peak phase-current amplitude, current angle φ.
 
     ``current_angle_rad`` φ is the lag of the current behind the back EMF (paper eq 4).
-    ``dc_bus_v`` defaults to the motor's (Table I: 12 V).
+    ``dc_bus_v`` defaults to the motor's (Table I: 12 V). A point needing more phase voltage than
+    V_dc/√3 (SVPWM's linear limit) is refused: the current is not regulated there and no closed
+    form applies. ``allow_beyond_voltage_limit=True`` accepts it, for studies of what a drive does
+    there (the predictions' assumptions then do not hold).
     """
 
     speed_rpm: float
@@ -58,6 +64,7 @@ class OperatingPoint:
     current_angle_rad: float = 0.0
     motor: MotorParameters = TABLE_I
     dc_bus_v: float | None = None
+    allow_beyond_voltage_limit: bool = False
 
     def __post_init__(self) -> None:
         check_range("speed_rpm", self.speed_rpm, *SPEED_RANGE_RPM, unit=" rpm")
@@ -73,6 +80,43 @@ class OperatingPoint:
         object.__setattr__(self, "current_a", float(self.current_a))
         object.__setattr__(self, "current_angle_rad", float(self.current_angle_rad))
         object.__setattr__(self, "dc_bus_v", float(self.dc_bus_v))
+        self._check_voltage_limit()
+
+    def _check_voltage_limit(self) -> None:
+        """Refuse a point the drive cannot reach: |V| > V_dc/√3, SVPWM's linear limit."""
+        needed = abs(self.voltage_phasor_peak_v)
+        limit = self.dc_bus_v / math.sqrt(3.0)
+        if needed <= limit * (1 + 1e-12) or self.allow_beyond_voltage_limit:
+            return
+        raise InputError(
+            f"speed_rpm={self.speed_rpm:g} with current_a={self.current_a:g} at "
+            f"{math.degrees(self.current_angle_rad):g}° needs a {needed:.3g} V peak phase voltage, "
+            f"beyond the {limit:.3g} V (V_dc/√3, SVPWM) of the {self.dc_bus_v:g} V bus with Ke "
+            f"read as {self.motor.ke_definition} (allowed: |speed_rpm| <= "
+            f"{self.voltage_limited_speed_rpm():.0f} at this current)")
+
+    def voltage_limited_speed_rpm(self) -> float:
+        """Highest |speed| at which this current and angle stay within V_dc/√3 (SVPWM)."""
+        motor = self.motor
+        current = self.current_a * cmath.exp(-1j * self.current_angle_rad)
+        # V(ω_m) = a·ω_m + b: EMF and reactance grow with speed, the resistive drop does not
+        a = motor.emf_peak_v_s_per_rad + 1j * motor.pole_pairs * motor.phase_inductance_h * current
+        b = motor.phase_resistance_ohm * current
+        limit = self.dc_bus_v / math.sqrt(3.0)
+        qa, qb, qc = abs(a) ** 2, 2 * (a * b.conjugate()).real, abs(b) ** 2 - limit ** 2
+        if qc > 0:
+            return 0.0
+        omega = (-qb + math.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa)
+        return omega * 60.0 / (2.0 * math.pi)
+
+    @property
+    def voltage_phasor_peak_v(self) -> complex:
+        """Peak phase-voltage phasor, angle from the EMF, that drives the current I∠−φ in steady
+        state: V = E + (R + j·ω_e·L)·I·e^(−jφ) (the circuit of eq 27, peak values)."""
+        motor = self.motor
+        current = self.current_a * cmath.exp(-1j * self.current_angle_rad)
+        reactance = abs(self.elec_speed_rad_s) * motor.phase_inductance_h
+        return self.emf_peak_v + complex(motor.phase_resistance_ohm, reactance) * current
 
     @property
     def mech_speed_rad_s(self) -> float:
@@ -84,7 +128,7 @@ class OperatingPoint:
 
     @property
     def emf_peak_v(self) -> float:
-        """Peak phase back EMF E = sqrt(2)·Ke·|ω_m| (eq 1)."""
+        """Peak phase back EMF E = |ω_m| times the motor's peak EMF constant (eq 1)."""
         return self.motor.emf_peak_v_s_per_rad * abs(self.mech_speed_rad_s)
 
     @property

@@ -1,6 +1,7 @@
 """Finite PWM pulse-width resolution (paper section III-D, eqs 27-28).
 
-Steady state in RMS phasors (EMF E = Ke·ω_m real, reactance X_s = ω_e·L_s): the current is
+Steady state in RMS phasors (EMF E = Ke·ω_m real, Ke the RMS phase EMF constant
+``emf_rms_v_s_per_rad`` whatever the nameplate's definition; reactance X_s = ω_e·L_s): the current is
 (V∠δ − E)/(R + jX_s) and the torque 3·E·Re(I)/ω_m is eq 27,
 T = 3·Ke·[(V·cos δ − Ke·ω_m)·R + X_s·V·sin δ]/(R² + X_s²). A voltage step ΔV (the "hysteresis
 band" of the duty register) at fixed δ moves the torque by ∂T/∂V·ΔV, so (eq 28)
@@ -70,17 +71,13 @@ MAX_REVOLUTIONS = 64
 
 def voltage_phasor(op: OperatingPoint) -> complex:
     """RMS phase-voltage phasor V∠δ (δ from the EMF) that drives I∠−φ at the operating point."""
-    motor = op.motor
-    emf = motor.ke_v_s_per_rad * abs(op.mech_speed_rad_s)
-    reactance = abs(op.elec_speed_rad_s) * motor.phase_inductance_h
-    current = op.current_a / math.sqrt(2.0) * cmath.exp(-1j * op.current_angle_rad)
-    return emf + complex(motor.phase_resistance_ohm, reactance) * current
+    return op.voltage_phasor_peak_v / math.sqrt(2.0)
 
 
 def eq27_torque_nm(op: OperatingPoint, voltage_rms_v: float, delta_rad: float) -> float:
     """Eq 27: steady-state torque for RMS phase voltage V at angle δ ahead of the EMF."""
     motor = op.motor
-    r, ke = motor.phase_resistance_ohm, motor.ke_v_s_per_rad
+    r, ke = motor.phase_resistance_ohm, motor.emf_rms_v_s_per_rad
     x = abs(op.elec_speed_rad_s) * motor.phase_inductance_h
     emf = ke * abs(op.mech_speed_rad_s)
     return 3.0 * ke * ((voltage_rms_v * math.cos(delta_rad) - emf) * r
@@ -94,7 +91,7 @@ def sensitivity(op: OperatingPoint) -> float:
     x = abs(op.elec_speed_rad_s) * motor.phase_inductance_h
     phasor = voltage_phasor(op)
     v, delta = abs(phasor), cmath.phase(phasor)
-    emf = motor.ke_v_s_per_rad * abs(op.mech_speed_rad_s)
+    emf = motor.emf_rms_v_s_per_rad * abs(op.mech_speed_rad_s)
     return (math.cos(delta) * r + x * math.sin(delta)) / (
         (math.cos(delta) - emf / v) * r + x * math.sin(delta))
 

@@ -119,9 +119,12 @@ def test_pwm_resolution_derived_excludes_a_drive_that_ignores_the_injection():
 
 
 def test_pwm_resolution_derived_refuses_the_voltage_limit():
-    with pytest.raises(InputError, match="linear range"):
-        predict("pwm_resolution", OperatingPoint(speed_rpm=1500, current_a=40.0),
-                pwm_period_counts=32, model="derived", **LOOP)
+    with pytest.raises(InputError, match="V_dc/√3"):  # the point itself: beyond SVPWM's range
+        OperatingPoint(speed_rpm=1500, current_a=40.0)
+    within_svpwm = OperatingPoint(speed_rpm=1200, current_a=40.0)  # 6.3 V: above V_dc/2
+    with pytest.raises(InputError, match="sine linear range"):
+        predict("pwm_resolution", within_svpwm, pwm_period_counts=32, model="derived",
+                modulation="sine", **LOOP)
     with pytest.raises(InputError, match="current_loop_bandwidth_hz"):
         predict("pwm_resolution", PLAN_POINT, pwm_period_counts=32, model="derived")
 
