@@ -166,7 +166,8 @@ def run_campaign(task: Task, chunks: Sequence[Any], folder: str | Path, *,
 
 def _run_on_dask(client: Any, task: Task, specs: list, pending: list[int], seed: int,
                  finish: Callable[[int, dict, float], None]) -> None:
-    """Submit the pending chunks, write each as it completes; cancel the rest on any exit."""
+    """Submit the pending chunks, write each as it completes; on any exit cancel every future,
+    so nothing of the campaign stays on the cluster (even while a traceback holds this frame)."""
     from distributed import as_completed
 
     futures = {}
@@ -178,7 +179,7 @@ def _run_on_dask(client: Any, task: Task, specs: list, pending: list[int], seed:
         for future in as_completed(list(futures)):
             arrays, seconds = future.result()
             finish(futures[future], arrays, seconds)
-    finally:
-        unfinished = [f for f in futures if not f.done()]
-        if unfinished:
-            client.cancel(unfinished)
+    finally:  # pending ones stop; finished ones (already written) release their memory
+        if futures:
+            client.cancel(list(futures))
+        futures.clear()

@@ -102,7 +102,8 @@ def inverse_design(spec: ToleranceSpec, target_yield: float, *, drives: int = 20
                 gain = at(trial) - current
                 options.append((gain / (cost(trial) - cost(ks)), gain, name, trial))
         if not options:
-            return {"feasible": False, "target_yield": target_yield, "start_yield_lower95": start_yield,
+            return {"feasible": False, "target_yield": target_yield,
+                    "start_yield_lower95": start_yield,
                     "reason": f"yield {100 * current:.3g} % with every tolerance at 1/"
                               f"{1 / factor(K_MIN):g} of the file's: the fixed parameters or "
                               "the choices alone miss the limit", "steps": steps}
