@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hil.sim import DriveConfig, Injection, simulate
+from hil.motor import MotorParameters
+from hil.sim import DriveConfig, Injection, MotorModel, simulate
 from hil.sim.diagnostics import period_trace
 from hil.sim.validity import duty_headroom
 
@@ -22,11 +23,13 @@ POINTS = {  # (speed rpm, current A): dead times, µs
     (1000.0, 20.78): (2.0, 2.5, 2.75, 3.0, 3.5, 4.0),
 }
 SETTLE_S = 0.05
+#: Table I with Ke read as RMS phase EMF, the reading the cliffs were reported with
+MOTOR = MotorModel(parameters=MotorParameters(ke_definition="rms_phase"))
 REVS = 2
 
 
 def row(speed_rpm: float, current_a: float, dead_time_us: float) -> str:
-    config = DriveConfig(current_command_a=current_a, speed_rpm=speed_rpm,
+    config = DriveConfig(motor=MOTOR, current_command_a=current_a, speed_rpm=speed_rpm,
                          injection=Injection(dead_time_s=dead_time_us * 1e-6))
     duration = REVS / (2.0 * speed_rpm / 60.0)
     trace = period_trace(config, SETTLE_S, duration)

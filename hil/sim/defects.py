@@ -28,13 +28,19 @@ _INTEGER_KNOBS = ("encoder_decimation", "pwm_period_counts")
 class DriveDefects:
     """Test-only defects of the simulated bench (mutation testing); a real bench has none."""
 
-    ignore_injection: tuple[str, ...] = ()  # knob names, or ("*",): acknowledged and read back, never applied
-    injection_scale: float = 1.0            # applied numeric injections x this (read-back shows the commanded value)
-    hidden_ia_offset_a: float = 0.0         # current-sensor offsets present with nothing injected, A
+    #: knob names, or ("*",): acknowledged and read back, never applied
+    ignore_injection: tuple[str, ...] = ()
+    #: applied numeric injections x this (read-back shows the commanded value)
+    injection_scale: float = 1.0
+    #: current-sensor offsets present with nothing injected, A
+    hidden_ia_offset_a: float = 0.0
     hidden_ib_offset_a: float = 0.0
-    word_length_offset_bits: int = 0        # firmware runs with (injected word length + this) bits
-    transducer_scale: float = 1.0           # torque transducer reading (and the DAQ torque channel) x this
-    daq_drop_every_nth: int = 0             # simulated DAQ silently drops every n-th sample (0 = never)
+    #: firmware runs with (injected word length + this) bits
+    word_length_offset_bits: int = 0
+    #: torque transducer reading (and the DAQ torque channel) x this
+    transducer_scale: float = 1.0
+    #: simulated DAQ silently drops every n-th sample (0 = never)
+    daq_drop_every_nth: int = 0
 
     def __post_init__(self) -> None:
         if isinstance(self.ignore_injection, (list, str)):
@@ -82,7 +88,7 @@ class DriveDefects:
         return bool(self.to_dict())
 
     def describe(self) -> str:
-        """One line for a record or report page: ``"injection_scale=1.2, daq_drop_every_nth=10"``."""
+        """One line for a record or report: ``"injection_scale=1.2, daq_drop_every_nth=10"``."""
         return ", ".join(f"{key}={','.join(value) if isinstance(value, list) else value}"
                          for key, value in self.to_dict().items())
 

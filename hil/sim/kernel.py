@@ -3,9 +3,9 @@
 Per period: the dyno sets the speed; the firmware runs at the counter valley and latches compare
 values for the *next* period (``FirmwareModel.delay_periods`` = 1; with 0 they apply in the same
 period; with 0.5 or 1.5 the firmware samples at the counter peak, on the exact current there, and
-its values apply from the next valley or the one after); the three legs' gate states (centre-aligned, edges exactly where the
-up/down counter meets the compare value, dead time after every edge) cut the period into at most
-13 segments of constant gate state; in each the currents follow the exact solution of
+its values apply from the next valley or the one after); the three legs' gate states
+(centre-aligned, edges exactly where the up/down counter meets the compare value, dead time after
+every edge) cut the period into at most 13 segments of constant gate state; in each the currents follow the exact solution of
 ``hil.sim.electrical``. During a dead interval a leg's voltage is set by its current's sign (diode
 conduction); a zero crossing there is an event (located by bisection on the exact solution to
 ~1e-14 s) after which the phase is held at zero while the floating terminal voltage stays between
@@ -51,8 +51,8 @@ from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC
                             P_MERGE_SEGMENTS, P_N_COG, P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS,
                             P_PWM_FREQ, P_R, P_RAMP, P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC,
                             S_CMP_A, S_CMP_B, S_CMP_C, S_CMP_PENDING, S_HIGH_END, S_IA, S_IB,
-                            S_IC, S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B, S_OMEGA_M,
-                            S_THETA_M, S_TIME, S_TR_Y)
+                            S_IC, S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B,
+                            S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y)
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0

@@ -44,7 +44,7 @@ P_TR_TAU = 51            # transducer time constant, s
 P_MERGE_SEGMENTS = 52    # 1: skip boundaries where no leg voltage changes (0 only to test that)
 P_LOOP_DELAY = 53        # current-loop computation delay, PWM periods: 0, 0.5, 1 or 1.5
 P_DECOUPLE_PU = 54       # decoupling: ωe·L per unit of V_base/I_base, per mech rad/s (0: off)
-P_EMF_FF_PU = 55         # back-EMF feed-forward: peak EMF per unit of V_base, per mech rad/s (0: off)
+P_EMF_FF_PU = 55         # EMF feed-forward: peak EMF per unit of V_base, per mech rad/s (0: off)
 P_ANGLE_ADVANCE = 56     # inverse-Park angle advanced by ωe × this, s (0: no compensation)
 N_PARAMS = 57
 

@@ -10,7 +10,7 @@ import numpy as np
 from hil.motor import TABLE_I
 from hil.sim import DriveConfig, Injection, simulate
 
-TORQUE_PER_A = TABLE_I.torque_constant_nm_per_a       # (3/2)·sqrt(2)·Ke, N·m per peak ampere
+TORQUE_PER_A = TABLE_I.torque_constant_nm_per_a       # (3/2)·E/ω_m, N·m per peak ampere
 PWM_HZ = 20000.0
 
 

@@ -15,15 +15,19 @@ import math
 import numpy as np
 import pytest
 
-from hil.sim import DriveConfig, Injection, InverterModel, simulate
+from hil.motor import MotorParameters
+from hil.sim import DriveConfig, Injection, InverterModel, MotorModel, simulate
 from hil.sim.diagnostics import period_trace
 from hil.sim.validity import duty_headroom
 
 SETTLE_S = 0.05
+#: the motor the cliffs were reported with: Table I with Ke read as RMS phase EMF (E = √2·Ke·ω_m);
+#: with another reading the EMF, hence the voltage headroom and the cliffs' dead times, differ
+MOTOR = MotorModel(parameters=MotorParameters(ke_definition="rms_phase"))
 
 
 def config(speed_rpm, current_a, dead_time_us, angle_deg=0.0, modulation="svpwm"):
-    return DriveConfig(current_command_a=current_a, speed_rpm=speed_rpm,
+    return DriveConfig(motor=MOTOR, current_command_a=current_a, speed_rpm=speed_rpm,
                        inverter=InverterModel(modulation=modulation),
                        injection=Injection(dead_time_s=dead_time_us * 1e-6,
                                            current_angle_rad=math.radians(angle_deg)))

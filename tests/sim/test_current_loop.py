@@ -121,12 +121,14 @@ def test_each_feed_forward_takes_its_term_off_the_integrators():
     assert plain_d - dec_d == pytest.approx(omega_e * IND * current, rel=0.02)
     # what remains on d is the voltage vector |v| times the angle by which the one the firmware
     # uses lags the rotor's mean angle over the period it is applied in: the loop delay
-    # (1.5 periods), and on average half an encoder count and half a sine-table entry
+    # (1.5 periods) plus the encoder's and the sine table's truncation. The compensation
+    # advances the angle by the delay's rotation rounded to whole table entries, and takes
+    # exactly that much off the d integrator
     volts = math.hypot(R * current + emf, omega_e * IND * current)
-    quantisation = math.pi * TABLE_I.pole_pairs / 7200 + math.pi / 4096
-    assert dec_d == pytest.approx((omega_e * 1.5 / PWM_HZ + quantisation) * volts, rel=0.05)
     compensated_d, _ = integrators_v(FirmwareModel(decoupling=True, angle_compensation=True))
-    assert compensated_d == pytest.approx(quantisation * volts, rel=0.3)   # delay compensated
+    entries = round(omega_e * 1.5 / PWM_HZ * 4096 / (2 * math.pi))
+    assert dec_d - compensated_d == pytest.approx(entries * 2 * math.pi / 4096 * volts, rel=0.03)
+    assert abs(compensated_d) < 0.15 * dec_d           # what is left: the truncations only
 
 
 def test_emf_feed_forward_removes_the_ramp_error():
@@ -188,7 +190,8 @@ def test_firmware_model_refuses_unknown_options():
 
 def test_simulated_bench_builds_its_loop_from_the_bench_file():
     default = twin_config(default_sim_bench())
-    assert default.firmware == FirmwareModel() and default.motor.parameters == TABLE_I
+    assert default.firmware == FirmwareModel()
+    assert default.motor.parameters == default_sim_bench().motor      # the bench's nameplate
     assert default.transducer == TransducerModel()
     assert twin_config(default_sim_bench().with_overrides({"torque": {"bandwidth_hz": 250.0}})
                        ).transducer.bandwidth_hz == 250.0

@@ -16,8 +16,8 @@ import pytest
 
 from hil.motor import TABLE_I
 from hil.sim import DriveConfig, DynoModel, Injection, simulate
-from sim_spectra import (amplitude_at, commanded_currents, dominant_order, ideal_torque, orders,
-                         run)
+from sim_spectra import (TORQUE_PER_A, amplitude_at, commanded_currents, dominant_order,
+                         ideal_torque, orders, run)
 
 REVS = 4
 
@@ -34,7 +34,7 @@ def test_baseline_ripple_is_small_and_has_no_low_order():
     freq, amp = orders(torque, REVS)
     assert np.ptp(torque) / torque.mean() < 0.02
     assert amp[(freq >= 0.5) & (freq <= 6.5)].max() < 1e-3
-    assert torque.mean() == pytest.approx(10.0 * 0.0487903, rel=0.005)
+    assert torque.mean() == pytest.approx(10.0 * TORQUE_PER_A, rel=0.005)
 
 
 @pytest.mark.parametrize("ia_offset_a, ib_offset_a", [(0.2, 0.0), (0.2, 0.2), (-0.3, 0.1)])
@@ -106,7 +106,7 @@ def test_word_length_ripple_shrinks_with_bits_and_stays_under_the_paper_bound():
     # eq 14 bounds the per-unit current error by 5/2^(n-1) of full scale (torque 10/2^(n-1)).
     # Truncation is biased, so much of the error is an offset-like order-1 term (not the paper's
     # zero-mean noise); the pk-pk still stays below the bound, per unit of full-scale torque.
-    full_scale_torque = 100.0 * 0.0487903
+    full_scale_torque = 100.0 * TORQUE_PER_A
     ripples = {}
     for bits in (8, 10, 12):
         torque = run(current_a=50.0, word_length_bits=bits)["torque_em_nm"]
