@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import sys
 
 from hil import __version__
@@ -84,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
         return report_error(command, "failed", str(exc), 1, as_json)
     except KeyboardInterrupt:
         return report_error(command, "interrupted", "", 130, as_json)
+    except BrokenPipeError:  # output piped into e.g. head, which stopped reading
+        sys.stdout = open(os.devnull, "w")
+        return 0
 
 
 if __name__ == "__main__":
