@@ -33,6 +33,7 @@ instrument and what the driver was doing.
 
 from __future__ import annotations
 
+import logging
 import math
 import threading
 import time
@@ -149,6 +150,7 @@ _EXCEPTIONS = {cls.code: cls for cls in (IllegalFunction, IllegalAddress, Illega
 _EXCEPTION_TEXT = {1: "illegal function", 2: "illegal data address", 3: "illegal data value",
                    4: "server device failure", 5: "acknowledge", 6: "server device busy"}
 POLL_INTERVAL_S = 0.002
+log = logging.getLogger(__name__)
 
 
 def exception_error(instrument: str, action: str, code: int) -> ModbusExceptionError:
@@ -393,7 +395,7 @@ class ModbusDaq:
             registers = [c.packed_first_register for c in channels if c.packed_first_register]
             first_values = self.read_registers(*registers) if registers else {}
         mode, depth, requests = self._read_plan(n * words_per_sample)
-        words = self._read_words(n * words_per_sample, mode, depth)
+        words, retried = self._read_words_retrying(n * words_per_sample, mode, depth)
         frames = words.reshape(n, words_per_sample)
         capture, problems = self._to_capture(frames, channels, packed, first_values,
                                              float(config["sample_rate_hz"]),
@@ -401,7 +403,8 @@ class ModbusDaq:
         capture.meta["daq_transfer"] = {
             "read_mode": mode, "in_flight": depth, "packed": packed,
             "words_per_sample": words_per_sample, "buffer_requests": requests,
-            "round_trips_readout": self._round_trips - round_trips_before}
+            "round_trips_readout": self._round_trips - round_trips_before,
+            "readout_retried_after": retried}
         wanted = config["samples"] if samples_requested is None else int(samples_requested)
         if n != wanted or config["samples"] != wanted:
             problems.insert(0, f"asked for {wanted} samples, the DAQ was set to "
@@ -425,6 +428,24 @@ class ModbusDaq:
                              f"{self.map.source} offers only paged reads")
         depth = self.transfer.in_flight if isinstance(self.settings, ModbusTcpSettings) else 1
         return mode, depth, -(-total // self.map.window_words)
+
+    def _read_words_retrying(self, total: int, mode: str, depth: int) -> tuple[np.ndarray, str]:
+        """The buffer's words, and why the readout was repeated ("" if it was not).
+
+        A lost answer or connection mid-readout is retried once from the first word: the DAQ
+        keeps the buffer until it is disarmed, so a flaky link does not lose the capture. A
+        Modbus exception (the DAQ refusing) is not retried.
+        """
+        try:
+            return self._read_words(total, mode, depth), ""
+        except InstrumentTimeout as exc:
+            reason = str(exc)
+        except InstrumentError as exc:
+            if isinstance(exc, (DeviceFault, ProtocolError)):
+                raise
+            reason = str(exc)
+        log.warning("%s: readout failed (%s); reading the buffer again", self.name, reason)
+        return self._read_words(total, mode, depth), reason
 
     def _read_words(self, total: int, mode: str = "paged", depth: int = 1) -> np.ndarray:
         window = self.map["buffer_window"]

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from drivers.daq_register_map import load_register_map
-from drivers.modbus_daq import (LEGACY_TRANSFER, CaptureIntegrityError, ModbusDaq,
+from drivers.modbus_daq import (LEGACY_TRANSFER, CaptureIntegrityError, DeviceFailure, ModbusDaq,
                                 ModbusTcpSettings, TransferOptions)
 from drivers.simulated.modbus_daq_server import SimulatedDaq, stored_ticks
 from hil.errors import InputError
@@ -186,3 +186,42 @@ def test_fewer_samples_than_requested_and_a_wrong_rate_are_named(daq):
         daq.read_buffer(rate_requested_hz=10000)
     assert len(daq.read_buffer(300, RATE_HZ)) == 300
     daq.disarm()
+
+
+@pytest.mark.parametrize("kind, options", [("timeout", {}), ("disconnect", {}),
+                                           ("timeout", {"read_mode": "paged", "in_flight": 1})])
+def test_a_readout_that_loses_an_answer_is_read_again(daq_server, monkeypatch, kind, options):
+    """The DAQ keeps its buffer until disarmed: one lost answer or connection costs a second
+    readout, not the capture."""
+    daq = ModbusDaq(ModbusTcpSettings(*daq_server.address), timeout_s=0.3,
+                    transfer=TransferOptions(**options)).connect()
+    real_write = daq.write_registers
+    injected = []
+
+    def write_then_fail(**values):
+        real_write(**values)
+        if "buffer_read_mode" in values and not injected:
+            injected.append(kind)
+            daq_server.fail_next(kind)             # the first buffer request goes unanswered
+
+    monkeypatch.setattr(daq, "write_registers", write_then_fail)
+    try:
+        capture = daq.capture(0.05, RATE_HZ, settle_s=0.0)
+    finally:
+        daq.close()
+    assert injected == [kind]
+    assert capture.meta["daq_transfer"]["readout_retried_after"].startswith("daq: ")
+    assert np.array_equal(capture["sample_counter"], np.arange(1000))
+
+
+def test_a_refusal_mid_readout_is_not_retried(daq_server, monkeypatch, daq):
+    real_write = daq.write_registers
+
+    def write_then_refuse(**values):
+        real_write(**values)
+        if "buffer_read_mode" in values:
+            daq_server.fail_next("exception")
+
+    monkeypatch.setattr(daq, "write_registers", write_then_refuse)
+    with pytest.raises(DeviceFailure, match="window 0"):
+        daq.capture(0.05, RATE_HZ, settle_s=0.0)
