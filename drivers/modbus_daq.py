@@ -19,6 +19,8 @@ auto-increment when the map offers it (one request per 125 words instead of a pa
 read), up to ``in_flight`` reads outstanding over TCP (``drivers.modbus_pipeline``), the packed
 capture format (the encoder counter's low word) when the counter cannot move half its 16-bit
 range between samples. ``LEGACY_TRANSFER`` is the old way (paged, one at a time, full format).
+A readout that loses an answer or the connection is read again once (the DAQ keeps its buffer
+until disarmed); a Modbus exception is not retried.
 
 Integrity (issue 13): every capture is checked: the samples received equal the samples requested,
 the rate read back equals the rate asked, and the sample counter advances by exactly one tick per
