@@ -20,7 +20,8 @@ from hil.tolerance.combiner import CombinerSettings
 from hil.tolerance.design import inverse_design
 from hil.tolerance.engines import ENGINES
 from hil.tolerance.run import YieldOptions, run_yield
-from hil.tolerance.spec import DRIVES_RANGE, load_tolerances
+from hil.requirements import load_requirements
+from hil.tolerance.spec import DRIVES_RANGE, load_tolerances, yield_requirement
 
 
 def _weights(items: list[str] | None) -> dict[str, float]:
@@ -36,8 +37,32 @@ def _weights(items: list[str] | None) -> dict[str, float]:
     return weights
 
 
+def requirement_from_file(args: argparse.Namespace):
+    """The ``--requirements`` line to judge: ``--requirement-id``, else the file's only
+    ``pk_pk_pct`` line with a max."""
+    if args.requirements is None:
+        if args.requirement_id is not None:
+            raise InputError("--requirement-id needs --requirements FILE")
+        return None
+    if args.limit_pct is not None:
+        raise InputError("give --requirements or --limit-pct, not both")
+    lines = load_requirements(args.requirements)
+    if args.requirement_id is not None:
+        chosen = [r for r in lines if r.id == args.requirement_id]
+        if not chosen:
+            raise InputError(f"--requirement-id {args.requirement_id!r} is not in "
+                             f"{args.requirements} (ids: {', '.join(r.id for r in lines)})")
+    else:
+        chosen = [r for r in lines if r.quantity == "pk_pk_pct" and r.limit_max is not None]
+        if len(chosen) != 1:
+            raise InputError(f"{args.requirements} has {len(chosen)} pk_pk_pct lines with a max: "
+                             "name one with --requirement-id")
+    return yield_requirement(chosen[0], f"{args.requirements}: requirement {chosen[0].id!r}")
+
+
 def run(args: argparse.Namespace) -> int:
-    spec = load_tolerances(args.tolerances).with_requirement(args.limit_pct)
+    spec = load_tolerances(args.tolerances).with_requirement(args.limit_pct,
+                                                             requirement_from_file(args))
     changes = {}
     if args.drives is not None:
         if not DRIVES_RANGE[0] <= args.drives <= DRIVES_RANGE[1]:
@@ -147,6 +172,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, help="campaign seed (overrides the file)")
     parser.add_argument("--limit-pct", type=float,
                         help="pk-pk limit, %% of the mean torque (overrides [requirement])")
+    parser.add_argument("--requirements", metavar="FILE",
+                        help="requirements file (hil run's format): judge one pk_pk_pct line")
+    parser.add_argument("--requirement-id", metavar="ID",
+                        help="which line of --requirements (default: its only pk_pk_pct line)")
     parser.add_argument("--out", default="yield-campaign",
                         help="campaign folder: chunks (resumable), yield.json, histograms")
     parser.add_argument("--scheduler", help="tcp://HOST:8786 of an existing Dask cluster, or "

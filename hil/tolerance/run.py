@@ -47,7 +47,7 @@ def run_yield(spec: ToleranceSpec, folder: str | Path, options: YieldOptions = Y
               *, client: Any = None) -> dict:
     """Run the Monte Carlo and Sobol' campaigns of ``spec`` (which must have a requirement)."""
     folder = Path(folder)
-    spec = spec.with_requirement(None)
+    spec = spec.with_requirement()
     start = time.perf_counter()
     with contextlib.ExitStack() as stack:
         if client is None and options.scheduler != "inline":
@@ -104,7 +104,7 @@ def sensitivity(spec: ToleranceSpec, folder: Path, options: YieldOptions, client
                               progress=options.progress, description="Sobol' samples",
                               identity=_identity(spec, options, sobol_n=options.sobol_n,
                                                  chunk_size=size))
-        return 100.0 * result.concatenated("ripple_pu").max(axis=1)
+        return 100.0 * spec.worst_pu(result.concatenated("ripple_pu"))
 
     return run_sobol(names, options.sobol_n, spec.seed, evaluate, spec.requirement.limit_pct)
 
@@ -113,16 +113,18 @@ def summarise(spec: ToleranceSpec, mc, options: YieldOptions) -> dict:
     """Yield ± CI, quantiles and histogram of the worst-point ripple, per-point figures."""
     ripple_pct = 100.0 * mc.concatenated("ripple_pu")
     limit = spec.requirement.limit_pct
-    worst = ripple_pct.max(axis=1)
+    worst = spec.worst_pu(ripple_pct)
     passed = int(np.count_nonzero(worst <= limit))
     total = int(worst.size)
     low, high = wilson_interval(passed, total)
     per_point = []
     for j, op in enumerate(spec.operating_points):
         ok = int(np.count_nonzero(ripple_pct[:, j] <= limit))
+        judged = j in spec.judged
         per_point.append({"speed_rpm": op.speed_rpm, "current_a": op.current_a,
                           "current_angle_deg": math.degrees(op.current_angle_rad),
-                          "yield": ok / total, "yield_ci95": list(wilson_interval(ok, total)),
+                          "judged": judged, "yield": ok / total if judged else None,
+                          "yield_ci95": list(wilson_interval(ok, total)) if judged else None,
                           "ripple_pct_quantiles": quantiles(ripple_pct[:, j])})
     clipped = {}
     for name in spec.varied:
@@ -134,7 +136,7 @@ def summarise(spec: ToleranceSpec, mc, options: YieldOptions) -> dict:
         "requirement": spec.requirement.to_dict(), "drives": total, "passed": passed,
         "yield": passed / total, "yield_ci95": [low, high],
         "ci_method": "Wilson score interval, 95 %",
-        "pass_rule": "pk-pk ripple <= limit at every operating point",
+        "pass_rule": "pk-pk ripple <= limit at every operating point the requirement applies to",
         "ripple_definition": ("pk-pk of the air-gap torque over one electrical revolution, "
                               f"electrical orders 1..{options.combiner.max_order if options.engine == 'closed-form' else options.twin.max_order}, "
                               "% of its mean torque; worst over the operating points"),

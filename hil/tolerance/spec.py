@@ -5,10 +5,11 @@
     drives = 100000            # Monte Carlo size (the CLI's --drives overrides)
     seed = 2026
 
-    [requirement]              # the shape of the requirements format (id, quantity, limit)
+    [requirement]              # one line of hil.requirements (pk_pk_pct with a max only)
     id = "REQ-RIPPLE-01"
+    name = "ripple at the duty points"
     quantity = "pk_pk_pct"     # pk-pk ripple, % of the mean torque
-    limit = { max = 3.0 }
+    limit = { max = 3.0 }      # speed_rpm / current_a = [low, high] restrict it to some points
 
     [[operating_point]]        # a drive passes when it meets the limit at every point
     speed_rpm = 500
@@ -40,6 +41,8 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from hil.errors import InputError
 from hil.model.core import OperatingPoint
@@ -76,18 +79,40 @@ DRIVES_RANGE = (1, 10**9)
 
 @dataclass(frozen=True)
 class Requirement:
-    """Pk-pk ripple limit, % of the mean torque, at every operating point."""
+    """Pk-pk ripple limit, % of the mean torque, at the operating points it applies to (a
+    ``hil.requirements`` line restricted to ``pk_pk_pct`` with a ``max``)."""
 
     id: str
     limit_pct: float
     quantity: str = "pk_pk_pct"
+    name: str = ""
+    speed_rpm: tuple[float, float] | None = None
+    current_a: tuple[float, float] | None = None
 
     @property
     def limit_pu(self) -> float:
         return self.limit_pct / 100.0
 
+    def applies_to(self, op: OperatingPoint) -> bool:
+        return all(span is None or span[0] - 1e-9 <= value <= span[1] + 1e-9
+                   for span, value in ((self.speed_rpm, abs(op.speed_rpm)),
+                                       (self.current_a, op.current_a)))
+
     def to_dict(self) -> dict:
-        return {"id": self.id, "quantity": self.quantity, "limit": {"max": self.limit_pct}}
+        return {"id": self.id, "name": self.name, "quantity": self.quantity,
+                "limit": {"max": self.limit_pct}, "speed_rpm": self.speed_rpm,
+                "current_a": self.current_a}
+
+
+def yield_requirement(req: Any, where: str) -> Requirement:
+    """A ``hil.requirements.Requirement`` as a yield limit: only ``pk_pk_pct`` with a ``max``."""
+    if req.quantity not in QUANTITIES:
+        raise InputError(f"{where}: quantity = {req.quantity!r}: hil yield judges "
+                         f"{', '.join(QUANTITIES)} only")
+    if req.limit_max is None or req.limit_min is not None:
+        raise InputError(f"{where}: limit must be {{max = PERCENT}} only (an upper pk-pk limit)")
+    limit = _number(f"{where}: limit max", req.limit_max, 0.0, 100.0, low_open=True)
+    return Requirement(req.id, limit, req.quantity, req.name, req.speed_rpm, req.current_a)
 
 
 @dataclass(frozen=True)
@@ -103,21 +128,37 @@ class ToleranceSpec:
     given: tuple[str, ...] = field(default=())
 
     @property
+    def judged(self) -> list[int]:
+        """Indices of the operating points the requirement applies to."""
+        if self.requirement is None:
+            return []
+        return [i for i, op in enumerate(self.operating_points) if self.requirement.applies_to(op)]
+
+    def worst_pu(self, ripple_pu: np.ndarray) -> np.ndarray:
+        """Each drive's largest ripple over the judged points, from (drives, points) ripple."""
+        return np.asarray(ripple_pu)[:, self.judged].max(axis=1)
+
+    @property
     def varied(self) -> list[str]:
         """Parameters with a spread or a choice: the inputs of the sensitivity analysis."""
         return [name for name, dist in self.parameters.items()
                 if dist.spread > 0 or (isinstance(dist, Choice) and len(set(dist.values)) > 1)]
 
-    def with_requirement(self, limit_pct: float | None) -> "ToleranceSpec":
-        """The spec with ``limit_pct`` as its requirement (CLI ``--limit-pct``) if given."""
-        if limit_pct is None:
-            if self.requirement is None:
-                raise InputError(f"{self.source}: no [requirement] table and no --limit-pct: "
-                                 "give the pk-pk limit (% of the mean torque)")
-            return self
-        limit = _number("--limit-pct", limit_pct, 0.0, 100.0, low_open=True)
-        rid = self.requirement.id if self.requirement else "command-line limit"
-        return _replace(self, requirement=Requirement(rid, limit))
+    def with_requirement(self, limit_pct: float | None = None,
+                         requirement: Requirement | None = None) -> "ToleranceSpec":
+        """The spec judged against ``requirement`` (``--requirements``), else ``limit_pct``
+        (``--limit-pct``), else its own ``[requirement]``; it must apply to some point."""
+        if requirement is None and limit_pct is not None:
+            limit = _number("--limit-pct", limit_pct, 0.0, 100.0, low_open=True)
+            requirement = Requirement("command-line limit", limit, name="--limit-pct")
+        spec = _replace(self, requirement=requirement or self.requirement)
+        if spec.requirement is None:
+            raise InputError(f"{self.source}: no [requirement] table and no --limit-pct: "
+                             "give the pk-pk limit (% of the mean torque)")
+        if not spec.judged:
+            raise InputError(f"requirement {spec.requirement.id!r} applies to none of the "
+                             f"operating points of {self.source} (its speed_rpm/current_a)")
+        return spec
 
     def with_spreads(self, factors: dict[str, float]) -> "ToleranceSpec":
         """The spec with each named parameter's spread multiplied by its factor."""
@@ -173,7 +214,7 @@ def parse_tolerances(data: dict[str, Any], *, source: str = "<dict>") -> Toleran
     ops = tuple(_operating_point(f"{where} operating_point[{i}]", p) for i, p in enumerate(points))
     requirement = None
     if "requirement" in data:
-        requirement = _requirement(f"{where} requirement", data["requirement"])
+        requirement = _requirement(f"{source}: [requirement]", data["requirement"])
     raw = data.get("parameters", {})
     if not isinstance(raw, dict):
         raise InputError(f"{where} parameters must be a table of [parameters.NAME] tables")
@@ -204,22 +245,12 @@ def _operating_point(key: str, table: Any) -> OperatingPoint:
 
 
 def _requirement(key: str, table: Any) -> Requirement:
+    """The ``[requirement]`` table, in the format of ``hil.requirements`` (one line of it)."""
+    from hil.requirements import requirement_from_dict
+
     if not isinstance(table, dict):
-        raise InputError(f"{key} must be a table (id, quantity, limit = {{max = ...}})")
-    unknown = sorted(set(table) - {"id", "quantity", "limit", "description"})
-    if unknown:
-        raise InputError(f"{key}.{unknown[0]}: unknown key (allowed: description, id, limit, "
-                         "quantity)")
-    quantity = table.get("quantity", "pk_pk_pct")
-    if quantity not in QUANTITIES:
-        raise InputError(f"{key}.quantity={quantity!r} is not supported by hil yield "
-                         f"(allowed: {', '.join(QUANTITIES)})")
-    limit = table.get("limit")
-    if not isinstance(limit, dict) or set(limit) != {"max"}:
-        raise InputError(f"{key}.limit must be {{max = PERCENT}} (an upper pk-pk limit)")
-    return Requirement(str(table.get("id", "requirement")),
-                       _number(f"{key}.limit.max", limit["max"], 0.0, 100.0, low_open=True),
-                       quantity)
+        raise InputError(f"{key} must be a table (id, name, quantity, limit = {{max = ...}})")
+    return yield_requirement(requirement_from_dict(table, origin=key), key)
 
 
 def _distribution(key: str, name: str, table: Any) -> Distribution:

@@ -16,7 +16,7 @@ from hil.tolerance.spec import parse_tolerances
 SPEC = parse_tolerances({
     "drives": 6000, "seed": 11,
     "operating_point": [{"speed_rpm": 500, "current_a": 20}],
-    "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": 3.0}},
+    "requirement": {"id": "R", "name": "ripple", "quantity": "pk_pk_pct", "limit": {"max": 3.0}},
     "parameters": {"ia_offset_a": {"distribution": "normal", "sigma": 0.1},
                    "ib_gain_error_pu": {"distribution": "uniform", "half_width": 0.01},
                    "dead_time_s": {"distribution": "normal", "mean": 1e-6, "sigma": 2e-7}}})

@@ -1,5 +1,6 @@
 """Tolerance files: what loads, and one-line errors naming the key for what does not."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -52,9 +53,14 @@ def test_shipped_example_loads():
     ({}, "missing \\[\\[operating_point\\]\\]"),
     ({"operating_point": [{"speed_rpm": 0, "current_a": 20}]}, "operating_point\\[0\\].speed_rpm=0"),
     ({"operating_point": [{"speed_rpm": 500}]}, "operating_point\\[0\\].current_a is missing"),
-    ({**POINT, "requirement": {"quantity": "rms_nm", "limit": {"max": 1}}},
-     "requirement.quantity='rms_nm'"),
-    ({**POINT, "requirement": {"limit": {"min": 1}}}, "requirement.limit must be"),
+    ({**POINT, "requirement": {"id": "R", "name": "n", "quantity": "rms_pct",
+                               "limit": {"max": 1}}},
+     "\\[requirement\\]: quantity = 'rms_pct': hil yield judges pk_pk_pct only"),
+    ({**POINT, "requirement": {"id": "R", "name": "n", "quantity": "pk_pk_pct",
+                               "limit": {"min": 1}}},
+     "\\[requirement\\]: limit must be \\{max = PERCENT\\} only"),
+    ({**POINT, "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": 1}}},
+     "requirement 'R': missing key 'name'"),
     ({**POINT, "drives": 0}, "drives=0 must be an integer"),
     ({**POINT, "limit_pct": 3}, "unknown key 'limit_pct'"),
 ])
@@ -64,10 +70,38 @@ def test_bad_tolerance_documents_name_the_key(doc, key):
     assert "\n" not in str(error.value) and str(error.value).startswith("t.toml:")
 
 
+def test_requirement_applies_at_its_points_only(tmp_path):
+    doc = {"operating_point": [{"speed_rpm": 500, "current_a": 20},
+                               {"speed_rpm": 1500, "current_a": 10}],
+           "requirement": {"id": "R", "name": "n", "quantity": "pk_pk_pct",
+                           "limit": {"max": 3.0}, "speed_rpm": [1000, 2000]}}
+    spec = parse_tolerances(doc).with_requirement()
+    assert spec.judged == [1]
+    assert list(spec.worst_pu([[0.5, 0.01], [0.0, 0.04]])) == [0.01, 0.04]
+    doc["requirement"]["current_a"] = 50
+    with pytest.raises(InputError, match="applies to none of the operating points"):
+        parse_tolerances(doc).with_requirement()
+    lines = tmp_path / "req.toml"
+    lines.write_text('[[requirement]]\nid = "A"\nname = "a"\nquantity = "pk_pk_pct"\n'
+                     'limit = { max = 2.0 }\n[[requirement]]\nid = "B"\nname = "b"\n'
+                     'quantity = "rms_pct"\nlimit = { max = 1.0 }\n')
+    done = subprocess.run([sys.executable, "-m", "hil", "yield", str(EXAMPLE), "--requirements",
+                           str(lines), "--requirement-id", "B", "--scheduler", "inline"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "hil yield judges pk_pk_pct only" in done.stderr
+    done = subprocess.run([sys.executable, "-m", "hil", "yield", str(EXAMPLE), "--requirements",
+                           str(lines), "--drives", "2000", "--sobol-n", "0", "--scheduler",
+                           "inline", "--out", str(tmp_path / "out"), "--json"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    judged = json.loads(done.stdout)["requirement"]
+    assert judged["id"] == "A" and judged["limit"] == {"max": 2.0}
+
+
 def test_missing_limit_needs_the_command_line():
     spec = parse_tolerances(POINT)
     with pytest.raises(InputError, match="no \\[requirement\\] table and no --limit-pct"):
-        spec.with_requirement(None)
+        spec.with_requirement()
     assert spec.with_requirement(2.5).requirement.limit_pct == 2.5
 
 

@@ -26,7 +26,7 @@ NO_BOUNDS = CombinerSettings(bounds=False)
 def one_offset_spec(sigma_a, limit_pct=3.0, drives=40_000):
     return parse_tolerances({
         "drives": drives, "seed": 4,
-        "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": limit_pct}},
+        "requirement": {"id": "R", "name": "ripple", "quantity": "pk_pk_pct", "limit": {"max": limit_pct}},
         "operating_point": [{"speed_rpm": 500, "current_a": 20}],
         "parameters": {"ia_offset_a": {"distribution": "normal", "sigma": sigma_a}}})
 
@@ -104,7 +104,7 @@ def test_combiner_reproduces_single_source_models():
 
 def test_sobol_ranks_the_dominant_tolerance_first(tmp_path):
     doc = {"drives": 2000, "seed": 3,
-           "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": 1.0}},
+           "requirement": {"id": "R", "name": "ripple", "quantity": "pk_pk_pct", "limit": {"max": 1.0}},
            "operating_point": [{"speed_rpm": 800, "current_a": 15}],
            "parameters": {
                "ia_gain_error_pu": {"distribution": "normal", "sigma": 0.0005},
@@ -134,7 +134,7 @@ def test_inverse_design_one_tolerance_has_a_known_answer():
     assert design["alone"]["ia_offset_a"]["spread"] == pytest.approx(sigma)
     assert design["check"]["yield_ci95"][1] >= target - 0.002
     unreachable = parse_tolerances({
-        "requirement": {"id": "R", "quantity": "pk_pk_pct", "limit": {"max": 1.0}},
+        "requirement": {"id": "R", "name": "ripple", "quantity": "pk_pk_pct", "limit": {"max": 1.0}},
         "operating_point": [{"speed_rpm": 500, "current_a": 20}],
         "parameters": {"ia_offset_a": {"distribution": "normal", "sigma": 0.01},
                        "ib_offset_a": {"distribution": "fixed", "value": 0.5}}})
