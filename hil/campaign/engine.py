@@ -89,7 +89,7 @@ def dask_client(scheduler: str | None = None, n_workers: int | None = None) -> I
         finally:
             client.close()
         return
-    workers = n_workers or os.cpu_count() or 1
+    workers = (os.cpu_count() or 1) if n_workers is None else n_workers
     if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 1024:
         raise InputError(f"n_workers={n_workers!r} must be an integer in 1..1024")
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,

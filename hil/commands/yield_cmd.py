@@ -73,6 +73,9 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--seed {args.seed} must be >= 0")
         changes["seed"] = args.seed
     spec = dataclasses.replace(spec, **changes)
+    for flag, value in (("--workers", args.workers), ("--chunk-size", args.chunk_size)):
+        if value is not None and value < 1:
+            raise InputError(f"{flag} {value} must be >= 1")
     if args.target_yield is not None and args.engine != "closed-form":
         raise InputError("--target-yield runs on the closed-form engine (--engine closed-form)")
     options = YieldOptions(engine=args.engine, scheduler=args.scheduler, n_workers=args.workers,
