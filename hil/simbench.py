@@ -123,7 +123,8 @@ class SimulatedBench:
     def _start_daq(self, simulated_daq_class) -> dict:
         daq = self.config.daq
         if daq.transport == "rtu":
-            self.daq = simulated_daq_class.rtu(self.twin, unit_id=daq.unit_id)
+            self.daq = simulated_daq_class.rtu(self.twin, unit_id=daq.unit_id, parity=daq.parity,
+                                               stopbits=daq.stopbits)
             self.daq.start()
             self._started.append(self.daq)
             return {"serial_port": self.daq.port, "baudrate": daq.baudrate or 115200}
