@@ -155,10 +155,12 @@ def ripple_pu(op: OperatingPoint, params: dict[str, np.ndarray], n: int,
     for freq in np.unique(f_pwm):
         columns.append(np.where(f_pwm == freq, dead / UNIT_DEAD_TIME_S, 0.0))
         basis.append(dead_time_unit_waveform(op, float(freq), settings.max_order))
-    slow = 1.0 + ((np.asarray(mean_gain) - ideal) / ideal * np.ones(n))[:, None] \
-        + np.stack(columns, axis=1) @ np.stack(basis, axis=0)
-    mean = slow.mean(axis=1)
-    ripple = np.ptp(slow, axis=1) / mean
+    # float32: 3x faster here, and its rounding (~1e-7 of a torque near 1) is ~1e-5 of a ripple
+    shift = (1.0 + (np.asarray(mean_gain) - ideal) / ideal * np.ones(n)).astype(np.float32)
+    slow = np.stack(columns, axis=1).astype(np.float32) @ np.stack(basis, axis=0).astype(np.float32)
+    slow += shift[:, None]
+    mean = slow.mean(axis=1, dtype=np.float64)
+    ripple = np.ptp(slow, axis=1).astype(np.float64) / mean
 
     resolution = encoder_resolution_rad(params, n, op.motor.pole_pairs)
     coarse = np.flatnonzero(2.0 * math.pi / resolution <= settings.max_order + 1e-9)
