@@ -318,15 +318,19 @@ def _make_drive(config: BenchConfig):
 
 
 def _make_daq(config: BenchConfig):
-    from drivers.modbus_daq import ModbusDaq, ModbusRtuSettings, ModbusTcpSettings
+    from drivers.modbus_daq import (ModbusDaq, ModbusRtuSettings, ModbusTcpSettings,
+                                    TransferOptions)
 
     daq = config.daq
+    transfer = TransferOptions()
     if daq.transport == "rtu":
-        settings = ModbusRtuSettings(port=daq.serial_port, baudrate=daq.baudrate or 115200)
+        settings = ModbusRtuSettings(port=daq.serial_port, baudrate=daq.baudrate or 115200,
+                                     parity=daq.parity, stopbits=daq.stopbits)
     else:
         settings = ModbusTcpSettings(host=daq.host, port=daq.port)
+        transfer = TransferOptions(in_flight=daq.requests_in_flight)
     return ModbusDaq(settings, unit_id=daq.unit_id, register_map=daq.register_map,
-                     timeout_s=daq.timeout_s, instrument_name="daq")
+                     timeout_s=daq.timeout_s, instrument_name="daq", transfer=transfer)
 
 
 def _make_torque(config: BenchConfig):
