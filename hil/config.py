@@ -271,11 +271,11 @@ class LabInfo:
     address: str = _key("", "str")
     operator: str = _key("", "str")
     # ISO/IEC 17025 §7.8.2 content of page 1 (each may be given on the command line instead)
-    customer: str = _key("", "str")
-    authorizer: str = _key("", "str")                # name of the person authorizing the report
-    authorizer_function: str = _key("", "str")
+    customer: str | None = _key(None, "str")
+    authorizer: str | None = _key(None, "str")       # name of the person authorizing the report
+    authorizer_function: str | None = _key(None, "str")
     item_received: date | None = _key(None, "date")  # date the item tested was received
-    environment: str = _key("", "str")               # e.g. "23 ± 2 °C, 45 % RH"; "" = not recorded
+    environment: str | None = _key(None, "str")      # e.g. "23 ± 2 °C, 45 % RH"; None: not recorded
 
 
 @dataclass(frozen=True)
