@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
+from tqdm import tqdm
 
 from hil.campaign.seeds import chunk_seed
 from hil.campaign.store import CampaignStore
@@ -127,13 +128,12 @@ def run_campaign(task: Task, chunks: Sequence[Any], folder: str | Path, *,
              "seed": int(seed), "chunks": len(specs), **(identity or {})}
     store = CampaignStore(folder, ident)
     store.open()
-    skipped = sorted(store.finished(len(specs)))
-    pending = [i for i in range(len(specs)) if i not in set(skipped)]
+    finished = store.finished(len(specs))
+    skipped = sorted(finished)
+    pending = [i for i in range(len(specs)) if i not in finished]
     start = time.perf_counter()
     timings: dict[int, float] = {}
     workers = 1
-    from tqdm import tqdm
-
     bar = tqdm(total=len(specs), initial=len(skipped), unit="chunk", desc=description,
                disable=not progress, file=sys.stderr, leave=False)
 
