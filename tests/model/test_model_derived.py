@@ -120,9 +120,10 @@ def test_pwm_resolution_derived_excludes_a_drive_that_ignores_the_injection():
 
 
 def test_pwm_resolution_derived_refuses_the_voltage_limit():
+    limit_rpm = OperatingPoint(0, 40.0).voltage_limited_speed_rpm()
     with pytest.raises(InputError, match="V_dc/√3"):  # the point itself: beyond SVPWM's range
-        OperatingPoint(speed_rpm=1500, current_a=40.0)
-    within_svpwm = OperatingPoint(speed_rpm=1200, current_a=40.0)  # 6.3 V: above V_dc/2
+        OperatingPoint(speed_rpm=1.05 * limit_rpm, current_a=40.0)
+    within_svpwm = OperatingPoint(speed_rpm=0.95 * limit_rpm, current_a=40.0)  # > V_dc/2
     with pytest.raises(InputError, match="sine linear range"):
         predict("pwm_resolution", within_svpwm, pwm_period_counts=32, model="derived",
                 modulation="sine", **LOOP)
