@@ -122,7 +122,6 @@ def format_summary(s: dict) -> list[str]:
         lines.append(f"  {p['speed_rpm']:g} rpm, {p['current_a']:g} A, φ {p['current_angle_deg']:g}°: "
                      f"yield {_pct(p['yield'])}, median {p['ripple_pct_quantiles']['q50']:.3g} %, "
                      f"q99 {p['ripple_pct_quantiles']['q99']:.3g} %")
-    lines += [f"  WARNING: {w}" for w in s.get("warnings", [])]
     if s.get("bounds_added"):
         lines.append("  (word-length and PWM-resolution bounds added to every drive's pk-pk: "
                      "conservative; --no-bounds leaves them out)")

@@ -21,7 +21,7 @@ import numpy as np
 from hil.campaign import chunk_sizes, dask_client, run_campaign
 from hil.campaign.store import write_atomic
 from hil.campaign.twin import TwinSettings
-from hil.tolerance.combiner import CombinerSettings, linear_range_warning
+from hil.tolerance.combiner import CombinerSettings
 from hil.tolerance.engines import ChunkJob, parameters_from_unit, yield_chunk
 from hil.tolerance.sobol import run_sobol
 from hil.tolerance.spec import PARAMETERS, ToleranceSpec
@@ -145,5 +145,4 @@ def summarise(spec: ToleranceSpec, mc, options: YieldOptions) -> dict:
         "worst_ripple_pct_mean": float(worst.mean()),
         "worst_ripple_pct_histogram": histogram(worst),
         "per_point": per_point, "clipped_fraction": clipped,
-        "warnings": [w for w in map(linear_range_warning, spec.operating_points) if w],
     }

@@ -241,7 +241,10 @@ def _operating_point(key: str, table: Any) -> OperatingPoint:
                          "(allowed -3000..3000 rpm, not 0)")
     current = _number(f"{key}.current_a", table["current_a"], 0.0, 100.0, low_open=True)
     angle = _number(f"{key}.current_angle_deg", table.get("current_angle_deg", 0.0), -80.0, 80.0)
-    return OperatingPoint(speed, current, math.radians(angle))
+    try:
+        return OperatingPoint(speed, current, math.radians(angle))
+    except InputError as exc:  # e.g. beyond the inverter's voltage (SVPWM linear limit)
+        raise InputError(f"{key}: {exc}") from None
 
 
 def _requirement(key: str, table: Any) -> Requirement:
