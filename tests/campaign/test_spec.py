@@ -53,6 +53,8 @@ def test_shipped_example_loads():
     ({}, "missing \\[\\[operating_point\\]\\]"),
     ({"operating_point": [{"speed_rpm": 0, "current_a": 20}]}, "operating_point\\[0\\].speed_rpm=0"),
     ({"operating_point": [{"speed_rpm": 500}]}, "operating_point\\[0\\].current_a is missing"),
+    ({"operating_point": [{"speed_rpm": 2500, "current_a": 10}]},
+     "operating_point\\[0\\]: speed_rpm=2500 .* beyond"),
     ({**POINT, "requirement": {"id": "R", "name": "n", "quantity": "rms_pct",
                                "limit": {"max": 1}}},
      "\\[requirement\\]: quantity = 'rms_pct': hil yield judges pk_pk_pct only"),
