@@ -41,11 +41,14 @@ if {precompile}:
     electrical.impedance_angles(np.zeros(N_PARAMS) + 1.0, 50.0, orders, amplitudes, 1, lag)
     electrical.period_basis(np.zeros(N_PARAMS) + 1.0, 0.2, orders, amplitudes, phases, 1, lag,
                             basis)
-from hil.sim import DriveConfig, Injection, simulate
+from hil.motor import MotorParameters
+from hil.sim import DriveConfig, Injection, MotorModel, simulate
 injection = Injection(word_length_bits=10, ia_offset_a=0.3, ib_gain_error_pu=0.02,
                       dead_time_s=1e-6, encoder_decimation=3, current_angle_rad=0.2)
-result = simulate(DriveConfig(injection=injection, speed_rpm=500.0, current_command_a=20.0),
-                  0.02, 20_000)
+# the motor stated, so the two runs do not depend on Table I's default Ke reading
+motor = MotorModel(parameters=MotorParameters(ke_definition="rms_phase"))
+result = simulate(DriveConfig(motor=motor, injection=injection, speed_rpm=500.0,
+                              current_command_a=20.0), 0.02, 20_000)
 np.savez(sys.argv[1], **{{name: result[name] for name in
                           ("ia_a", "ib_a", "ic_a", "va_v", "vb_v", "vc_v", "torque_em_nm",
                            "id_a", "iq_a")}})
