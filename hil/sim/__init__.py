@@ -7,11 +7,12 @@ firmware, never from the paper's closed forms (this package must not import ``hi
 
 from hil.sim.config import (DriveConfig, DynoModel, FirmwareModel, InverterModel, MotorModel,
                             SensorModel, TransducerModel)
+from hil.sim.defects import DriveDefects
 from hil.sim.engine import simulate, simulate_batch
 from hil.sim.injection import Injection, KnobRange
 from hil.sim.results import SimResult
 from hil.sim.twin import DriveTwin
 
-__all__ = ["DriveConfig", "DriveTwin", "DynoModel", "FirmwareModel", "Injection", "InverterModel",
+__all__ = ["DriveConfig", "DriveDefects", "DriveTwin", "DynoModel", "FirmwareModel", "Injection", "InverterModel",
            "KnobRange", "MotorModel", "SensorModel", "SimResult", "TransducerModel", "simulate",
            "simulate_batch"]
