@@ -13,6 +13,6 @@ from hil.sim.injection import Injection, KnobRange
 from hil.sim.results import SimResult
 from hil.sim.twin import DriveTwin
 
-__all__ = ["DriveConfig", "DriveDefects", "DriveTwin", "DynoModel", "FirmwareModel", "Injection", "InverterModel",
-           "KnobRange", "MotorModel", "SensorModel", "SimResult", "TransducerModel", "simulate",
-           "simulate_batch"]
+__all__ = ["DriveConfig", "DriveDefects", "DriveTwin", "DynoModel", "FirmwareModel", "Injection",
+           "InverterModel", "KnobRange", "MotorModel", "SensorModel", "SimResult",
+           "TransducerModel", "simulate", "simulate_batch"]
