@@ -48,7 +48,8 @@ ENCODER_HIDES_DEAD_TIME = (
     "that dwells at zero for a whole count at each zero crossing, and the average-voltage model "
     "(continuous reference, sign(i) everywhere defined) no longer describes the order-6/12 torque "
     "(on the twin it reads 25 % low at 10° and 65 % low at 20° electrical per count); it is "
-    "fitted as a nuisance term so that the order-6/12 torque does not bias the other estimates")
+    "fitted as a nuisance term (model uncertainty 100 %) so that the order-6/12 torque does not "
+    "bias the other estimates")
 
 
 def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = None,
@@ -96,7 +97,8 @@ def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = 
     if dead_time and encoder.get("detected"):
         nuisance.add("dead_time_us")
         notes.append(ENCODER_HIDES_DEAD_TIME)
-    params = P.controller_parameters(transducer_class_pct, dead_time=dead_time)
+    params = P.controller_parameters(transducer_class_pct, dead_time=dead_time,
+                                     dead_time_nuisance="dead_time_us" in nuisance)
     for k in COGGING_ELEC_ORDERS:
         params += P.cogging_parameters(p * k, transducer_class_pct)
     for k in EMF_ELEC_ORDERS:
@@ -104,6 +106,8 @@ def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = 
     fit_orders = [p * k for k in CONTROLLER_ELEC_ORDERS if p * k not in excluded]
     signatures = [[param.signature(s, setup, max_mech) for param in params]
                   for s in model_spectra]
+    if encoder.get("detected"):
+        signatures = _encoder_angle_uncertainty(signatures, params, encoder, notes)
     problem = _problem(model_spectra, params, signatures, fit_orders)
     result = fit(problem)
 
@@ -147,10 +151,34 @@ def _problem(spectra, params, signatures, fit_orders) -> LinearProblem:
             y.append(spectrum.coefficients_nm[m])
             sigma.append(spectrum.sigma_nm[m])
             jac.append([signatures[s_index][j][0].get(m, 0j) for j in range(len(params))])
-            rel.append([signatures[s_index][j][1] for j in range(len(params))])
+            rel.append([_rel_at(signatures[s_index][j][1], m) for j in range(len(params))])
     return LinearProblem(names=[param.name for param in params], y=np.array(y),
                          sigma=np.array(sigma), jacobian=np.array(jac, dtype=complex),
                          model_rel=np.array(rel), rows=rows)
+
+
+def _encoder_angle_uncertainty(signatures, params, encoder, notes):
+    """The firmware angle's error within a count is uniform over θ_res (standard deviation
+    θ_res/√12 about the half-count mean already applied); it moves the reference current that a
+    gain error scales, and is added to the gain signature's relative model uncertainty (an
+    offset's torque does not depend on the reference, eq 19)."""
+    u = math.radians(encoder["resolution_elec_deg"]) / math.sqrt(12.0)
+    sensors = [j for j, param in enumerate(params) if param.source == "gain_mismatch"]
+    notes.append(f"gain-mismatch signature given a further {100 * u:.3g} % relative model "
+                 "uncertainty: the firmware angle's error within a count (θ_res/√12) moves the "
+                 "reference current it scales")
+    out = []
+    for row in signatures:
+        row = list(row)
+        for j in sensors:
+            orders, rel = row[j]
+            row[j] = (orders, {m: math.hypot(_rel_at(rel, m), u) for m in orders})
+        out.append(row)
+    return out
+
+
+def _rel_at(rel, mech_order: int) -> float:
+    return float(rel.get(mech_order, 0.0)) if isinstance(rel, dict) else float(rel)
 
 
 def _estimates(params, result, nuisance: set[str]) -> list[ParameterEstimate]:

@@ -9,8 +9,9 @@ accepted when the measured line stands clear of the noise (> :data:`DETECTION_Z`
 and its amplitude is within a factor :data:`AMPLITUDE_FACTOR` of the eq 7-9 staircase's
 (``hil.model.encoder``, through the transducer's response) at every point, at the line and its
 second harmonic. Eq 7 assumes ideal
-regulation; a real loop overshoots each count step (README: +20..30 % on the twin), hence the
-factor rather than a fit, widened above by the loop's resonance at the line's frequency.
+regulation; the line is passed through the loop's T(jω) at its frequency (the loop overshoots
+each count step: README, +20..30 % on the twin), and the remaining model error is why a factor
+and a phase window are used rather than a fit.
 """
 
 from __future__ import annotations
@@ -25,6 +26,10 @@ from hil.model import predict
 
 DETECTION_Z = 5.0
 AMPLITUDE_FACTOR = 2.0
+#: Largest phase between a measured line and its prediction (the staircase's phase is fixed by
+#: the count's alignment with the rotor; a chance line of another source has any phase): 60°,
+#: the angle at which |e^{jφ} − 1| = 1, the relative discrepancy the factor 2 allows below.
+PHASE_TOLERANCE_RAD = math.radians(60.0)
 #: Harmonics of the count line checked against eq 7 (the loop's overshoot of each count step
 #: grows with frequency, so higher harmonics depart further from the ideal-regulation staircase).
 CHECKED_HARMONICS = 2
@@ -32,8 +37,10 @@ CHECKED_HARMONICS = 2
 
 def staircase_lines(spectrum: OrderSpectrum, setup: sig.DriveSetup, counts_per_rev: int,
                     decimation: int, max_mech_order: int) -> dict[int, complex]:
-    """Predicted coefficients (N·m) of the eq 7-9 staircase at its count line and the line's
-    harmonics inside the band, through the transducer: {mechanical order: coefficient}."""
+    """Predicted coefficients (N·m) of the eq 7-9 staircase at its count line and its checked
+    harmonics inside the band, through the current loop (each count step is a step of the
+    reference the loop follows with its T(jω) at the line's frequency) and the transducer:
+    {mechanical order: coefficient}."""
     op = sig.operating_point(spectrum.speed_rpm, spectrum.current_a,
                              spectrum.current_angle_rad, setup)
     pred = predict("encoder", op, encoder_counts_per_rev=counts_per_rev,
@@ -47,7 +54,9 @@ def staircase_lines(spectrum: OrderSpectrum, setup: sig.DriveSetup, counts_per_r
         k = harmonic * order
         mech = spectrum.pole_pairs * k
         coefficient = 2.0 * np.mean(wave * np.exp(-1j * k * theta))
-        out[mech] = complex(coefficient * sig.transducer_response(mech, spectrum.speed_rpm, setup))
+        line_rad_s = mech * spectrum.speed_rpm / 60.0 * 2.0 * math.pi
+        out[mech] = complex(coefficient * sig.transducer_response(mech, spectrum.speed_rpm, setup)
+                            * sig.loop_tracking(line_rad_s, op, setup))
     return out
 
 
@@ -61,20 +70,11 @@ def candidate_decimations(counts_per_rev: int, pole_pairs: int, max_mech_order: 
     return out
 
 
-def loop_peak(spectrum: OrderSpectrum, setup: sig.DriveSetup, mech_order: int) -> float:
-    """max(1, |T(±jω)|) of the current loop at the line's frequency: near its bandwidth the loop
-    amplifies each count step (its resonance), which the ideal-regulation eq 7 leaves out."""
-    op = sig.operating_point(spectrum.speed_rpm, spectrum.current_a, spectrum.current_angle_rad,
-                             setup)
-    omega = mech_order * spectrum.speed_rpm / 60.0 * 2.0 * math.pi
-    return max(1.0, abs(sig.loop_tracking(omega, op, setup)),
-               abs(sig.loop_tracking(-omega, op, setup)))
-
-
 def _line_ratios(spectra, setup, counts_per_rev, decimation, max_mech) -> np.ndarray | None:
-    """|measured|/|eq 7| at every point and every in-band harmonic of the count line whose
-    prediction stands clear of the noise; None when any lies outside the accepted factor (a
-    staircase puts its lines at all multiples of the count frequency, in known proportions)."""
+    """|measured|/|predicted| at every point and every checked harmonic of the count line whose
+    prediction stands clear of the noise; None when any lies outside the accepted factor or
+    phase (a staircase puts its lines at multiples of the count frequency, in known proportions
+    and at phases fixed by the count's alignment with the rotor angle)."""
     mech = counts_per_rev // decimation
     ratios = []
     for spectrum in spectra:
@@ -82,9 +82,10 @@ def _line_ratios(spectra, setup, counts_per_rev, decimation, max_mech) -> np.nda
         for m, predicted in lines.items():
             if abs(predicted) <= DETECTION_Z * spectrum.sigma_nm[m] and m != mech:
                 continue
-            ratio = abs(spectrum.coefficients_nm[m]) / abs(predicted)
-            peak = loop_peak(spectrum, setup, m)
-            if not 1.0 / AMPLITUDE_FACTOR <= ratio <= AMPLITUDE_FACTOR * peak:
+            quotient = spectrum.coefficients_nm[m] / predicted
+            ratio = abs(quotient)
+            if not (1.0 / AMPLITUDE_FACTOR <= ratio <= AMPLITUDE_FACTOR
+                    and abs(np.angle(quotient)) <= PHASE_TOLERANCE_RAD):
                 return None
             ratios.append(ratio)
     return np.array(ratios)

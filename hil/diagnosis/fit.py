@@ -5,10 +5,11 @@ The model is linear in its parameters: y(s, m) = Σ_j J[s, m, j]·p_j with y the
 coefficient of spectrum s at mechanical order m. Each complex row gives two real rows. Weights:
 1/σ² with σ² = (type-A)² + Σ_j (u_rel,j·|J·p_j|)²/2 — the model uncertainty of each source,
 relative to its own contribution, so the weights are refined from the estimate (a few fixed-point
-iterations). The covariance (JᵀWJ)⁻¹ is scaled by the Birge ratio χ²/ν when that exceeds 1 (the
-data disagree with the model more than the stated uncertainties allow), and the model errors are
-also propagated as errors *common to all points* (a source's model is wrong the same way at every
-point, so averaging points does not reduce it): see :func:`_systematic_covariance`.
+iterations). The covariance is the type-A noise and half of the model variance (the part that
+differs from point to point) propagated through that estimator, scaled by the Birge ratio χ²/ν
+when that exceeds 1 (the data disagree with the model more than the stated uncertainties allow),
+plus the other half propagated as an error *common to all points* (a source's model wrong the
+same way at every point, which averaging points does not reduce): :func:`_systematic_covariance`.
 
 Identifiability: columns of the weighted Jacobian are scaled to unit norm; a singular value below
 :data:`WEAK_SINGULAR_VALUE` of the largest marks a parameter combination these observations cannot
@@ -31,6 +32,9 @@ WEAK_SINGULAR_VALUE = 0.05
 #: Loading of a parameter in a weak direction above which it is reported as not identifiable.
 WEAK_LOADING = 0.1
 MODEL_WEIGHT_ITERATIONS = 4
+#: Share of a source's model variance taken as differing from point to point; the rest is common
+#: to all points. Unknown, so split evenly.
+COMMON_SHARE_COMPLEMENT = 0.5
 
 
 @dataclass
@@ -165,9 +169,18 @@ def fit(problem: LinearProblem) -> FitResult:
     chi2 = float(np.sum((residual.real / sigma_total) ** 2 + (residual.imag / sigma_total) ** 2))
     dof = 2 * len(problem.y) - rank
     birge = chi2 / dof if dof > 0 else float("nan")
+    # Through the estimator: type A, plus the model uncertainty split evenly (its split is not
+    # known) into a part that differs from point to point (like noise) and a part common to all
+    # points (a source's model wrong the same way everywhere, not reduced by averaging points)
+    model_var = sigma_total ** 2 - problem.sigma ** 2
+    noise_var = problem.sigma ** 2 + COMMON_SHARE_COMPLEMENT * model_var
+    share = np.sqrt(np.concatenate([noise_var, noise_var])) / np.concatenate([sigma_total,
+                                                                              sigma_total])
+    cov = (operator * share ** 2) @ operator.T
     if dof > 0 and birge > 1.0:
         cov = cov * birge
-    cov = cov + _systematic_covariance(problem, x, operator, sigma_total)
+    cov = cov + (1.0 - COMMON_SHARE_COMPLEMENT) * _systematic_covariance(problem, x, operator,
+                                                                         sigma_total)
     estimate = np.where(keep, x, np.nan)
     cov[~keep, :] = np.nan
     cov[:, ~keep] = np.nan

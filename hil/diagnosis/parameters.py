@@ -11,8 +11,9 @@ Model uncertainty (standard, relative to the source's own torque at that point):
 * sensor errors: the torque transducer's accuracy class (rectangular, /√3) plus 20 % of the
   current loop's correction |T − 1| (the loop is known only through its stated bandwidth and delay
   and is modelled in continuous time while the firmware samples it);
-* dead time: 10 %, the stated agreement of the average-voltage model with a time-domain run
-  (hil/model/README.md), plus the transducer class;
+* dead time: 10 % at electrical order 6, the stated agreement of the average-voltage model with a
+  time-domain run (hil/model/README.md), growing in proportion to the order (20 % at order 12),
+  plus the transducer class; 100 % when it is only a nuisance term (a coarse encoder);
 * motor-side terms are free coefficients: only the transducer class.
 """
 
@@ -29,8 +30,12 @@ from hil.diagnosis.orders import OrderSpectrum
 
 #: Share of the loop's correction |T − 1| taken as the standard uncertainty of that correction.
 LOOP_CORRECTION_REL_UNCERTAINTY = 0.2
-#: The average-voltage dead-time model against a time-domain run (hil/model/README.md): 10 %.
+#: The average-voltage dead-time model against a time-domain run (hil/model/README.md): 10 % at
+#: order 6; taken as growing in proportion to the order (its errors are the timing of the current's
+#: sign changes near the zero crossings, and a timing error moves harmonic k by k times the angle).
 DEAD_TIME_MODEL_REL_UNCERTAINTY = 0.10
+#: A term fitted only so its torque does not bias the others, its model known not to hold: 100 %.
+NUISANCE_REL_UNCERTAINTY = 1.0
 
 
 @dataclass(frozen=True)
@@ -41,7 +46,8 @@ class Parameter:
     unit: str
     source: str
     description: str
-    #: (spectrum, setup, max_mech_order) → ({mech order: coefficient per unit}, relative model u)
+    #: (spectrum, setup, max_mech_order) → ({mech order: coefficient per unit}, relative model u:
+    #: one number, or {mech order: number})
     signature: Callable[[OrderSpectrum, sig.DriveSetup, int], tuple[dict[int, complex], float]]
     controller: bool = True
 
@@ -78,11 +84,15 @@ def _sensor_signature(kind: str, class_pct: float):
     return build
 
 
-def _dead_time_signature(class_pct: float):
+def _dead_time_signature(class_pct: float, nuisance: bool = False):
     def build(spectrum: OrderSpectrum, setup: sig.DriveSetup, max_mech_order: int):
         op = _op(spectrum, setup)
         orders = sig.to_mech(sig.dead_time_orders(op, setup), spectrum.pole_pairs, max_mech_order)
-        rel = math.hypot(DEAD_TIME_MODEL_REL_UNCERTAINTY, _transducer_class_rel(class_pct))
+        p = spectrum.pole_pairs
+        rel = {m: (NUISANCE_REL_UNCERTAINTY if nuisance else
+                   math.hypot(DEAD_TIME_MODEL_REL_UNCERTAINTY * (m / p) / 6.0,
+                              _transducer_class_rel(class_pct)))
+               for m in orders}
         return _with_transducer(orders, spectrum, setup), rel
     return build
 
@@ -105,7 +115,8 @@ OFFSET_TEXT = ("current-sensor {x} dc offset referred to the actual current, o_{
                "(eqs 15-19; the torque sees the offset through the sensor's gain)")
 
 
-def controller_parameters(class_pct: float, *, dead_time: bool = True) -> list[Parameter]:
+def controller_parameters(class_pct: float, *, dead_time: bool = True,
+                          dead_time_nuisance: bool = False) -> list[Parameter]:
     params = [
         Parameter("ia_offset_a", "A", "dc_offset", OFFSET_TEXT.format(x="a"),
                   _sensor_signature("a", class_pct)),
@@ -119,7 +130,7 @@ def controller_parameters(class_pct: float, *, dead_time: bool = True) -> list[P
         params.append(Parameter("dead_time_us", "µs", "dead_time",
                                 "effective (uncompensated) dead time, average-voltage model "
                                 "with the bench's current loop (eqs 32-38, derived form)",
-                                _dead_time_signature(class_pct)))
+                                _dead_time_signature(class_pct, dead_time_nuisance)))
     return params
 
 
