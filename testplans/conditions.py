@@ -85,7 +85,9 @@ def current_loop(config) -> dict:
     if drive.current_loop_bandwidth_hz is None or drive.current_loop_delay_s is None:
         raise InputError("bench file [drive] current_loop_bandwidth_hz and current_loop_delay_s "
                          "are needed by this plan (from the drive firmware's documentation)")
-    return {"current_loop_bandwidth_hz": drive.current_loop_bandwidth_hz,
+    # The closed forms assume the continuous-design PI (Kp = L·ωc, Ki = R·ωc); a discrete
+    # (pole-matched) loop enters with the bandwidth of the same integral gain.
+    return {"current_loop_bandwidth_hz": drive.current_loop_equivalent_bandwidth_hz(),
             "current_loop_delay_s": drive.current_loop_delay_s}
 
 
