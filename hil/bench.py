@@ -339,4 +339,4 @@ def _make_torque(config: BenchConfig):
     torque = config.torque
     return TorqueTransducer(SerialSettings(port=torque.serial_port, baudrate=torque.baudrate),
                             dialect=torque.dialect, timeout_s=torque.timeout_s,
-                            instrument_name="torque")
+                            instrument_name="torque", dialect_options=torque.dialect_options())

@@ -178,6 +178,18 @@ class TorqueConfig:
     #: diagnosis corrects the order coefficients' phase and amplitude with it. None: not stated.
     bandwidth_hz: float | None = _key(None, "float", lo=1.0, hi=1e6)
     timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
+    #: Magtrol DSP7000 only: the channel read (1 or 2: ``OD1``/``OD2``); None: a single-channel
+    #: unit (DSP6001/6400: ``OD``).
+    channel: int | None = _key(None, "int", choices=(1, 2))
+    #: Himmelstein only: read torque with ``YC`` time stamps (an assumed layout, see
+    #: drivers/transducer_dialects.py) instead of the documented ``DC`` query.
+    timestamped: bool = _key(False, "bool")
+
+    def dialect_options(self) -> dict:
+        """The options of the dialect family (``drivers.transducer_dialects``) this file states."""
+        if self.dialect == "magtrol":
+            return {"channel": self.channel}
+        return {"timestamped": self.timestamped}
 
     def __post_init__(self) -> None:
         if self.baudrate is None:
@@ -186,6 +198,12 @@ class TorqueConfig:
 
     def _check(self, path: str, ctx: "_Context") -> None:
         from drivers.transducer_dialects import LINE_SETTINGS
+        if self.channel is not None and self.dialect != "magtrol":
+            ctx.fail(f"{path}.channel is a Magtrol DSP7000 setting, not one of the "
+                     f"{self.dialect} dialect")
+        if self.timestamped and self.dialect != "himmelstein":
+            ctx.fail(f"{path}.timestamped is a Himmelstein setting, not one of the "
+                     f"{self.dialect} dialect")
         published = LINE_SETTINGS[self.dialect].baudrates
         if self.baudrate not in published:
             ctx.fail(f"{path}.baudrate = {self.baudrate} is not published for the "
