@@ -24,7 +24,7 @@ from hil.model.core import check_range
 #: Options that configure a model rather than inject a fault; they go to every source taking them.
 SHARED_SETTINGS = ("model", "pwm_frequency_hz", "nominal_current_a", "current_loop_bandwidth_hz",
                    "current_loop_delay_s", "voltage_step_basis", "modulation", "adc_bits",
-                   "trig_values", "max_order")
+                   "trig_values", "max_order", "revolutions_averaged")
 
 
 def given_sources(args: argparse.Namespace) -> dict[str, dict[str, Any]]:

@@ -92,6 +92,9 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  "model=derived: sines of phases b, c by identities from a sin/cos table "
                  "(default) or a table entry per phase", str, kind=str,
                  choices=("identities", "tables")),
+    SourceOption("--revolutions-averaged", "revolutions_averaged", ("pwm_resolution",),
+                 "model=derived: whole revolutions the capture's synchronous average spans "
+                 "(default 1)", int, 1, 1000, kind=int),
     SourceOption("--max-order", "max_order", ("word_length", "pwm_resolution"),
                  "model=derived: highest electrical order the analysis keeps (default 64)", int,
                  1, 10000, kind=int),

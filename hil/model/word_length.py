@@ -35,12 +35,14 @@ error since ω_e ≪ ω_c):
    (sensors through (2/3)·Σ err_x·s_x with err_c = −err_a − err_b, products, result, table).
    Sampled once per PWM period, N = f_pwm/f_e times per electrical revolution, it repeats every
    revolution when N is whole (synchronous: averaging does not reduce it); the analysis keeps
-   orders 1..K, i.e. a share K/(N/2) of its power: σ_K = σ·sqrt(min(1, 2K/N)). Its pk-pk over
-   the 2K independent values of a band-limited revolution is about 2·σ_K·sqrt(2·ln(2K)), per
-   unit of I·cos φ.
+   orders 1..K, i.e. a share K/(N/2) of its power: σ_K = σ·sqrt(min(1, 2K/N)). Were it all
+   synchronous, its pk-pk over the 2K independent values of a band-limited revolution would be
+   B = 2·σ_K·sqrt(2·ln(2K)), per unit of I·cos φ. Part of it changes from one revolution to the
+   next (the loop's integrator dithers the truncations) and the synchronous average removes that
+   part; the split is not modelled, so term 3 is taken as B/2, between 0 and B.
 
 Value: 1 + 2 + 3; expected range: terms 1 + 2 within ±20 % (the uniform-bias assumption) plus
-term 3 between 0 and twice its value. Not modelled (inside the range): the mean-torque shift of
+term 3 between 0 and B. Not modelled (inside the range): the mean-torque shift of
 the truncated reference and of the integrator's truncation bias (a few % at 8 bits), the
 second-order error of the truncated √3/2 (an order-2 term below one LSB), the reduction of the
 broadband part by averaging when N is not whole. The drive's own ripple floor (the baseline) is
@@ -65,7 +67,7 @@ MODELS = ("paper", "derived")
 TRIG_VALUES = ("identities", "tables")
 #: Relative uncertainty of the order-1 bias terms (uniformly spread truncation errors assumed).
 BIAS_TERM_REL_UNCERTAINTY = 0.2
-#: The broadband term's expected range: 0 to this many times its value.
+#: The broadband term's expected range: 0 to this many times its value (0 to B).
 BROADBAND_HIGH_FACTOR = 2.0
 #: Highest electrical order the analysis keeps by default (hil.analysis DEFAULT_MAX_ORDER).
 DEFAULT_MAX_ORDER = 64
@@ -148,7 +150,8 @@ def derived_terms_pu(op: OperatingPoint, word_length_bits: int, *, adc_bits: int
     elec_hz = abs(op.elec_speed_rad_s) / (2.0 * math.pi)
     share = 0.0 if elec_hz == 0.0 else min(1.0, 2.0 * max_order * elec_hz / pwm_frequency_hz)
     sigma_band = sigma * math.sqrt(share)
-    broadband = 2.0 * sigma_band * math.sqrt(2.0 * math.log(2.0 * max_order)) / active_a
+    all_synchronous = 2.0 * sigma_band * math.sqrt(2.0 * math.log(2.0 * max_order)) / active_a
+    broadband = 0.5 * all_synchronous  # the synchronous share is not modelled: midpoint
     # order 1 dominates the spectrum when its amplitude beats 3× the broadband rms per order
     per_order_rms = sigma_band * math.sqrt(2.0 / max_order) / active_a
     return {"order1_pk_pk_pu": order1, "broadband_pk_pk_pu": broadband,
@@ -220,8 +223,8 @@ def _derived_prediction(op: OperatingPoint, bits: int, i_max: float, adc_bits: i
             f"ADC of {int(adc)} bits over ±I_max, read into the word (ADC and Q full scale equal)",
             f"trigonometric values: {trig_values}",
             "ideal regulation of the computed I_q; the loop follows the order-1 error",
-            "broadband part: truncation noise sampled at the PWM rate, synchronous with the "
-            f"rotor, orders 1..{int(orders)}",
+            "broadband part: truncation noise sampled at the PWM rate, orders "
+            f"1..{int(orders)}, half of it taken as synchronous (between none and all)",
             "mean-torque shift of the truncated reference and integrator not modelled"],
         expected_range_pu=(terms["low_pu"], terms["high_pu"]),
         extras={"paper_pk_pk_pu": paper_pu, "order1_pk_pk_pu": terms["order1_pk_pk_pu"],

@@ -36,7 +36,7 @@ def main():
         ("word_length 10 bits (bound)", {"word_length_bits": 10}, op, "word_length", {}, 200),
         ("word_length 10 bits (derived)", {"word_length_bits": 10}, op, "word_length",
          {"model": "derived"}, 64),
-        ("pwm counts 32 (derived)", {"pwm_period_counts": 32}, op, "pwm_resolution",
+        ("pwm counts 32 (derived, 1 rev)", {"pwm_period_counts": 32}, op, "pwm_resolution",
          {"model": "derived", **LOOP, **DELAY}, 64),
         ("pwm counts 32 (closed-loop bound)", {"pwm_period_counts": 32}, op, "pwm_resolution",
          {"model": "closed_loop", **LOOP}, 40),

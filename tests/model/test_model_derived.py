@@ -100,23 +100,27 @@ def test_word_length_derived_sensor_term_vanishes_at_the_adc_resolution():
     assert tables.extras["order1_pk_pk_pu"] == pytest.approx(0.0, abs=1e-12)
 
 
-@pytest.mark.parametrize("counts", [32, 64, 128])
-def test_pwm_resolution_derived_range_holds_the_twin(counts):
+@pytest.mark.parametrize("counts,revolutions", [(32, 2), (32, 8), (64, 8), (128, 8),
+                                                (128, 24)])
+def test_pwm_resolution_derived_range_holds_the_twin(counts, revolutions):
+    twin = twin_ripple({"pwm_period_counts": counts}, PLAN_POINT, revolutions=revolutions)
     pred = predict("pwm_resolution", PLAN_POINT, pwm_period_counts=counts, model="derived",
-                   **LOOP)
-    twin = twin_ripple({"pwm_period_counts": counts}, PLAN_POINT, revolutions=6)
+                   revolutions_averaged=twin.revolutions, **LOOP)
     low, high = pred.expected_range_pu
     assert low <= twin.pk_pk_pu <= high
-    assert pred.extras["offset_trials_min_pu"] <= pred.pk_pk_pu <= pred.extras[
-        "offset_trials_max_pu"]
+    assert pred.extras["offset_trials_min_pu"] <= pred.extras["single_revolution_pk_pk_pu"] \
+        <= pred.extras["offset_trials_max_pu"]
+    assert pred.pk_pk_pu == pytest.approx(pred.extras["single_revolution_pk_pk_pu"]
+                                          / math.sqrt(twin.revolutions))
 
 
 def test_pwm_resolution_derived_excludes_a_drive_that_ignores_the_injection():
-    ignoring = twin_ripple({}, PLAN_POINT, revolutions=6).pk_pk_pu  # default counter, 2000
-    for counts in (32, 64, 128):
+    twin = twin_ripple({}, PLAN_POINT, revolutions=8)  # default counter, 2000
+    for counts in (32, 64):  # at 128 counts the lower limit meets the drive's own floor
         low, _ = predict("pwm_resolution", PLAN_POINT, pwm_period_counts=counts,
-                         model="derived", **LOOP).expected_range_pu
-        assert ignoring < low
+                         model="derived", revolutions_averaged=twin.revolutions,
+                         **LOOP).expected_range_pu
+        assert twin.pk_pk_pu < low
 
 
 def test_pwm_resolution_derived_refuses_the_voltage_limit():
@@ -141,9 +145,9 @@ def test_sensitivity_slopes_follow_the_twin_across_the_sweeps():
     for model_slope, twin_slope in zip(words.slopes_pu, measured_slopes):
         assert model_slope == pytest.approx(twin_slope, rel=0.3)
     counters = sensitivity("pwm_resolution", PLAN_POINT, "pwm_period_counts", [32, 64],
-                           model="derived", **LOOP)
+                           model="derived", revolutions_averaged=8, **LOOP)
     assert counters.step == "halving of the counter" and counters.steps == [-5.0, -6.0]
-    twin32, twin64 = (twin_ripple({"pwm_period_counts": c}, PLAN_POINT, revolutions=6).pk_pk_pu
+    twin32, twin64 = (twin_ripple({"pwm_period_counts": c}, PLAN_POINT, revolutions=8).pk_pk_pu
                       for c in (32, 64))
     # halving the counter (64 → 32) raises the ripple: the slope per halving is positive
     assert counters.slopes_pu[0] > 0

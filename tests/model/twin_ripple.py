@@ -1,8 +1,9 @@
 """The simulated drive's air-gap torque ripple at one operating point (for model-vs-twin checks).
 
-The twin's electromagnetic torque over whole electrical revolutions is low-passed in the order
-domain (orders above ``max_order`` dropped, which removes the PWM-switching ripple) before pk-pk,
-as the analysis keeps orders 1..max_order. The twin's own PWM counter default (2000 counts) and
+The twin's electromagnetic torque over whole electrical revolutions is synchronously averaged
+in the order domain — only whole electrical orders 1..``max_order`` are kept, as the analysis
+does (which also drops the PWM-switching ripple and whatever does not repeat every revolution) —
+before pk-pk. The twin's own PWM counter default (2000 counts) and
 floating-point firmware stay unless the injection changes them.
 """
 
@@ -20,7 +21,8 @@ SAMPLE_RATE_HZ = 200_000.0
 
 @dataclass(frozen=True)
 class TwinRipple:
-    pk_pk_pu: float          # of the low-passed torque, per unit of its mean
+    pk_pk_pu: float          # of the synchronous average, per unit of its mean
+    revolutions: int
     mean_torque_nm: float
     order_amplitudes_pu: np.ndarray  # index k: amplitude of electrical order k, per unit of mean
 
@@ -41,8 +43,9 @@ def twin_ripple(injection: dict, op, *, max_order: int = 64, revolutions: int | 
     whole = int(abs(theta[-1] - theta[0]) // (2 * math.pi))
     torque = channels["torque_em_nm"][abs(theta - theta[0]) < whole * 2 * math.pi]
     spectrum = np.fft.rfft(torque)
-    spectrum[np.arange(spectrum.size) / whole > max_order] = 0
+    bins = np.arange(spectrum.size)
+    spectrum[(bins / whole > max_order) | (bins % whole != 0)] = 0  # whole orders 0..max_order
     smooth = np.fft.irfft(spectrum, torque.size)
     mean = float(np.mean(smooth))
     amplitudes = 2 * np.abs(spectrum[::whole][:max_order + 1]) / torque.size / mean
-    return TwinRipple(float(np.ptp(smooth) / mean), mean, amplitudes)
+    return TwinRipple(float(np.ptp(smooth) / mean), whole, mean, amplitudes)
