@@ -133,7 +133,7 @@ def run_campaign(task: Task, chunks: Sequence[Any], folder: str | Path, *,
     pending = [i for i in range(len(specs)) if i not in finished]
     start = time.perf_counter()
     timings: dict[int, float] = {}
-    workers = 1
+    workers = 0  # none ran a chunk (all resumed)
     bar = tqdm(total=len(specs), initial=len(skipped), unit="chunk", desc=description,
                disable=not progress, file=sys.stderr, leave=False)
 
@@ -146,6 +146,7 @@ def run_campaign(task: Task, chunks: Sequence[Any], folder: str | Path, *,
 
     try:
         if pending and scheduler == "inline":
+            workers = 1
             for index in pending:
                 finish(index, *timed_task(task, specs[index], chunk_seed(seed, index)))
         elif pending:

@@ -138,8 +138,10 @@ def format_summary(s: dict) -> list[str]:
     if design:
         lines += format_design(design)
     c = s["campaign"]
-    lines.append(f"{c['chunks']} chunks ({c['chunks_resumed']} resumed) on {c['workers']} "
-                 f"worker(s), {c['scheduler']}; wall {c['wall_s']:.1f} s")
+    ran = (f"on {c['workers']} worker(s), {c['scheduler']}" if c["chunks_computed"]
+           else "nothing left to compute")
+    lines.append(f"{c['chunks']} chunks ({c['chunks_resumed']} resumed); {ran}; "
+                 f"wall {c['wall_s']:.1f} s")
     figures = s.get("figures", {})
     lines.append(f"written: {c['folder']}/yield.json" + (
         f", {figures['png']}, {figures['svg']}" if figures else ""))
