@@ -17,10 +17,6 @@ LOOP = {"current_loop_bandwidth_hz": 0.08 * 20000.0}  # the twin's FirmwareModel
 DELAY = {"current_loop_delay_s": 1.5 / 20000}
 
 
-def twin_pk_pk(injection, op, *, max_order):
-    return twin_ripple(injection, op, max_order=max_order).pk_pk_pu
-
-
 def main():
     op = OperatingPoint(speed_rpm=1000, current_a=20.0)
     op10 = OperatingPoint(speed_rpm=100, current_a=20.0, current_angle_rad=math.radians(10))
@@ -36,7 +32,7 @@ def main():
         ("word_length 10 bits (bound)", {"word_length_bits": 10}, op, "word_length", {}, 200),
         ("word_length 10 bits (derived)", {"word_length_bits": 10}, op, "word_length",
          {"model": "derived"}, 64),
-        ("pwm counts 32 (derived, 1 rev)", {"pwm_period_counts": 32}, op, "pwm_resolution",
+        ("pwm counts 32 (derived)", {"pwm_period_counts": 32}, op, "pwm_resolution",
          {"model": "derived", **LOOP, **DELAY}, 64),
         ("pwm counts 32 (closed-loop bound)", {"pwm_period_counts": 32}, op, "pwm_resolution",
          {"model": "closed_loop", **LOOP}, 40),
@@ -48,10 +44,13 @@ def main():
     ]
     print(f"{'case':<36} {'twin pk-pk %':>12} {'predicted %':>12}")
     for name, injection, point, source, params, max_order in rows:
-        measured = twin_pk_pk(injection, point, max_order=max_order)
+        twin = twin_ripple(injection, point, max_order=max_order)
+        measured = twin.pk_pk_pu
         if source is None:
             predicted = float("nan")
         else:
+            if params.get("model") == "derived" and source == "pwm_resolution":
+                params = {**params, "revolutions_averaged": twin.revolutions}
             pred = predict(source, point, **injection, **params)
             predicted = pred.pk_pk_nm / point.mean_torque_nm
         print(f"{name:<36} {100 * measured:12.3f} {100 * predicted:12.3f}")
