@@ -36,6 +36,15 @@ himmelstein pty paced at 115200 baud: stream(500): 478 samples/s (500 in 1.045 s
     "hil_run": """hil run (all plans, simulated bench): 22 points in 8.06 wall s = 2.731 points/s (exit 0, record complete; 22 passed)
 hil report on that record: 7.53 wall s (exit 0)
 """,
+    "yield": """cores: 2, load average: 3.10
+closed form, one core: 412,000 drives/s (3 operating points, 100,000 drives)
+hil yield closed form, 10,000 drives + Sobol' (9,216 evaluations), 2 workers: 4.20 wall s (+ 1.10 s LocalCluster start); yield 97.40 %
+twin on 1 worker(s): 3.50 drive-s per wall s (32 drives x 0.071 simulated s in 0.65 wall s; compute 18.0 ms per drive on a worker)
+dask overhead per task, 1 worker(s): 2.1 ms (chunks of 16 drives); empty-task round trip 1.5 ms
+twin on 2 worker(s): 6.20 drive-s per wall s (32 drives x 0.071 simulated s in 0.37 wall s; compute 18.5 ms per drive on a worker)
+dask overhead per task, 2 worker(s): 3.4 ms (chunks of 16 drives); empty-task round trip 1.8 ms
+projection (extrapolated from 1 worker, not measured): 10^6-drive twin campaign at 500 rpm, chunks of 16: N=1: 5.04 h, N=2: 2.52 h
+""",
 }
 EXPECTED = {
     "simulation": {"one_drive_one_core_Table_I_motor_wall_s_per_sim_s": 0.0226,
@@ -51,6 +60,11 @@ EXPECTED = {
     "transducer": {"magtrol_unpaced_pty_polled_read()_samples_per_s": 3514.0,
                    "himmelstein_pty_paced_at_115200_baud_stream(500)_samples_per_s": 478.0},
     "hil_run": {"points": 22.0, "wall_s": 8.06, "points_per_s": 2.731, "report_wall_s": 7.53},
+    "yield": {"closed_form_drives_per_s": 412000.0, "closed_form_campaign_wall_s": 4.2,
+              "twin_1_workers_drive_s_per_wall_s": 3.5, "twin_2_workers_drive_s_per_wall_s": 6.2,
+              "dask_overhead_per_task_1_workers_ms": 2.1,
+              "dask_overhead_per_task_2_workers_ms": 3.4,
+              "projected_1e6_twin_drives_N1_h": 5.04, "projected_1e6_twin_drives_N2_h": 2.52},
 }
 
 
