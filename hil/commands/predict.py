@@ -94,7 +94,7 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  choices=("identities", "tables")),
     SourceOption("--revolutions-averaged", "revolutions_averaged", ("pwm_resolution",),
                  "model=derived: whole revolutions the capture's synchronous average spans "
-                 "(default 1)", int, 1, 1000, kind=int),
+                 "(default 8, a hil run point)", int, 1, 1000, kind=int),
     SourceOption("--max-order", "max_order", ("word_length", "pwm_resolution"),
                  "model=derived: highest electrical order the analysis keeps (default 64)", int,
                  1, 10000, kind=int),

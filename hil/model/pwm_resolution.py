@@ -76,6 +76,9 @@ DEFAULT_MAX_ORDER = 64
 MAX_REVOLUTIONS = 64
 #: Leg offsets (fractions of a count) the derived form averages over (module docstring).
 OFFSET_TRIALS = 16
+#: Revolutions a capture's synchronous average spans unless stated: hil.measurement's default
+#: capture of 8 electrical revolutions per point (as DEFAULT_MAX_ORDER mirrors the analysis).
+DEFAULT_REVOLUTIONS_AVERAGED = 8
 
 
 def voltage_phasor(op: OperatingPoint) -> complex:
@@ -203,7 +206,8 @@ def predict_pwm_resolution(op: OperatingPoint, *, pwm_bits: int | None = None,
                            current_loop_bandwidth_hz: float | None = None,
                            current_loop_delay_s: float = 0.0, pwm_frequency_hz: float = 20000.0,
                            modulation: str = "svpwm", max_order: int = DEFAULT_MAX_ORDER,
-                           revolutions_averaged: int = 1) -> Prediction:
+                           revolutions_averaged: int = DEFAULT_REVOLUTIONS_AVERAGED
+                           ) -> Prediction:
     """Torque step of one voltage-resolution step (eq 28), per unit of the operating torque;
     with ``model="closed_loop"`` the bound under the PI current loop; with ``model="derived"``
     the duty-quantisation ripple through the loop (module docstring)."""
