@@ -100,6 +100,13 @@ def test_combiner_reproduces_single_source_models():
     band_limited = np.ptp(np.fft.irfft(spectrum, n=full_band.waveform_pu.size))
     assert one(dead_time_s=2e-6) == pytest.approx(band_limited, rel=0.01)
     assert band_limited < 0.95 * full_band.pk_pk_pu  # the band limit matters here
+    for knobs in ({"hall_mode": True}, {"encoder_decimation": 100}):  # count orders 6 and 36
+        staircase = predict("encoder", op, **knobs)
+        spectrum = np.fft.rfft(staircase.waveform_pu)
+        spectrum[65:] = 0.0
+        expected = np.ptp(np.fft.irfft(spectrum, n=staircase.waveform_pu.size))
+        assert one(**{k: float(v) for k, v in knobs.items()}) == pytest.approx(expected, rel=0.02)
+    assert one(encoder_counts_per_rev=7200) == 0.0  # count order 3600: outside the band
 
 
 def test_sobol_ranks_the_dominant_tolerance_first(tmp_path):
@@ -153,3 +160,26 @@ def test_hil_yield_cli_on_the_example(tmp_path):
     assert len(summary["sobol"]["ranking"]) == 6
     assert (tmp_path / "histogram.png").stat().st_size > 1000
     assert (tmp_path / "histogram.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_coarse_encoder_combined_with_offset_matches_direct_torque_sum():
+    """Hall sensors (60°, eqs 7-9) and a sensor offset at once: the combiner's product form
+    against Σ e_x·i_x/ω_m with currents regulated to the truncated angle, both band-limited to
+    orders 1..64 (the ripple definition)."""
+    op = OperatingPoint(500.0, 20.0, math.radians(10.0))
+    offset_a = 0.2
+    theta = np.linspace(0, 2 * math.pi, 7200, endpoint=False)
+    theta_d = np.floor(theta / (math.pi / 3) + 1e-9) * (math.pi / 3)
+    measured = op.current_a * np.sin(theta_d[None, :] - op.current_angle_rad
+                                     - PHASE_OFFSETS_RAD[:, None])
+    i_a, i_b = measured[0] - offset_a, measured[1]
+    currents = np.stack([i_a, i_b, -i_a - i_b])
+    emf = op.emf_peak_v * np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])
+    torque = np.sum(emf * currents, axis=0) / op.mech_speed_rad_s
+    spectrum = np.fft.rfft(torque)
+    spectrum[65:] = 0.0
+    limited = np.fft.irfft(spectrum, n=torque.size)
+    direct = np.ptp(limited) / limited.mean()
+    combined = ripple_pu(op, {"hall_mode": np.array([1.0]), "ia_offset_a": np.array([offset_a])},
+                         1, NO_BOUNDS)[0]
+    assert combined == pytest.approx(direct, rel=0.02)
