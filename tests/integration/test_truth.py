@@ -345,3 +345,16 @@ def test_a_defective_drive_fails_end_to_end(tmp_path):
     first = page_one(report)
     assert "Overall: FAIL" in first
     assert "SIMULATED DRIVE WITH TEST-ONLY DEFECTS: hidden_ia_offset_a = 0.5" in first
+
+
+def test_progress_bars_without_q_have_no_percent_column(tmp_path):
+    (tmp_path / "test_plan.py").write_text(PLAN)
+    done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider",
+                           "test_plan.py", "-k", "test_ok or test_skipped", "--hil-progress",
+                           "--hil-record", "records"],
+                          capture_output=True, text=True, timeout=240, cwd=tmp_path, env=ENV)
+    assert done.returncode == 0, done.stdout[-3000:]
+    assert not re.search(r"\[\s*\d+%\]", done.stdout), done.stdout
+    assert "dc_offset" in done.stderr and "2/2" in done.stderr        # the tqdm bar
+    assert all(len(line) <= 80 for line in done.stdout.split("ripple-hil summary")[1]
+               .splitlines()[1:6])
