@@ -14,16 +14,19 @@ Torque per unit of the ideal mean T0 = (3/2)·E·I·cos φ/ω_m (eq 7), at elect
   delay, as ``hil.sim.FirmwareModel``): affine in T_d, so one unit waveform per PWM frequency,
   scaled by T_d. The paper's eq 38 is a per-event step with no waveform (4× the closed-loop
   ripple, hil/model/README.md), so it cannot be combined by phase.
-* c_enc — encoder staircase cos(γ + φ)/cos φ, eqs 7-9, γ = θ − θ_d the angle since the last count.
+* c_enc — encoder staircase cos(γ + φ)/cos φ, eqs 7-9, γ = θ − θ_d the angle since the last count
+  (for counts of order ≤ ``max_order`` the product is replaced by the torque sum of eq 7 itself,
+  see ``_coarse_encoder_ripple``: there the offset × staircase term is not small).
 
 The ripple is measured as the twin engine and the bench measure it: pk-pk over the revolution of
 τ band-limited to electrical orders 1..``max_order`` (design.md §3), per unit of its mean. So an
 encoder whose count order 2π/θ_res exceeds ``max_order`` (7200 counts: order 3600) contributes
 only its mean (the paper's eq 9 ripple is outside the band); coarser encoders (Hall 60°,
-large decimation) are band-limited row by row through an FFT.
+large decimation) are computed row by row on a fine grid and band-limited through an FFT.
 
-Combination is first order: products of two sources' errors (offset × gain error) are dropped,
-as the paper's per-source derivations drop their own second-order terms.
+Combination is first order: products of two sources' errors (offset × gain error, ~1e-4) are
+dropped, as the paper's per-source derivations drop their own second-order terms — except with a
+coarse encoder, whose rows take the exact torque sum.
 
 Sources with a bound and no waveform (word length, eq 14: 10/2^(n−1)·I_max/(I·cos φ); PWM
 resolution, the closed-loop bound of ``hil.model.pwm_resolution``) cannot be phased; with
@@ -39,7 +42,7 @@ from functools import lru_cache
 import numpy as np
 
 from hil.model import dc_offset, gain_mismatch
-from hil.model.core import OperatingPoint
+from hil.model.core import PHASE_OFFSETS_RAD, OperatingPoint
 from hil.model.dead_time import average_model_torque_pu
 from hil.model.pwm_resolution import closed_loop_bound_pu, voltage_phasor
 from hil.model.word_length import FULL_SCALE_CURRENT_A, paper_pk_pk_pu
@@ -165,20 +168,39 @@ def ripple_pu(op: OperatingPoint, params: dict[str, np.ndarray], n: int,
     resolution = encoder_resolution_rad(params, n, op.motor.pole_pairs)
     coarse = np.flatnonzero(2.0 * math.pi / resolution <= settings.max_order + 1e-9)
     if coarse.size:
-        ripple[coarse] = _coarse_encoder_ripple(slow[coarse], resolution[coarse], phi,
-                                                settings.max_order)
+        dead_rows = (np.stack(columns[3:], axis=1)[coarse] @ np.stack(basis[3:], axis=0))
+        ripple[coarse], mean[coarse] = _coarse_encoder_ripple(
+            op, {k: np.asarray(v)[coarse] for k, v in params.items()}, resolution[coarse],
+            dead_rows, settings.max_order)
     if settings.bounds:
         ripple += bound_terms_pu(op, params, n) / mean
     return ripple
 
 
-def _coarse_encoder_ripple(slow: np.ndarray, resolution: np.ndarray, phi: float,
-                           max_order: int) -> np.ndarray:
-    """Eqs 7-9 staircase × the other sources, band-limited: for counts of order ≤ max_order."""
-    fine = grid(FINE_GRID_POINTS)
-    slow_fine = resample_periodic(slow, FINE_GRID_POINTS)
+def _coarse_encoder_ripple(op: OperatingPoint, params: dict[str, np.ndarray],
+                           resolution: np.ndarray, dead_time_pu: np.ndarray,
+                           max_order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Counts of order ≤ max_order (Hall, large decimation): the torque sum of eq 7 itself,
+    Σ e_x·i_x/ω_m with the currents regulated to the truncated angle θ_d (eqs 4, 7) and the
+    sensors' offsets and gains undone (eqs 15-17, 21-22): i_a = (I·sin(θ_d − φ) − offset_a)/(1 + g_a),
+    likewise b, i_c = −i_a − i_b — exact, since here the offset × staircase cross term is as
+    large as the offset's own ripple; the dead-time waveform (rows of ``dead_time_pu``, per unit
+    of T0 on the coarse grid) is added. Band-limited: (pk-pk per unit of the mean, mean per unit
+    of T0)."""
+    phi = op.current_angle_rad
+    theta = grid(FINE_GRID_POINTS)[None, :]
     res = resolution[:, None]
-    gamma = np.maximum(fine[None, :] - np.floor(fine[None, :] / res + 1e-9) * res, 0.0)
-    torque = slow_fine * np.cos(gamma + phi) / math.cos(phi)
+    theta_d = np.floor(theta / res + 1e-9) * res
+    n = resolution.size
+    col = lambda name, default: _column(params, name, n, default)[:, None]  # noqa: E731
+    i_a = (np.sin(theta_d - phi) - col("ia_offset_a", 0.0) / op.current_a) \
+        / (1.0 + col("ia_gain_error_pu", 0.0))
+    i_b = (np.sin(theta_d - phi - 2.0 * math.pi / 3.0) - col("ib_offset_a", 0.0) / op.current_a) \
+        / (1.0 + col("ib_gain_error_pu", 0.0))
+    shapes = [np.sin(theta - offset) for offset in PHASE_OFFSETS_RAD]  # e_x / E
+    torque = (shapes[0] * i_a + shapes[1] * i_b - shapes[2] * (i_a + i_b)) \
+        / (1.5 * math.cos(phi))
+    torque += resample_periodic(dead_time_pu, FINE_GRID_POINTS)
     limited = band_limit(torque, max_order, FINE_GRID_POINTS)
-    return np.ptp(limited, axis=1) / limited.mean(axis=1)
+    mean = limited.mean(axis=1)
+    return np.ptp(limited, axis=1) / mean, mean
