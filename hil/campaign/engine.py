@@ -23,7 +23,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -93,12 +95,15 @@ def dask_client(scheduler: str | None = None, n_workers: int | None = None) -> I
     workers = (os.cpu_count() or 1) if n_workers is None else n_workers
     if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 1024:
         raise InputError(f"n_workers={n_workers!r} must be an integer in 1..1024")
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           host="127.0.0.1", dashboard_address=None,
-                           # no dashboard; the scheduler's small HTTP endpoint (health) on a
-                           # free loopback port instead of 8787, which another cluster may hold
-                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                           silence_logs=logging.ERROR)
+    # the workers ignore Ctrl-C (they inherit SIG_IGN at spawn): only this process handles it,
+    # cancelling the futures and closing the cluster, without a traceback from every worker
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) \
+        if threading.current_thread() is threading.main_thread() else None
+    try:
+        cluster = _local_cluster(workers, LocalCluster)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     try:
         client = Client(cluster)
         try:
@@ -107,6 +112,15 @@ def dask_client(scheduler: str | None = None, n_workers: int | None = None) -> I
             client.close()
     finally:
         cluster.close()
+
+
+def _local_cluster(workers: int, LocalCluster: Any) -> Any:
+    """Worker processes on 127.0.0.1, one thread each; no dashboard (the scheduler's small HTTP
+    endpoint on a free loopback port instead of 8787, which another cluster may hold)."""
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                        host="127.0.0.1", dashboard_address=None,
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                        silence_logs=logging.ERROR)
 
 
 def run_campaign(task: Task, chunks: Sequence[Any], folder: str | Path, *,
