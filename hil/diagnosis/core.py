@@ -41,7 +41,6 @@ EMF_ELEC_ORDERS = (6, 12)
 UNEXPLAINED_QUANTILE = 0.999
 #: A free order is listed as motor-side residual when its amplitude exceeds this many σ.
 RESIDUAL_Z = 5.0
-RESIDUAL_LIST = 8
 EXPANSION_K = 2.0
 ENCODER_HIDES_DEAD_TIME = (
     "dead time not stated: with a count line in band the current reference is a staircase "
@@ -116,8 +115,11 @@ def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = 
                            max_mech)
     weak = [_explain(w, params) for w in result.weak_directions]
     unexplained = _unexplained(problem, result, spectra, fit_orders, p)
-    motor_residual = _motor_residual(spectra, set(fit_orders) | excluded, p)
     contributions = _contributions(spectra, params, signatures, result, encoder, excluded)
+    motor_residual = _motor_residual(spectra, contributions, set(fit_orders) | excluded, p,
+                                     setup)
+    for index, parts in enumerate(contributions):
+        _add_motor_other(parts, motor_residual, index, spectra[index].coefficients_nm.size)
     return Diagnosis(
         spectra=spectra, setup=setup, parameters=estimates, params=params, fit=result,
         encoder=encoder, fit_orders=fit_orders, weak=weak, aliases=aliases,
@@ -268,9 +270,10 @@ def _unexplained(problem, result, spectra, fit_orders, p) -> list[dict]:
     return out
 
 
-def _motor_residual(spectra, skip: set[int], p: int) -> list[dict]:
-    """Free orders that stand out: split into a constant (cogging-like) and a current-proportional
-    (EMF-like) part by least squares across the points."""
+def _motor_residual(spectra, contributions, skip: set[int], p: int, setup) -> list[dict]:
+    """Free orders that stand out once the fitted sources' torque is removed (e.g. dead time at
+    orders 18, 24, …): split into a constant (cogging-like) and a current-proportional (EMF-like)
+    part by least squares across the points, at the shaft (the transducer's response removed)."""
     max_mech = min(s.max_mech_order for s in spectra)
     currents = np.array([s.current_a for s in spectra])
     two_terms = np.ptp(currents) > 0.1 * currents.max()
@@ -278,14 +281,18 @@ def _motor_residual(spectra, skip: set[int], p: int) -> list[dict]:
     for m in range(1, max_mech + 1):
         if m in skip:
             continue
-        c = np.array([s.coefficients_nm[m] for s in spectra])
+        c = np.array([s.coefficients_nm[m] - sum(part[m] for part in parts.values())
+                      for s, parts in zip(spectra, contributions)])
         sigma = np.array([s.sigma_nm[m] for s in spectra])
         if not np.any(np.abs(c) > RESIDUAL_Z * sigma):
             continue
+        response = np.array([sig.transducer_response(m, s.speed_rpm, setup) for s in spectra])
         basis = np.column_stack([np.ones_like(currents), currents]) if two_terms \
             else np.ones((len(spectra), 1))
-        coef, *_ = np.linalg.lstsq(basis.astype(complex), c, rcond=None)
+        basis = basis.astype(complex) * response[:, None]
+        coef, *_ = np.linalg.lstsq(basis, c, rcond=None)
         entry = {"mech_order": m, "elec_order": m / p,
+                 "fitted_nm": [complex(v) for v in basis @ coef],
                  "amplitude_nm_max": float(np.max(np.abs(c))),
                  "constant_nm": float(abs(coef[0])),
                  "constant_phase_rad": float(np.angle(coef[0]))}
@@ -294,7 +301,18 @@ def _motor_residual(spectra, skip: set[int], p: int) -> list[dict]:
                          per_ampere_phase_rad=float(np.angle(coef[1])))
         out.append(entry)
     out.sort(key=lambda e: -e["amplitude_nm_max"])
-    return out[:RESIDUAL_LIST]
+    return out
+
+
+def _add_motor_other(parts: dict, motor_residual: list[dict], index: int, size: int) -> None:
+    """The motor-side residual at free orders (constant + current-proportional fit) of point
+    ``index`` as the source 'motor_other'."""
+    other = np.zeros(size, dtype=complex)
+    for entry in motor_residual:
+        if entry["mech_order"] < size:
+            other[entry["mech_order"]] = entry["fitted_nm"][index]
+    if np.any(other):
+        parts["motor_other"] = other
 
 
 def _contributions(spectra, params, signatures, result, encoder, excluded) -> list[dict]:
@@ -325,6 +343,3 @@ def _contributions(spectra, params, signatures, result, encoder, excluded) -> li
         out.append(per_source)
     return out
 
-
-def _finite(value: float) -> float | None:
-    return float(value) if value is not None and math.isfinite(value) else None

@@ -18,6 +18,7 @@ SOURCE_TITLES = {
     "dead_time": "inverter dead time", "encoder": "encoder resolution",
     "motor_cogging": "motor: cogging (fixed in mech. angle)",
     "motor_emf": "motor: EMF-harmonic torque (∝ current)",
+    "motor_other": "motor-side ripple at other orders",
     "unattributed": "not attributed (rest of the ripple)",
 }
 
@@ -161,6 +162,11 @@ class Diagnosis:
             return "T_d = " + (_fmt(v[0], k * v[1], "µs") if v else "not identifiable")
         if source == "encoder":
             return self.encoder.get("note", "")
+        if source == "motor_other":
+            parts = [f"mech {r['mech_order']}: {1e3 * r['constant_nm']:.3g} mN·m"
+                     + (f" + {1e3 * r['per_ampere_nm']:.3g} mN·m/A" if "per_ampere_nm" in r
+                        else "") for r in self.motor_residual[:4]]
+            return "; ".join(parts) + (" …" if len(self.motor_residual) > 4 else "")
         if source in ("motor_cogging", "motor_emf"):
             terms = [t for t in self.motor_terms() if t["source"] == source and t["identifiable"]]
             unit = "mN·m" if source == "motor_cogging" else "mN·m/A"
@@ -232,7 +238,8 @@ class Diagnosis:
             "calibration": self.calibration(),
             "predicted_after_correction": self.predicted_after_correction(),
             "unexplained": self.unexplained,
-            "motor_residual": self.motor_residual,
+            "motor_residual": [{k: v for k, v in r.items() if k != "fitted_nm"}
+                               for r in self.motor_residual],
             "notes": self.notes,
         })
 
