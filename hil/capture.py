@@ -95,6 +95,20 @@ class Capture:
         return cls(channels=channels, units=header.get("units", {}), meta=header.get("meta", {}))
 
 
+    @staticmethod
+    def read_meta(path: str | os.PathLike) -> dict:
+        """The ``meta`` of a capture file, reading its header member only (not the channels)."""
+        try:
+            with np.load(Path(path), allow_pickle=False) as npz:
+                header = json.loads(bytes(npz["__header__"]).decode())
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error,
+                UnicodeDecodeError) as exc:
+            raise InputError(f"capture file {str(path)!r} is not a readable ripple-hil capture "
+                             f"({type(exc).__name__}: {exc})") from None
+        meta = header.get("meta") if isinstance(header, dict) else None
+        return meta if isinstance(meta, dict) else {}
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` via a temp file in the same folder, fsync and rename."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -423,11 +423,12 @@ def _signal_rows(tests: list[dict], record_dir: Path) -> list[list[str]]:
 
 
 def _capture_meta(record_dir: Path, relative: str | None) -> dict:
+    """A capture's ``meta``, read from its header alone (not its channels)."""
     path = capture_path(record_dir, relative)
     if path is None:
         return {}
     try:
-        return Capture.load(path).meta
+        return Capture.read_meta(path)
     except InputError:      # a damaged capture: the traceability table names the problem
         return {}
 

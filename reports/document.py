@@ -28,9 +28,32 @@ LONG_TOKEN = 18
 ZERO_WIDTH_SPACE = "\u200b"
 
 
-def breakable(text: str) -> str:
-    """``text`` with a zero-width space after each break opportunity inside long tokens."""
-    return re.sub(r"\S{%d,}" % (LONG_TOKEN + 1),
+#: A piece that continues the previous one without a space (a long token split in two).
+_JOINED = "\u2060"
+
+
+def _pieces(word: str, width_mm: float, measure) -> list[str]:
+    """``word`` as it may be placed on lines: whole if it fits, else split after break
+    characters, else (no break character) by characters; continuation pieces carry
+    :data:`_JOINED` so that no space is put before them (removed when drawn)."""
+    if measure(word) <= width_mm or len(word) <= 1:
+        return [word]
+    parts = [p for p in breakable(word, always=True).split(ZERO_WIDTH_SPACE) if p]
+    out = []
+    for part in parts:
+        while measure(part) > width_mm and len(part) > 1:
+            cut = max(1, next((n for n in range(len(part), 0, -1)
+                               if measure(part[:n]) <= width_mm), 1))
+            out.append(part[:cut])
+            part = part[cut:]
+        out.append(part)
+    return [out[0]] + [_JOINED + piece for piece in out[1:]]
+
+
+def breakable(text: str, *, always: bool = False) -> str:
+    """``text`` with a zero-width space after each break opportunity inside long tokens (every
+    token with ``always``)."""
+    return re.sub(r"\S{%d,}" % (1 if always else LONG_TOKEN + 1),
                   lambda m: _BREAK_AFTER.sub(lambda b: b.group(1) + ZERO_WIDTH_SPACE, m.group(0)),
                   text)
 _FONTS = {("sans", ""): "DejaVuSans.ttf", ("sans", "B"): "DejaVuSans-Bold.ttf",
@@ -86,31 +109,51 @@ class ReportPDF(FPDF):
         if self.get_y() > self.h - self.b_margin - 15 - keep_with_mm:
             self.add_page()
         self.ln(2 if level > 1 else 3)
-        self.set_font("sans", "B", size)
-        self.multi_cell(0, size * 0.5, text, align="L", new_x=XPos.LMARGIN, new_y=YPos.NEXT)
+        self.lines(text, size, "B", size * 0.5)
         self.ln(1)
         self.set_font("sans", "", 8.5)
 
     def para(self, text: str, size: float = 8.5, style: str = "") -> None:
-        self.set_font("sans", style, size)
-        self.multi_cell(0, size * 0.47, text, align="L", new_x=XPos.LMARGIN, new_y=YPos.NEXT)
+        self.lines(text, size, style, size * 0.47)
         self.ln(1)
         self.set_font("sans", "", 8.5)
 
     def bullets(self, items: list[str], size: float = 8.0) -> None:
-        self.set_font("sans", "", size)
+        indent = 3.5
         for item in items:
-            self.multi_cell(0, size * 0.47, f"•  {item}", align="L", new_x=XPos.LMARGIN,
-                            new_y=YPos.NEXT)
+            self.lines(item, size, "", size * 0.47, indent=indent, bullet="•")
             self.ln(0.6)
         self.ln(1)
+        self.set_font("sans", "", 8.5)
+
+    def lines(self, text: str, size: float, style: str, line_h: float, indent: float = 0.0,
+              bullet: str | None = None) -> None:
+        """``text`` wrapped to the text width (less ``indent``), drawn line by line with page
+        breaks; ``bullet`` is drawn in the indent of the first line."""
+        width = self.w - self.l_margin - self.r_margin - indent
+        wrapped = self.wrap(text, width, "sans", style, size)
+        self.set_font("sans", style, size)
+        for number, line in enumerate(wrapped):
+            if self.get_y() + line_h > self.h - self.b_margin:
+                self.add_page()
+                self.set_font("sans", style, size)
+            y = self.get_y()
+            if bullet and number == 0:
+                self.text(self.l_margin + 0.5, y + 0.8 * line_h, bullet)
+            self.text(self.l_margin + indent, y + 0.8 * line_h, line)
+            self.set_y(y + line_h)
 
     def key_values(self, rows: list[tuple[str, str]], key_width: float = 48) -> None:
         self.grid(["", ""], [[k, v] for k, v in rows], widths=(key_width, 0), header=False)
 
     def grid(self, headings: list[str], rows: list[list[str]], widths: tuple = (),
              header: bool = True, size: float = 7.5, mono_columns: tuple[int, ...] = ()) -> None:
-        """A table; ``widths`` in mm (0 = share the rest); mono columns for hashes and ids."""
+        """A table; ``widths`` in mm (0 = share the rest); mono columns for hashes and ids.
+
+        Laid out here (not with fpdf2's table, whose per-character line breaking was most of the
+        report's time): each cell wraps at spaces, a long token after ``_ / = , [ - :``, and
+        only a token with none of those mid-word; a row that does not fit starts a new page
+        with the header repeated."""
         if not rows:
             self.para("(none)", size)
             return
@@ -119,24 +162,106 @@ class ReportPDF(FPDF):
         rest = usable - sum(widths)
         zeros = widths.count(0) or 1
         widths = [w or rest / zeros for w in widths]
-        self.set_font("sans", "", size)
-        with self.table(col_widths=widths, width=usable, first_row_as_headings=header,
-                        line_height=size * 0.5, text_align="LEFT", padding=0.8,
-                        borders_layout="HORIZONTAL_LINES" if header else "NONE") as table:
-            if header:
-                row = table.row()
-                for text in headings:
-                    row.cell(text)
-            for values in rows:
-                row = table.row()
-                for index, text in enumerate(values):
-                    if index in mono_columns:
-                        self.set_font("mono", "", size - 0.8)
-                        row.cell(str(text))
-                        self.set_font("sans", "", size)
-                    else:
-                        row.cell(breakable(str(text)))
+        pad, line_h = 0.8, size * 0.5
+        fonts = [("mono", "", size - 0.8) if i in mono_columns else ("sans", "", size)
+                 for i in range(len(widths))]
+
+        def layout(values, bold=False):
+            cells = []
+            for index, text in enumerate(values):
+                family, style, points = fonts[index] if not bold else ("sans", "B", size)
+                cells.append(((family, style, points),
+                              self.wrap(str(text), widths[index] - 2 * pad, family, style,
+                                        points)))
+            return cells, max(len(lines) for _, lines in cells) * line_h + 2 * pad
+
+        def draw(cells, height, rule_below):
+            x, y = self.l_margin, self.get_y()
+            for (font, lines), width in zip(cells, widths):
+                self.set_font(*font)
+                for number, line in enumerate(lines):
+                    self.text(x + pad, y + pad + (number + 0.78) * line_h, line)
+                x += width
+            if rule_below:
+                self.set_draw_color(90 if bold_rule[0] else 190)
+                self.set_line_width(0.2)
+                self.line(self.l_margin, y + height, self.l_margin + usable, y + height)
+                self.set_draw_color(0)
+            self.set_y(y + height)
+
+        bold_rule = [False]
+        head = layout(headings, bold=True) if header else None
+        limit = self.h - self.b_margin
+
+        def draw_head():
+            bold_rule[0] = True
+            draw(*head, rule_below=True)
+            bold_rule[0] = False
+
+        if head is not None:
+            if self.get_y() + head[1] + layout(rows[0])[1] > limit:
+                self.add_page()
+            draw_head()
+        for values in rows:
+            cells, height = layout(values)
+            if self.get_y() + height > limit:
+                self.add_page()
+                if head is not None:
+                    draw_head()
+            draw(cells, height, rule_below=header)
+        self.set_font("sans", "", 8.5)
         self.ln(2)
+
+    def wrap(self, text: str, width_mm: float, family: str = "sans", style: str = "",
+             size: float = 8.5) -> list[str]:
+        """``text`` in lines no wider than ``width_mm`` (explicit newlines kept)."""
+        measure = self._measure(family, style, size)
+        space = measure(" ")
+        out = []
+        for paragraph in text.replace(ZERO_WIDTH_SPACE, "").split("\n"):
+            line, used = "", 0.0
+            for word in paragraph.split(" "):
+                for piece in _pieces(word, width_mm, measure):
+                    joined = piece.startswith(_JOINED)
+                    piece = piece.removeprefix(_JOINED)
+                    glue = "" if not line or joined else " "
+                    width = measure(piece)
+                    if line and used + (space if glue else 0.0) + width > width_mm:
+                        out.append(line)
+                        line, used = piece, width
+                    else:
+                        line += glue + piece
+                        used += (space if glue else 0.0) + width
+            out.append(line)
+        return out or [""]
+
+    def _measure(self, family: str, style: str, size: float):
+        """A cached width function (mm) for one font and size."""
+        key = (family, style, size)
+        cached = self._measures.get(key) if hasattr(self, "_measures") else None
+        if cached is not None:
+            return cached
+        if not hasattr(self, "_measures"):
+            self._measures = {}
+        self.set_font(family, style, size)
+        widths = self.current_font.cw
+        scale = size * 0.001 / self.k
+        words: dict[str, float] = {}
+
+        def char(c: str) -> float:
+            try:
+                return widths[ord(c)] or 0
+            except (IndexError, KeyError):
+                return 600               # a glyph the font lacks: about one digit wide
+
+        def measure(text: str) -> float:
+            value = words.get(text)
+            if value is None:
+                value = words[text] = scale * sum(char(c) for c in text)
+            return value
+
+        self._measures[key] = measure
+        return measure
 
     def caption(self, text: str) -> None:
         self.para(text, size=7, style="I")

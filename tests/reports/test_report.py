@@ -87,7 +87,7 @@ def flat_lines(text: str) -> str:
 
 def test_instruments_verdicts_and_hashes_are_printed(full_record, full_pdf):
     record = load_record(full_record)
-    text = "\n".join(page_texts(full_pdf))
+    text = flat_lines("\n".join(page_texts(full_pdf)))
     for row in record["instruments"]:
         assert row["serial_number"] in text and row["model"] in text
     assert "0.1 % FS" in text
