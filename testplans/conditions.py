@@ -70,6 +70,8 @@ GAIN_SWEEP = [
     {"ia_gain_error_pu": 0.02, "ib_gain_error_pu": -0.02},
 ]
 PWM_RESOLUTION_SWEEP = [{"pwm_period_counts": c} for c in (32, 64, 128)]
+#: Electrical revolutions a PWM-resolution point captures (and its derived form averages over).
+PWM_RESOLUTION_REVOLUTIONS = 8
 #: PWM switching frequency sweep (paper eqs 29-31); the capture samples the currents fast.
 PWM_SWITCHING_SWEEP = [{"pwm_frequency_hz": f} for f in (10_000.0, 20_000.0, 40_000.0)]
 DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (1e-6, 2e-6, 4e-6)]

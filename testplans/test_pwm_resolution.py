@@ -18,9 +18,11 @@ pytestmark = pytest.mark.ripple_source("pwm_resolution")
 
 
 def plan(config, injection):
+    # the derived form averages over as many revolutions as the point captures
     return c.point(config.operating_point, "pwm_resolution", injection,
-                   c.DERIVED_RANGE_SIMPLE_RULE,
+                   c.DERIVED_RANGE_SIMPLE_RULE, revolutions=c.PWM_RESOLUTION_REVOLUTIONS,
                    prediction_params={"model": "derived", "max_order": 48,
+                                      "revolutions_averaged": c.PWM_RESOLUTION_REVOLUTIONS,
                                       **c.current_loop(config)},
                    expectation="judged against the derived duty-quantisation model through the "
                                "drive's current loop (two-sided, its own stated range); the "
