@@ -67,10 +67,11 @@ def operating_point_of(capture_path: Path, capture: Capture, record: dict | None
             if isinstance(cap, dict) and Path(str(cap.get("file", ""))).name == name:
                 op = test.get("operating_point") or {}
                 if "current_a" in op:
+                    label = (f"{op['speed_rpm']:+g} rpm, {op['current_a']:g} A"
+                             if op.get("speed_rpm") is not None else test.get("test_id", name))
                     return {"current_a": op["current_a"],
                             "current_angle_rad": op.get("current_angle_rad", 0.0),
-                            "speed_rpm": op.get("speed_rpm"),
-                            "label": test.get("test_id", name)}
+                            "speed_rpm": op.get("speed_rpm"), "label": label}
     meta = capture.meta
     if "current_command_a" in meta:
         injection = meta.get("injection") or {}

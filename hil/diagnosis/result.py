@@ -18,7 +18,7 @@ SOURCE_TITLES = {
     "dead_time": "inverter dead time", "encoder": "encoder resolution",
     "motor_cogging": "motor: cogging (fixed in mech. angle)",
     "motor_emf": "motor: EMF-harmonic torque (∝ current)",
-    "motor_other": "motor-side ripple at other orders",
+    "motor_other": "other orders (motor or unmodelled)",
     "unattributed": "not attributed (rest of the ripple)",
 }
 
