@@ -88,8 +88,8 @@ def main() -> None:
     op = twin_spec.operating_points[0]
     per_drive_s = 0.01 + 1.01 * 2 * 60.0 / (op.speed_rpm * op.motor.pole_pairs)
     drive_seconds = args.twin_drives * per_drive_s
-    jobs = [ChunkJob(spec=twin_spec, engine="twin", n=TWIN_CHUNK)
-            for _ in range(args.twin_drives // TWIN_CHUNK)]
+    jobs = [ChunkJob(spec=twin_spec, engine="twin", n=TWIN_CHUNK, start=i * TWIN_CHUNK)
+            for i in range(args.twin_drives // TWIN_CHUNK)]
     one_worker = {}
     for workers in (1, 2):
         with tempfile.TemporaryDirectory() as tmp, dask_client(n_workers=workers) as client:

@@ -1,8 +1,10 @@
 """The two yield engines as campaign chunk tasks: per drive, the pk-pk ripple at every point.
 
-A chunk either samples its own ``n`` drives from the tolerance distributions with the chunk's
-seed (Monte Carlo) or evaluates given parameter rows (Sobol' and inverse-design samples). Both
-engines see the same parameter values for the same chunk and seed:
+A chunk either samples drives ``start .. start + n`` from the tolerance distributions (Monte
+Carlo) or evaluates given parameter rows (Sobol' and inverse-design samples). Drive i is drawn
+in block i // 256, whose generator is seeded by ``chunk_seed(seed, block)``: so a drive's
+parameters depend on the campaign seed and its index only — not on the chunk size (which differs
+between the engines), nor on the workers. Both engines see the same drives for the same seed:
 
 * ``closed-form`` — :func:`hil.tolerance.combiner.ripple_pu`, all drives of the chunk at once.
 * ``twin`` — each drive built as a ``hil.sim.DriveConfig`` and simulated
@@ -15,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hil.campaign.seeds import chunk_seed
 from hil.campaign.twin import TwinSettings, twin_ripple_pu
 from hil.errors import InputError
 from hil.model.core import OperatingPoint
@@ -27,11 +30,12 @@ ENGINES = ("closed-form", "twin")
 
 @dataclass(frozen=True)
 class ChunkJob:
-    """One chunk: ``n`` Monte Carlo drives of ``spec``, or the given parameter ``rows``."""
+    """One chunk: Monte Carlo drives ``start .. start + n`` of ``spec``, or the given ``rows``."""
 
     spec: ToleranceSpec
     engine: str
     n: int = 0
+    start: int = 0
     rows: dict[str, np.ndarray] | None = field(default=None, compare=False)
     combiner: CombinerSettings = CombinerSettings()
     twin: TwinSettings = TwinSettings()
@@ -45,6 +49,20 @@ def sample_parameters(spec: ToleranceSpec, rng: np.random.Generator, n: int
                       ) -> dict[str, np.ndarray]:
     """Draw ``n`` drives; parameters in the fixed order of ``PARAMETERS`` (fixed ones draw none)."""
     return {name: spec.parameters[name].sample(rng, n) for name in PARAMETERS}
+
+
+#: Drives drawn per generator (module docstring).
+DRIVE_BLOCK = 256
+
+
+def sample_drives(spec: ToleranceSpec, start: int, n: int) -> dict[str, np.ndarray]:
+    """Parameters of drives ``start .. start + n`` of the campaign (block-seeded, see above)."""
+    first, last = start // DRIVE_BLOCK, (start + n - 1) // DRIVE_BLOCK
+    blocks = [sample_parameters(spec, np.random.default_rng(chunk_seed(spec.seed, b)),
+                                DRIVE_BLOCK) for b in range(first, last + 1)]
+    offset = start - first * DRIVE_BLOCK
+    return {name: np.concatenate([block[name] for block in blocks])[offset:offset + n]
+            for name in PARAMETERS}
 
 
 def parameters_from_unit(spec: ToleranceSpec, unit: dict[str, np.ndarray], n: int
@@ -88,13 +106,14 @@ def twin_ripple(ops: tuple[OperatingPoint, ...], params: dict[str, np.ndarray], 
 
 
 def yield_chunk(job: ChunkJob, seed: np.random.SeedSequence) -> dict[str, np.ndarray]:
-    """Campaign task: the chunk's parameters and their ripple (n, points)."""
+    """Campaign task: the chunk's parameters and their ripple (n, points). The chunk's own
+    ``seed`` is not used: drives are block-seeded (module docstring)."""
     if job.rows is not None:
         params = {name: np.asarray(job.rows[name], dtype=float) for name in PARAMETERS}
         n = len(params["dead_time_s"])
     else:
         n = job.n
-        params = sample_parameters(job.spec, np.random.default_rng(seed), n)
+        params = sample_drives(job.spec, job.start, n)
     if job.engine == "closed-form":
         ripple = closed_form_ripple(job.spec.operating_points, params, n, job.combiner)
     else:

@@ -82,7 +82,9 @@ def _identity(spec: ToleranceSpec, options: YieldOptions, **extra: Any) -> dict:
 
 def monte_carlo(spec: ToleranceSpec, folder: Path, options: YieldOptions, client: Any):
     size = options.chunk_size or DEFAULT_CHUNK[options.engine]
-    jobs = [_job(spec, options, n=n) for n in chunk_sizes(spec.drives, size)]
+    sizes = chunk_sizes(spec.drives, size)
+    starts = np.cumsum([0] + sizes[:-1])
+    jobs = [_job(spec, options, n=n, start=int(s)) for n, s in zip(sizes, starts)]
     return run_campaign(yield_chunk, jobs, folder, scheduler=options.scheduler,
                         n_workers=options.n_workers, seed=spec.seed, client=client,
                         progress=options.progress, description=f"{options.engine} drives",

@@ -23,7 +23,9 @@ SPEC = parse_tolerances({
 
 
 def jobs(spec=SPEC, size=1000):
-    return [ChunkJob(spec=spec, engine="closed-form", n=n) for n in chunk_sizes(spec.drives, size)]
+    sizes = chunk_sizes(spec.drives, size)
+    return [ChunkJob(spec=spec, engine="closed-form", n=n, start=sum(sizes[:i]))
+            for i, n in enumerate(sizes)]
 
 
 def arrays(result):
@@ -52,7 +54,13 @@ def test_same_seed_identical_on_one_and_two_workers(tmp_path, client_one, client
     assert a.keys() == b.keys() and a["ripple_pu"].shape == (6000, 1)
     for name in a:
         assert np.array_equal(a[name], b[name]) and np.array_equal(a[name], c[name]), name
-    other = run_campaign(yield_chunk, jobs(), tmp_path / "other", seed=SPEC.seed + 1,
+    rechunked = run_campaign(yield_chunk, jobs(size=700), tmp_path / "rechunked", seed=SPEC.seed,
+                             scheduler="inline", progress=False)
+    assert len(rechunked.chunks) == 9
+    for name in a:  # a drive depends on the seed and its index, not on the chunking
+        assert np.array_equal(arrays(rechunked)[name], a[name]), name
+    reseeded = dataclasses.replace(SPEC, seed=SPEC.seed + 1)
+    other = run_campaign(yield_chunk, jobs(reseeded), tmp_path / "other", seed=SPEC.seed + 1,
                          scheduler="inline", progress=False)
     assert not np.array_equal(arrays(other)["ripple_pu"], a["ripple_pu"])
 
@@ -135,6 +143,6 @@ def test_twin_yield_on_local_cluster_matches_inline_and_closed_form(tmp_path, cl
     twin = np.load(tmp_path / "twin" / "monte_carlo" / "chunks" / "00001.npz")["ripple_pu"]
     again = np.load(tmp_path / "inline" / "monte_carlo" / "chunks" / "00001.npz")["ripple_pu"]
     assert np.array_equal(twin, again)
-    job = ChunkJob(spec=spec, engine="closed-form", n=2)
+    job = ChunkJob(spec=spec, engine="closed-form", n=2, start=2)
     closed = yield_chunk(job, chunk_seed(spec.seed, 1))["ripple_pu"]
     assert twin == pytest.approx(closed, rel=0.25)
