@@ -107,13 +107,18 @@ BENCHMARKS: tuple[Benchmark, ...] = (
                  + _v(r"samples/s"), "{label} {how} samples_per_s", "samples/s"),),
         "serial torque transducer: samples per second (both dialects, unpaced and paced pty)"),
     Benchmark(
-        "hil_run", "run_bench.py", ("--report",), ("--source", "baseline"),
+        "hil_run", "run_bench.py", ("--report", "--pdf", "--repeat", "3", "--startup"),
+        ("--source", "baseline"),
         (Pattern(r"hil run \((?P<which>[^,]+(?:, [^,]+)*?), simulated bench\):\s*"
                  r"(?P<value>\d+) points", "points", "points"),
          Pattern(r"hil run .*points in\s*" + _v(r"wall s"), "wall_s", "s"),
          Pattern(r"hil run .*=\s*" + _v(r"points/s"), "points_per_s", "points/s"),
          Pattern(r"hil report on that record:\s*" + _v(r"wall s"), "report_wall_s", "s",
-                 required=False)),
+                 required=False),
+         Pattern(r"pytest start-up and collection of one plan:\s*" + _v(r"s with every"),
+                 "startup_all_plugins_s", "s", required=False),
+         Pattern(r"pytest start-up and collection of one plan:.*?,\s*" + _v(r"s with hil run"),
+                 "startup_hil_run_plugins_s", "s", required=False)),
         "the whole `hil run` on the simulated bench (all plans), then `hil report`"),
     Benchmark(
         "yield", "yield_bench.py", (), ("--quick",),

@@ -1,11 +1,14 @@
 """Benchmark of the whole ``hil run`` on the simulated bench: wall seconds, points, points/s.
 
-Run: ``.venv/bin/python benchmarks/run_bench.py [--source NAME ...] [--report] [--json FILE]``.
-``hil run`` is started as a user starts it (its own process: pytest, the plugin, the simulated
-instruments over their real transports, the record on disk) into a temporary record folder, which
-is removed afterwards. The points and their outcomes are read from the record it wrote. With
-``--report`` the PDF report is written too and its share of the time is measured separately
-(``hil report`` on the same record).
+Run: ``.venv/bin/python benchmarks/run_bench.py [--source NAME ...] [--report] [--pdf]
+[--repeat N] [--startup] [--json FILE]``. ``hil run`` is started as a user starts it (its own
+process: pytest, the plugin, the simulated instruments over their real transports, the record on
+disk) into a temporary record folder, which is removed afterwards. The points and their outcomes
+are read from the record it wrote. With ``--report`` the PDF report is timed separately (``hil
+report`` on the same record); with ``--pdf`` the run writes its PDF itself (``hil run -o``), as a
+user's run does; ``--repeat N`` prints the median of N runs. ``--startup`` times pytest's start-up
+and collection of one plan with every installed pytest plugin and with ``hil run``'s set (issue 17
+item 6: hypothesis's plugin alone was ~1 s).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ HIL = [sys.executable, "-m", "hil"]
 RUN_TIMEOUT_S = 1800.0
 
 
-def time_hil_run(sources: list[str] | None = None, *, report: bool = False,
+def time_hil_run(sources: list[str] | None = None, *, report: bool = False, pdf: bool = False,
                  timeout_s: float = RUN_TIMEOUT_S) -> dict:
     """Run ``hil run`` on the simulated bench in a subprocess; return its figures.
 
@@ -35,7 +38,8 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False,
     """
     with tempfile.TemporaryDirectory(prefix="ripple-hil-bench-") as scratch:
         records = Path(scratch) / "records"
-        command = HIL + ["run", "--no-report", "--record-dir", str(records)]
+        command = HIL + ["run", "--record-dir", str(records)] + (
+            ["-o", str(Path(scratch) / "run.pdf")] if pdf else ["--no-report"])
         for source in sources or []:
             command += ["--source", source]
         env = dict(os.environ, PYTHONUNBUFFERED="1")
@@ -47,7 +51,9 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False,
         if not folders:
             raise RuntimeError(f"hil run wrote no record (exit {done.returncode}): "
                                f"{(done.stdout + done.stderr)[-2000:]}")
-        record = json.loads((folders[-1] / "record.json").read_text())
+        from hil.record import load_record
+
+        record = load_record(folders[-1])
         tests = record["tests"]
         figures = {"wall_s": wall_s, "points": len(tests),
                    "points_per_s": len(tests) / wall_s if wall_s > 0 else float("nan"),
@@ -64,23 +70,58 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False,
     return figures
 
 
+def time_startup(repeat: int = 3) -> dict:
+    """Best-of-``repeat`` wall seconds of ``pytest --collect-only`` of the baseline plan, with
+    every installed pytest plugin and with the set ``hil run`` loads."""
+    from hil.commands.run import plan_modules, unrelated_plugins
+
+    plan = str(plan_modules()["baseline"])
+    base = [sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", plan]
+    out = {}
+    for name, extra in (("all_plugins", []), ("hil_run_plugins", unrelated_plugins())):
+        best = float("inf")
+        for _ in range(repeat):
+            start = time.perf_counter()
+            subprocess.run(base + extra, capture_output=True, text=True, timeout=300)
+            best = min(best, time.perf_counter() - start)
+        out[name] = best
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--source", action="append", metavar="NAME",
                         help="run only this source's plan (repeatable); default: all plans")
     parser.add_argument("--report", action="store_true",
                         help="also time `hil report` on the record")
+    parser.add_argument("--pdf", action="store_true",
+                        help="the run writes its PDF itself (hil run -o), as a user's run does")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="run N times and print the median wall time (default 1)")
+    parser.add_argument("--startup", action="store_true",
+                        help="also time pytest start-up with all plugins and with hil run's")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON here")
     args = parser.parse_args(argv)
-    figures = time_hil_run(args.source, report=args.report)
+    runs = [time_hil_run(args.source, report=args.report, pdf=args.pdf)
+            for _ in range(max(1, args.repeat))]
+    walls = sorted(run["wall_s"] for run in runs)
+    figures = runs[0] | {"wall_s": walls[len(walls) // 2], "wall_s_all": walls}
+    figures["points_per_s"] = figures["points"] / figures["wall_s"]
     which = ", ".join(args.source) if args.source else "all plans"
     outcomes = ", ".join(f"{n} {name}" for name, n in sorted(figures["outcomes"].items()))
     print(f"hil run ({which}, simulated bench): {figures['points']} points in "
           f"{figures['wall_s']:.2f} wall s = {figures['points_per_s']:.3f} points/s "
-          f"(exit {figures['returncode']}, record {figures['record_status']}; {outcomes})")
+          f"(exit {figures['returncode']}, record {figures['record_status']}; {outcomes}"
+          f"{'; PDF written by the run' if args.pdf else ''}"
+          f"{f'; median of {len(walls)}: ' + ', '.join(f'{w:.2f}' for w in walls) if len(walls) > 1 else ''})")
     if "report_wall_s" in figures:
         print(f"hil report on that record: {figures['report_wall_s']:.2f} wall s "
               f"(exit {figures['report_returncode']})")
+    if args.startup:
+        startup = time_startup()
+        figures["startup"] = startup
+        print(f"pytest start-up and collection of one plan: {startup['all_plugins']:.2f} s with "
+              f"every installed plugin, {startup['hil_run_plugins']:.2f} s with hil run's")
     if args.json:
         Path(args.json).write_text(json.dumps(figures, indent=2) + "\n")
     return 0
