@@ -51,17 +51,18 @@ ENCODER_HIDES_DEAD_TIME = (
     "bias the other estimates")
 
 
-def diagnose(inputs: Iterable[OrderSpectrum], *, setup: sig.DriveSetup | None = None,
+def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
              transducer_class_pct: float = 0.0, encoder_counts_per_rev: int | None = None,
-             dead_time: bool = True) -> Diagnosis:
-    """Diagnose the drive from order spectra (:func:`spectra_from_captures` makes them).
+             dead_time: bool = True, max_mech_order: int = 128) -> Diagnosis:
+    """Diagnose the drive from order spectra, or from (capture, operating point) pairs (turned
+    into spectra up to ``max_mech_order`` by :func:`spectra_from_captures`).
 
     ``setup``: the drive's current loop, PWM frequency and the transducer's bandwidth (module
     :mod:`.signatures`); ``transducer_class_pct``: accuracy class in % of reading used as a model
     uncertainty; ``encoder_counts_per_rev``: the drive's encoder (default: the captures' meta,
     else the drive contract's 7200).
     """
-    spectra = list(inputs)
+    spectra = _as_spectra(list(inputs), max_mech_order)
     if not spectra:
         raise InputError("diagnose needs at least one capture or spectrum")
     setup = setup or sig.DriveSetup()
@@ -145,6 +146,20 @@ def spectra_from_captures(captures: Iterable[tuple[Capture, dict]], *,
 
 
 # ------------------------------------------------------------------------------ building blocks
+def _as_spectra(items: list, max_mech_order: int) -> list[OrderSpectrum]:
+    out = []
+    for item in items:
+        if isinstance(item, OrderSpectrum):
+            out.append(item)
+        elif (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], Capture)
+              and isinstance(item[1], dict)):
+            out += spectra_from_captures([item], max_mech_order=max_mech_order)
+        else:
+            raise InputError(f"diagnose takes OrderSpectrum objects or (Capture, operating point "
+                             f"dict) pairs, got {type(item).__name__}")
+    return out
+
+
 def _problem(spectra, params, signatures, fit_orders) -> LinearProblem:
     y, sigma, jac, rel, rows = [], [], [], [], []
     for s_index, spectrum in enumerate(spectra):
