@@ -62,8 +62,9 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False, pdf:
                    "sources": sorted({t["source"] for t in tests if t.get("source")})}
         if report:
             start = time.perf_counter()
+            again = ["--reason", "benchmark: report timed again"] if pdf else []
             rendered = subprocess.run(HIL + ["report", str(folders[-1]), "-o",
-                                             str(Path(scratch) / "report.pdf")],
+                                             str(Path(scratch) / "report.pdf"), *again],
                                       capture_output=True, text=True, timeout=timeout_s)
             figures["report_wall_s"] = time.perf_counter() - start
             figures["report_returncode"] = rendered.returncode
