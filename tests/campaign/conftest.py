@@ -15,3 +15,12 @@ def client_two():
 def client_one():
     with dask_client(n_workers=1) as client:
         yield client
+
+
+@pytest.fixture(scope="session")
+def twin_compiled():
+    """Compile (or load) the twin here first, so the workers load numba's on-disk cache instead
+    of compiling it twice in parallel on a cold cache."""
+    from hil.sim import DriveConfig, simulate
+
+    simulate(DriveConfig(), 0.001, 20000.0)

@@ -110,7 +110,7 @@ def test_bad_scheduler_address_is_one_line_error(tmp_path):
         run_campaign(yield_chunk, jobs(), tmp_path, scheduler="localhost:1", progress=False)
 
 
-def test_twin_ripple_map_on_two_workers(tmp_path, client_two):
+def test_twin_ripple_map_on_two_workers(tmp_path, twin_compiled, client_two):
     """The twin path: an injected 1 % offset in both sensors reads about eq 20's 4 %, the
     baseline far less, and a rerun of the finished map computes nothing."""
     grid = [{"ia_offset_a": 0.0}, {"ia_offset_a": 0.2, "ib_offset_a": 0.2},
@@ -129,7 +129,8 @@ def test_twin_ripple_map_on_two_workers(tmp_path, client_two):
         twin_ripple_map([{"bogus_knob": 1}], base, tmp_path / "bad", scheduler="inline")
 
 
-def test_twin_yield_on_local_cluster_matches_inline_and_closed_form(tmp_path, client_two):
+def test_twin_yield_on_local_cluster_matches_inline_and_closed_form(tmp_path, twin_compiled,
+                                                                   client_two):
     """The twin engine in CI (8 drives on two workers): the same drives as inline, and per drive
     near the closed form for offsets + gain + dead time at 500 rpm (tolerance: the engines'
     agreement of studies/yield_engines.py, where the twin's loop and ADC differ)."""
