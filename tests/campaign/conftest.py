@@ -19,8 +19,9 @@ def client_one():
 
 @pytest.fixture(scope="session")
 def twin_compiled():
-    """Compile (or load) the twin here first, so the workers load numba's on-disk cache instead
-    of compiling it twice in parallel on a cold cache."""
-    from hil.sim import DriveConfig, simulate
+    """Compile (or load) the twin and the analysis here first, so the workers load numba's
+    on-disk cache instead of compiling both twice in parallel on a cold cache."""
+    from hil.campaign.twin import TwinSettings, twin_ripple_pu
+    from hil.sim import DriveConfig
 
-    simulate(DriveConfig(), 0.001, 20000.0)
+    twin_ripple_pu([DriveConfig(speed_rpm=3000)], TwinSettings(revolutions=1, settle_s=0.0))
