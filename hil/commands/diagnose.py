@@ -40,6 +40,10 @@ def register(subparsers) -> None:
                         help="torque transducer's first-order bandwidth (overrides the bench)")
     parser.add_argument("--pwm-frequency-hz", type=float, default=None, metavar="HZ",
                         help="PWM frequency (default 20000)")
+    parser.add_argument("--current-channel-u-a", type=float, default=None, metavar="A",
+                        help="standard uncertainty of the DAQ current channels' dc; when given, "
+                             "the captures' phase-current dc is fitted too (separates a sensor "
+                             "offset from a torque fixed in the rotor angle)")
     parser.add_argument("--max-mech-order", type=int, default=128, metavar="M",
                         help="highest mechanical order analysed (default 128)")
     parser.set_defaults(func=run)
@@ -86,7 +90,7 @@ def run(args) -> int:
         _bench_dict(args, records), current_loop_bandwidth_hz=args.loop_bandwidth_hz,
         current_loop_delay_s=args.loop_delay_s,
         transducer_bandwidth_hz=args.transducer_bandwidth_hz,
-        pwm_frequency_hz=args.pwm_frequency_hz)
+        pwm_frequency_hz=args.pwm_frequency_hz, current_channel_u_a=args.current_channel_u_a)
     spectra = spectra_from_captures(pairs, max_mech_order=args.max_mech_order)
     result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
     result.notes.extend(check_setup_known(setup))

@@ -99,7 +99,17 @@ def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
         notes.append(ENCODER_HIDES_DEAD_TIME)
     params = P.controller_parameters(transducer_class_pct, dead_time=dead_time,
                                      dead_time_nuisance="dead_time_us" in nuisance)
-    for k in COGGING_ELEC_ORDERS:
+    use_currents = (setup.current_channel_u_a is not None
+                    and all(s.current_dc_a is not None for s in spectra))
+    if use_currents:
+        notes.append("phase-current dc fitted with the torque (DAQ channel dc uncertainty "
+                     f"{setup.current_channel_u_a:g} A): a torque fixed in the rotor angle at "
+                     "electrical order 1 is fitted as cogging, separated from the offsets")
+    elif all(s.current_dc_a is not None for s in spectra):
+        notes.append("the captures hold phase currents, unused: state the DAQ current channels' "
+                     "dc uncertainty (current_channel_u_a) to separate offsets from a "
+                     "rotor-fixed order-1 torque")
+    for k in ((1,) if use_currents else ()) + COGGING_ELEC_ORDERS:
         params += P.cogging_parameters(p * k, transducer_class_pct)
     for k in EMF_ELEC_ORDERS:
         params += P.emf_parameters(p * k, transducer_class_pct)
@@ -108,12 +118,13 @@ def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
                   for s in model_spectra]
     if encoder.get("detected"):
         signatures = _encoder_angle_uncertainty(signatures, params, encoder, notes)
-    problem = _problem(model_spectra, params, signatures, fit_orders)
+    currents = _current_signatures(model_spectra, params, setup) if use_currents else None
+    problem = _problem(model_spectra, params, signatures, fit_orders, currents, setup)
     result = fit(problem)
 
     estimates = _estimates(params, result, nuisance)
-    aliases = _alias_probe(model_spectra, params, signatures, fit_orders, setup, transducer_class_pct, p,
-                           max_mech)
+    aliases = [] if use_currents else _alias_probe(model_spectra, params, signatures, fit_orders,
+                                                   setup, transducer_class_pct, p, max_mech)
     weak = [_explain(w, params) for w in result.weak_directions]
     unexplained = _unexplained(problem, result, spectra, fit_orders, p)
     contributions = _contributions(spectra, params, signatures, result, encoder, excluded)
@@ -160,7 +171,30 @@ def _as_spectra(items: list, max_mech_order: int) -> list[OrderSpectrum]:
     return out
 
 
-def _problem(spectra, params, signatures, fit_orders) -> LinearProblem:
+def _current_signatures(spectra, params, setup) -> list[list[tuple[complex, float]]]:
+    """Per point and parameter: (dc_a + j·dc_b of the actual currents per unit, relative model
+    uncertainty); only the offsets move the dc (eqs 15-17 through the loop)."""
+    out = []
+    for spectrum in spectra:
+        op = sig.operating_point(spectrum.speed_rpm, spectrum.current_a,
+                                 spectrum.current_angle_rad, setup)
+        row = []
+        for param in params:
+            if param.name in ("ia_offset_a", "ib_offset_a"):
+                phase = param.name[1]
+                value = sig.offset_current_dc(op, setup, phase)
+                ideal = -1.0 if phase == "a" else -1j
+                row.append((value, P.LOOP_CORRECTION_REL_UNCERTAINTY * abs(value - ideal)))
+            else:
+                row.append((0j, 0.0))
+        out.append(row)
+    return out
+
+
+def _problem(spectra, params, signatures, fit_orders, currents=None,
+             setup=None) -> LinearProblem:
+    """Rows (point, mechanical order) of torque coefficients; with ``currents``, one more row per
+    point (order 0) holding the phase currents' dc as dc_a + j·dc_b."""
     y, sigma, jac, rel, rows = [], [], [], [], []
     for s_index, spectrum in enumerate(spectra):
         for m in fit_orders:
@@ -169,6 +203,12 @@ def _problem(spectra, params, signatures, fit_orders) -> LinearProblem:
             sigma.append(spectrum.sigma_nm[m])
             jac.append([signatures[s_index][j][0].get(m, 0j) for j in range(len(params))])
             rel.append([_rel_at(signatures[s_index][j][1], m) for j in range(len(params))])
+        if currents is not None:
+            rows.append((s_index, 0))
+            y.append(complex(*spectrum.current_dc_a))
+            sigma.append(math.hypot(spectrum.current_dc_sigma_a, setup.current_channel_u_a))
+            jac.append([currents[s_index][j][0] for j in range(len(params))])
+            rel.append([currents[s_index][j][1] for j in range(len(params))])
     return LinearProblem(names=[param.name for param in params], y=np.array(y),
                          sigma=np.array(sigma), jacobian=np.array(jac, dtype=complex),
                          model_rel=np.array(rel), rows=rows)

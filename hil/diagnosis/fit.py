@@ -14,8 +14,9 @@ same way at every point, which averaging points does not reduce): :func:`_system
 Identifiability: columns of the weighted Jacobian are scaled to unit norm; a singular value below
 :data:`WEAK_SINGULAR_VALUE` of the largest marks a parameter combination these observations cannot
 determine (its right singular vector); parameters with a loading above :data:`WEAK_LOADING` in such
-a direction are reported as not identifiable; the solution leaves that direction out (truncated
-SVD), so the torque they share is still fitted (minimum-norm) and the rest stays determined.
+a direction are reported as not identifiable; the stated estimates leave that direction out
+(truncated SVD) so the rest stays determined, while the residual and the sources' torque use the
+full least-squares solution (the torque the weak combination shares is fitted, not left over).
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ class FitResult:
     condition_number: float
     residual: np.ndarray                 # complex, per observation row
     sigma_total: np.ndarray              # per component, per observation row
-    fitted_contributions: np.ndarray     # complex n×p: J·p of the solution (weak directions: min-norm)
+    fitted_contributions: np.ndarray     # complex n×p: J·p of the full least-squares solution
 
     def standard_uncertainty(self) -> np.ndarray:
         return np.sqrt(np.diag(self.covariance))
@@ -113,7 +114,9 @@ def _solve(a: np.ndarray, b: np.ndarray, live: np.ndarray):
     """Truncated-SVD least squares over the ``live`` columns (column-scaled): directions with a
     relative singular value below :data:`WEAK_SINGULAR_VALUE` are left out, so a combination the
     data cannot determine gets its minimum-norm share (its torque is still accounted for) without
-    blowing up the rest. Returns (solution, covariance, operator M with solution = M·b, rank)."""
+    blowing up the rest. Returns (solution, covariance, operator M with solution = M·b, full
+    solution): the full least-squares solution (weak directions included) is what the residual
+    and the sources' torque use, so a weak direction's share is fitted, not left as residual."""
     size = a.shape[1]
     x = np.zeros(size)
     cov = np.zeros((size, size))
@@ -129,7 +132,9 @@ def _solve(a: np.ndarray, b: np.ndarray, live: np.ndarray):
     operator[live] = m
     x = operator @ b
     cov[np.ix_(live, live)] = (v / s[kept] ** 2) @ v.T
-    return x, cov, operator, int(kept.sum())
+    full = np.zeros(size)
+    full[live] = np.linalg.lstsq(sub / norms, b, rcond=1e-12)[0] / norms
+    return x, cov, operator, full
 
 
 def _systematic_covariance(problem: LinearProblem, p: np.ndarray, operator: np.ndarray,
@@ -153,21 +158,21 @@ def _systematic_covariance(problem: LinearProblem, p: np.ndarray, operator: np.n
 def fit(problem: LinearProblem) -> FitResult:
     """Solve ``problem`` (module docstring)."""
     sigma_total = problem.sigma.copy()
-    a, _ = _real_system(problem, sigma_total)
-    s_rel, weak, keep, norms, condition = identifiability(a, problem.names)
-    live = norms > 0
+    live = np.any(problem.jacobian != 0, axis=0)
     for _ in range(MODEL_WEIGHT_ITERATIONS):
         a, b = _real_system(problem, sigma_total)
-        x, cov, operator, rank = _solve(a, b, live)
-        contributions = problem.jacobian * x[None, :]
+        x, cov, operator, full = _solve(a, b, live)
+        contributions = problem.jacobian * full[None, :]
         model_var = 0.5 * np.sum((problem.model_rel * np.abs(contributions)) ** 2, axis=1)
         sigma_total = np.sqrt(problem.sigma ** 2 + model_var)
     a, b = _real_system(problem, sigma_total)
-    x, cov, operator, rank = _solve(a, b, live)
-    contributions = problem.jacobian * x[None, :]
+    # identifiability judged with the full uncertainties (type A and model) of each observation
+    s_rel, weak, keep, _, condition = identifiability(a, problem.names)
+    x, cov, operator, full = _solve(a, b, live)
+    contributions = problem.jacobian * full[None, :]
     residual = problem.y - contributions.sum(axis=1)
     chi2 = float(np.sum((residual.real / sigma_total) ** 2 + (residual.imag / sigma_total) ** 2))
-    dof = 2 * len(problem.y) - rank
+    dof = 2 * len(problem.y) - int(live.sum())
     birge = chi2 / dof if dof > 0 else float("nan")
     # Through the estimator: type A, plus the model uncertainty split evenly (its split is not
     # known) into a part that differs from point to point (like noise) and a part common to all
@@ -179,7 +184,7 @@ def fit(problem: LinearProblem) -> FitResult:
     cov = (operator * share ** 2) @ operator.T
     if dof > 0 and birge > 1.0:
         cov = cov * birge
-    cov = cov + (1.0 - COMMON_SHARE_COMPLEMENT) * _systematic_covariance(problem, x, operator,
+    cov = cov + (1.0 - COMMON_SHARE_COMPLEMENT) * _systematic_covariance(problem, full, operator,
                                                                          sigma_total)
     estimate = np.where(keep, x, np.nan)
     cov[~keep, :] = np.nan

@@ -44,6 +44,10 @@ class OrderSpectrum:
     sigma_nm: np.ndarray
     revolutions: int
     meta: dict = field(default_factory=dict)
+    #: dc of the actual phase currents a, b over whole electrical revolutions (A), from the DAQ's
+    #: current channels when the capture has them, and its type-A standard uncertainty
+    current_dc_a: tuple[float, float] | None = None
+    current_dc_sigma_a: float | None = None
 
     @property
     def max_mech_order(self) -> int:
@@ -127,7 +131,29 @@ def spectrum_from_capture(capture: Capture, *, current_a: float, current_angle_r
     speed = measured_speed_rpm(capture) if speed_rpm is None else float(speed_rpm)
     if speed == 0:
         raise InputError("speed_rpm=0: the diagnosis needs a turning rotor")
+    dc, dc_sigma = current_dc(capture, pp)
     return OrderSpectrum(label=label, speed_rpm=speed, current_a=float(current_a),
                          current_angle_rad=float(current_angle_rad), pole_pairs=pp,
                          coefficients_nm=coefficients, sigma_nm=pooled_sigma(per_rev),
-                         revolutions=result.revolutions, meta=dict(capture.meta))
+                         revolutions=result.revolutions, meta=dict(capture.meta),
+                         current_dc_a=dc, current_dc_sigma_a=dc_sigma)
+
+
+def current_dc(capture: Capture, pole_pairs: int) -> tuple[tuple[float, float] | None,
+                                                             float | None]:
+    """Angle-averaged dc of the phase currents ``ia_a``, ``ib_a`` over whole electrical
+    revolutions (the same resampling as the torque, hil.analysis), and the larger of the two
+    type-A standard uncertainties; (None, None) when the capture has no current channels."""
+    if "ia_a" not in capture or "ib_a" not in capture:
+        return None, None
+    means, sigmas = [], []
+    for name in ("ia_a", "ib_a"):
+        view = Capture(channels={key: capture[key] for key in capture.channels
+                                 if key != "torque_nm"} | {"torque_nm": capture[name]},
+                       meta=dict(capture.meta))
+        result = analyze_capture(view, max_order=8, pole_pairs=pole_pairs)
+        per_rev = result.revolution_matrix_nm.mean(axis=1)
+        means.append(float(result.mean_torque_nm))
+        sigmas.append(float(np.std(per_rev, ddof=1) / math.sqrt(per_rev.size))
+                      if per_rev.size > 1 else float("nan"))
+    return (means[0], means[1]), max(sigmas)

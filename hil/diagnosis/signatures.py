@@ -55,6 +55,10 @@ class DriveSetup:
     current_loop_delay_s: float = 0.0
     pwm_frequency_hz: float = 20_000.0
     transducer_bandwidth_hz: float | None = None
+    #: Standard uncertainty (A) of the dc of the DAQ's phase-current channels (their own offset):
+    #: when given, the captures' current dc is fitted too (it separates a sensor offset from a
+    #: torque fixed in the rotor angle); None: the currents are not used.
+    current_channel_u_a: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("current_loop_bandwidth_hz", "transducer_bandwidth_hz"):
@@ -64,6 +68,10 @@ class DriveSetup:
         if not (0 <= self.current_loop_delay_s < 1e-2):
             raise InputError(f"current_loop_delay_s={self.current_loop_delay_s!r} must be in "
                              "[0, 0.01) s")
+        if self.current_channel_u_a is not None and not (
+                math.isfinite(self.current_channel_u_a) and self.current_channel_u_a >= 0):
+            raise InputError(f"current_channel_u_a={self.current_channel_u_a!r} must be >= 0 A "
+                             "or None")
         if not 2000 <= self.pwm_frequency_hz <= 50_000:
             raise InputError(f"pwm_frequency_hz={self.pwm_frequency_hz!r} must be in "
                              "[2000, 50000] Hz")
@@ -120,19 +128,34 @@ def waveform_orders(torque_nm: np.ndarray) -> np.ndarray:
     return spectrum[: GRID_POINTS // 2]
 
 
-def sensor_error_torque(op: OperatingPoint, setup: DriveSetup, n_a: np.ndarray,
-                        n_b: np.ndarray) -> np.ndarray:
-    """Electrical-order torque coefficients (N·m) of sensor errors n_a(θ), n_b(θ) (A) on the grid.
-
-    Two sensors, i_c computed (isolated neutral, eq 17): the firmware's space vector of the error
-    is n_a + j·(n_a + 2·n_b)/√3; its harmonic e^{jmθ} is seen by the loop at (m − 1)·ω_e.
-    """
-    theta = electrical_grid()
+def actual_current_error(op: OperatingPoint, setup: DriveSetup, n_a: np.ndarray,
+                         n_b: np.ndarray) -> np.ndarray:
+    """Space vector (A) of the actual current error on the grid caused by sensor errors n_a(θ),
+    n_b(θ) (A). Two sensors, i_c computed (isolated neutral, eq 17): the firmware's space vector
+    of the error is n_a + j·(n_a + 2·n_b)/√3; its harmonic e^{jmθ} is seen by the loop at
+    (m − 1)·ω_e, and the loop writes −T times it into the actual current."""
     error = n_a + 1j * (n_a + 2.0 * n_b) / SQRT3
     harmonics = np.fft.fft(error) / GRID_POINTS
     m = np.fft.fftfreq(GRID_POINTS, 1.0 / GRID_POINTS)
     tracking = np.array([loop_tracking((k - 1.0) * op.elec_speed_rad_s, op, setup) for k in m])
-    actual_error = -np.fft.ifft(harmonics * tracking) * GRID_POINTS
+    return -np.fft.ifft(harmonics * tracking) * GRID_POINTS
+
+
+def offset_current_dc(op: OperatingPoint, setup: DriveSetup, phase: str) -> complex:
+    """dc of the actual phase currents per ampere of offset in sensor ``phase``, as
+    dc_a + j·dc_b (A/A): −1 for its own phase under ideal regulation, rotated by the loop."""
+    one, zero = np.ones(GRID_POINTS), np.zeros(GRID_POINTS)
+    vector = actual_current_error(op, setup, *((one, zero) if phase == "a" else (zero, one)))
+    dc = complex(np.mean(vector))
+    return complex(dc.real, -0.5 * dc.real + 0.5 * SQRT3 * dc.imag)
+
+
+def sensor_error_torque(op: OperatingPoint, setup: DriveSetup, n_a: np.ndarray,
+                        n_b: np.ndarray) -> np.ndarray:
+    """Electrical-order torque coefficients (N·m) of sensor errors n_a(θ), n_b(θ) (A) on the grid
+    (:func:`actual_current_error` in the paper's torque sum, eq 7)."""
+    theta = electrical_grid()
+    actual_error = actual_current_error(op, setup, n_a, n_b)
     k_e = op.motor.emf_peak_v_s_per_rad
     torque = 1.5 * k_e * np.real(-1j * np.exp(1j * theta) * np.conj(actual_error))
     return waveform_orders(torque)

@@ -94,3 +94,31 @@ def test_suggested_calibration_reduces_the_measured_ripple():
     for b, a, p in zip(before, after, predicted):
         assert a < 0.5 * b                          # the calibration removes most of the ripple
         assert a == pytest.approx(p, rel=0.25, abs=0.05)   # as the diagnosis predicted
+
+
+def test_phase_currents_separate_an_offset_from_a_rotor_fixed_order_1_torque():
+    """A cogging term at mechanical order 2 (electrical 1) beside sensor offsets: from the torque
+    alone the diagnosis states it cannot tell them apart (and mis-attributes the order-1 torque
+    to the offsets, as it says it does); with the phase currents' dc (a DAQ channel known to
+    0.5 mA) both are estimated."""
+    import dataclasses
+
+    from hil.diagnosis import diagnose
+    from hil.diagnosis.twin_proof import twin_setup
+
+    faults = HiddenFaults(ia_offset_a=0.1, ib_offset_a=-0.05, ia_gain_error_pu=0.01,
+                          dead_time_s=1.5e-6, cogging=((2, 0.004, 0.7),))
+    config = twin_config(faults)
+    spectra = simulate_points(config, POINTS, seed=5, **SETTINGS)
+    setup = twin_setup(config)
+    torque_only = diagnose(spectra, setup=setup, transducer_class_pct=0.1)
+    assert torque_only.aliases and "phase currents" in torque_only.aliases[0]["separate_by"]
+    with_currents = diagnose(spectra, setup=dataclasses.replace(setup, current_channel_u_a=5e-4),
+                             transducer_class_pct=0.1)
+    assert not with_currents.aliases
+    expected = faults.expected()
+    for name in ("ia_offset_a", "ib_offset_a"):
+        value, u = with_currents.value(name)
+        assert abs(value - expected[name]) <= 2 * u, (name, value, u)
+    term = {t["name"]: t for t in with_currents.motor_terms()}["cogging_m2_nm"]
+    assert abs(term["amplitude"] - 0.004) <= term["expanded_uncertainty"]
