@@ -89,6 +89,41 @@ def time_startup(repeat: int = 3) -> dict:
     return out
 
 
+def time_record_writes(record_dir: Path) -> dict:
+    """Write the tests of a finished record again, as a run writes them (a capture saved, then
+    the entry, per test): with the journal (each event one appended line, the summary once) and
+    the way format 1 did it (the whole record.json rewritten atomically after every event)."""
+    from hil.capture import Capture, atomic_write_bytes
+    from hil.config import default_sim_bench
+    from hil.record import RunRecord, load_record
+
+    source = load_record(record_dir)
+    tests = [t for t in source["tests"] if t.get("capture")]
+    captures = {t["test_id"]: Capture.load(record_dir / t["capture"]["file"]) for t in tests}
+    entries = [{k: v for k, v in t.items() if k != "capture"} for t in source["tests"]]
+    with tempfile.TemporaryDirectory(prefix="ripple-hil-records-") as scratch:
+        start = time.perf_counter()
+        record = RunRecord.create(scratch, default_sim_bench(), [], name="journal")
+        for entry in entries:
+            if entry["test_id"] in captures:
+                record.save_capture(entry["test_id"], captures[entry["test_id"]])
+            record.add_test(entry)
+        record.finish("complete")
+        journal_s = time.perf_counter() - start
+        start = time.perf_counter()
+        data = dict(source, tests=[])
+        folder = Path(scratch) / "rewrite"
+        for entry in entries:
+            if entry["test_id"] in captures:
+                captures[entry["test_id"]].save(folder / "captures" / f"{len(data['tests'])}.npz")
+                atomic_write_bytes(folder / "record.json", json.dumps(data, indent=2).encode())
+            data["tests"].append(entry)
+            atomic_write_bytes(folder / "record.json", json.dumps(data, indent=2).encode())
+        rewrite_s = time.perf_counter() - start
+    return {"tests": len(entries), "journal_s": journal_s, "rewrite_s": rewrite_s,
+            "record_json_bytes": (record_dir / "record.json").stat().st_size}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--source", action="append", metavar="NAME",
@@ -101,6 +136,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="run N times and print the median wall time (default 1)")
     parser.add_argument("--startup", action="store_true",
                         help="also time pytest start-up with all plugins and with hil run's")
+    parser.add_argument("--record-writes", action="store_true",
+                        help="also time writing a run's record with the journal and by "
+                             "rewriting record.json per event (format 1)")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON here")
     args = parser.parse_args(argv)
     runs = [time_hil_run(args.source, report=args.report, pdf=args.pdf)
@@ -118,6 +156,17 @@ def main(argv: list[str] | None = None) -> int:
     if "report_wall_s" in figures:
         print(f"hil report on that record: {figures['report_wall_s']:.2f} wall s "
               f"(exit {figures['report_returncode']})")
+    if args.record_writes:
+        with tempfile.TemporaryDirectory(prefix="ripple-hil-bench-") as scratch:
+            records = Path(scratch) / "records"
+            subprocess.run(HIL + ["run", "--no-report", "--record-dir", str(records)] + [
+                arg for source in args.source or [] for arg in ("--source", source)],
+                capture_output=True, text=True, timeout=RUN_TIMEOUT_S, cwd=scratch)
+            writes = time_record_writes(next(records.glob("*/record.json")).parent)
+        figures["record_writes"] = writes
+        print(f"record writes for {writes['tests']} tests (record.json "
+              f"{writes['record_json_bytes'] / 1e6:.2f} MB): {writes['journal_s']:.2f} s with "
+              f"the journal, {writes['rewrite_s']:.2f} s rewriting record.json per event")
     if args.startup:
         startup = time_startup()
         figures["startup"] = startup
