@@ -24,6 +24,10 @@ import numpy as np
 from hil.errors import InputError
 
 REQUIRED_CHANNELS = ("time_s",)
+#: zlib level of the capture files (1: fast; numpy's savez_compressed uses the default, 6).
+COMPRESS_LEVEL = 1
+#: Member time stamp in the zip (fixed: the same capture gives the same bytes and SHA-256).
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
 
 @dataclass
@@ -55,11 +59,21 @@ class Capture:
         return len(next(iter(self.channels.values()))) if self.channels else 0
 
     def to_bytes(self) -> bytes:
+        """The ``.npz`` bytes: one ``.npy`` member per channel plus the JSON header, deflated at
+        level 1 (issue 17 item 3: ADC-quantised channels shrink ~3x at level 1 in a fifth of the
+        time numpy's default level 6 takes, for 10 % more bytes)."""
         buffer = io.BytesIO()
-        arrays = {f"ch_{name}": np.asarray(values) for name, values in self.channels.items()}
         header = json.dumps({"units": self.units, "meta": self.meta}, sort_keys=True, default=str)
-        # stored, not deflated: sampled noise does not compress (issue 17 item 3)
-        np.savez(buffer, __header__=np.frombuffer(header.encode(), dtype=np.uint8), **arrays)
+        members = {"__header__": np.frombuffer(header.encode(), dtype=np.uint8)}
+        members |= {f"ch_{name}": np.asarray(values) for name, values in self.channels.items()}
+        with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED,
+                             compresslevel=COMPRESS_LEVEL) as archive:
+            for name, array in members.items():
+                member = io.BytesIO()
+                np.lib.format.write_array(member, array, allow_pickle=False)
+                archive.writestr(zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_TIME),
+                                 member.getvalue(), compress_type=zipfile.ZIP_DEFLATED,
+                                 compresslevel=COMPRESS_LEVEL)
         return buffer.getvalue()
 
     def save(self, path: str | os.PathLike) -> str:
