@@ -172,7 +172,7 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
         ("Operator", f"{operator} (given on the command line)" if operator else
          f"{lab.get('operator')} (bench file; none given on the command line)"
          if lab.get("operator") else "not given"),
-        ("Environment", lab.get("environment") or "not recorded"),
+        ("Environment", environment_text(record, lab)),
         ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
                   f"{record['bench'].get('path')}"),
         ("Run", f"{status_text(record.get('status'))}; exit status "
@@ -216,6 +216,21 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
              + (f", {lab.get('authorizer_function')}" if lab.get("authorizer_function") else ""),
              size=8.5)
     pdf.signature_line("Signature:")
+
+
+def environment_text(record: dict, lab: dict) -> str:
+    """Environmental conditions: the bench file's / command line's statement, else the range of
+    a temperature the DAQ recorded with the points, else "not recorded"."""
+    if lab.get("environment"):
+        return str(lab["environment"])
+    temperatures = [t for test in record.get("tests", [])
+                    for t in ((test.get("operating_point") or {}).get("temperature_c"),
+                              (test.get("measured") or {}).get("temperature_c"))
+                    if isinstance(t, (int, float)) and math.isfinite(t)]
+    if temperatures:
+        return (f"temperature {min(temperatures):.1f} to {max(temperatures):.1f} °C (recorded "
+                f"by the DAQ with the points); ambient not recorded")
+    return "not recorded"
 
 
 def _selection_text(selection: dict) -> str:

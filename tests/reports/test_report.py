@@ -329,3 +329,13 @@ def test_wide_sweeps_get_a_log_axis_and_spectra_are_in_db(tmp_path):
     text = page_texts(tmp_path / "plots.pdf")[0]
     assert text.count("(log axis)") == 1
     assert "dB re the largest order" in text and "-80" in text
+
+
+def test_environment_from_the_lab_or_a_daq_channel():
+    from reports.build import environment_text
+
+    assert environment_text({"tests": []}, {"environment": "23 °C, 45 % RH"}) == "23 °C, 45 % RH"
+    measured = {"tests": [{"operating_point": {"temperature_c": 24.0}},
+                          {"measured": {"temperature_c": 26.5}}, {"operating_point": {}}]}
+    assert environment_text(measured, {}).startswith("temperature 24.0 to 26.5 °C")
+    assert environment_text({"tests": [{}]}, {}) == "not recorded"
