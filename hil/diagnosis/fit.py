@@ -77,9 +77,10 @@ class FitResult:
 
 
 def _real_system(problem: LinearProblem, sigma_total: np.ndarray):
-    a = np.concatenate([problem.jacobian.real, problem.jacobian.imag]) / \
-        np.concatenate([sigma_total, sigma_total])[:, None]
-    b = np.concatenate([problem.y.real, problem.y.imag]) / np.concatenate([sigma_total, sigma_total])
+    """The weighted real system: Re rows then Im rows, each divided by its σ."""
+    weights = np.concatenate([sigma_total, sigma_total])
+    a = np.concatenate([problem.jacobian.real, problem.jacobian.imag]) / weights[:, None]
+    b = np.concatenate([problem.y.real, problem.y.imag]) / weights
     return a, b
 
 

@@ -72,7 +72,8 @@ def _sensor_signature(kind: str, class_pct: float):
         op = _op(spectrum, setup)
         ideal = sig.DriveSetup(motor=setup.motor, pwm_frequency_hz=setup.pwm_frequency_hz)
         if kind == "gain":
-            looped, flat = sig.gain_difference_orders(op, setup), sig.gain_difference_orders(op, ideal)
+            looped = sig.gain_difference_orders(op, setup)
+            flat = sig.gain_difference_orders(op, ideal)
         else:
             looped, flat = sig.offset_orders(op, setup, kind), sig.offset_orders(op, ideal, kind)
         scale = float(np.max(np.abs(flat[1:]))) or 1.0

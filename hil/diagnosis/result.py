@@ -152,7 +152,8 @@ class Diagnosis:
             parts = []
             for name, label in (("ia_offset_a", "Δa"), ("ib_offset_a", "Δb")):
                 v = self.value(name)
-                parts.append(f"{label} = " + (_fmt(v[0], k * v[1], "A") if v else "not identifiable"))
+                text = _fmt(v[0], k * v[1], "A") if v else "not identifiable"
+                parts.append(f"{label} = {text}")
             return ", ".join(parts)
         if source == "gain_mismatch":
             v = self.value("gain_k_diff")

@@ -151,7 +151,8 @@ def check_estimates(diagnosis: Diagnosis, faults: HiddenFaults) -> list[dict]:
         checks.append({"name": f"cogging_m{order}_nm", "hidden": amplitude,
                        "estimate": term["amplitude"],
                        "expanded_uncertainty": term["expanded_uncertainty"], "identifiable": True,
-                       "covered": abs(term["amplitude"] - amplitude) <= term["expanded_uncertainty"]})
+                       "covered": abs(term["amplitude"] - amplitude)
+                       <= term["expanded_uncertainty"]})
     hidden_line = faults.encoder_decimation > 1
     found = diagnosis.encoder.get("decimation")
     checks.append({"name": "encoder_decimation", "hidden": faults.encoder_decimation,
