@@ -25,7 +25,8 @@ from hil.errors import InputError
 from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_record
 from reports import figures, revisions
 from reports.angle_view import angle_view
-from reports.content import (DECISIONS, NOT_DETERMINED, RIPPLE_DEFINITION, ReportContent,
+from reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
+                             ReportContent,
                              SourceSection, fmt, fmt_pct, report_content, status_text)
 from reports.document import ReportPDF
 from reports.revisions import Revision
@@ -54,6 +55,8 @@ STATEMENTS = {
     "fail": "FAIL: at least one point lies outside its limits beyond the guard band, or shows "
             "a ripple order other than the predicted one.",
     NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped or not run, or has no verdict.",
+    NO_VERDICT: "NO MODEL VERDICT: these tests judge no prediction (their outcomes and any "
+                "requirement verdicts are stated elsewhere).",
 }
 
 
@@ -283,7 +286,7 @@ def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
     rows = []
     for section in content.sources:
         counts = {d: sum(p.decision == d for p in section.points)
-                  for d in (*DECISIONS, NOT_DETERMINED)}
+                  for d in (*DECISIONS, NOT_DETERMINED, NO_VERDICT)}
         rows.append([section.name, str(len(section.points)),
                      ", ".join(f"{n} {d}" for d, n in counts.items() if n),
                      section.statement.upper()])

@@ -21,6 +21,8 @@ from reports.statement import STATUS_TEXT, Statement, overall_statement
 #: ILAC-G8 decisions from best to worst; a source's statement is the worst of its points.
 DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
 NOT_DETERMINED = "not determined"
+#: A passed test that records no model verdict: it does not enter its source's statement.
+NO_VERDICT = "no model verdict"
 
 RIPPLE_DEFINITION = (
     "Torque ripple (per unit) = peak-to-peak of the synchronously averaged torque over whole "
@@ -89,8 +91,9 @@ def report_content(record: dict, record_dir: Path, capture_problems: list[str],
     record_json = (Path(record_dir) / RECORD_FILE).read_bytes()
     statement = overall_statement(record, capture_problems)
     groups: dict[str, list[dict]] = {}
+    own = OWN_SECTION_KINDS + (("diagnosis",) if record.get("diagnosis") else ())
     for entry in record.get("tests", []):
-        if entry.get("kind") in OWN_SECTION_KINDS:
+        if entry.get("kind") in own:
             continue
         groups.setdefault(source_of(entry), []).append(entry)
     sources = [_section(name, entries) for name, entries in groups.items()]
@@ -160,7 +163,9 @@ def _section(name: str, entries: list[dict]) -> SourceSection:
     points.sort(key=lambda p: (_sort_key(p.entry.get("injection") or {}, swept), p.test_id))
     measured = [p for p in points if p.measured_pu is not None]
     worst = max(measured, key=lambda p: p.measured_pu) if measured else None
-    statement = worst_decision([p.decision for p in points if p.outcome != "skipped"])
+    judged = [p.decision for p in points if p.outcome != "skipped" and p.decision != NO_VERDICT]
+    statement = worst_decision(judged) if judged or not points \
+        or any(p.decision != NO_VERDICT for p in points) else NO_VERDICT
     return SourceSection(name=name, swept=swept, points=points, statement=statement, worst=worst)
 
 
@@ -190,7 +195,9 @@ def point_from_entry(entry: dict, swept: list[str],
     displays = displays or {k: knob_display(k, [_number(injection.get(k)) or 0.0]) for k in swept}
     label = ", ".join(f"{displays[k][0]} = {_knob_text(injection.get(k), displays[k][1])}"
                       for k in swept) or "—"
-    if entry.get("outcome") in ("error", "skipped") or decision not in DECISIONS:
+    if not verdict and entry.get("outcome") in ("passed", "xfailed"):
+        decision = NO_VERDICT           # a test that judges no model (e.g. a sensitivity check)
+    elif entry.get("outcome") in ("error", "skipped", "not run") or decision not in DECISIONS:
         decision = NOT_DETERMINED
     return Point(
         test_id=str(entry.get("test_id")),

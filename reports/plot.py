@@ -203,33 +203,30 @@ class Plot:
             self.legend.append(("dash", colour, label))
 
     def finish(self) -> None:
-        """Draw the legend (top right, inside the frame) and move below the plot."""
+        """Draw the legend in one row under the plot (never over the data) and move below."""
         pdf = self.pdf
+        y = self.top + self.h + (13 if self.xlabel else 8)
         if self.legend:
             pdf.set_font("sans", "", 6.5)
-            width = max(pdf.get_string_width(text) for _, _, text in self.legend) + 9
-            x, y = self.x0 + self.w - width - 1, self.top + 1
-            pdf.set_fill_color(255)
-            pdf.set_draw_color(200)
-            pdf.rect(x, y, width, 3.2 * len(self.legend) + 1, style="FD")
-            for row, (kind, colour, text) in enumerate(self.legend):
-                cy = y + 2.2 + 3.2 * row
+            x = self.x0
+            for kind, colour, text in self.legend:
                 pdf.set_draw_color(*COLOURS[colour])
                 pdf.set_fill_color(*COLOURS[colour])
                 pdf.set_line_width(0.35)
                 if kind in ("line", "dash"):
                     if kind == "dash":
                         pdf.set_dash_pattern(dash=1.0, gap=0.6)
-                    pdf.line(x + 1, cy, x + 6, cy)
+                    pdf.line(x, y, x + 5, y)
                     pdf.set_dash_pattern()
                 else:
-                    _marker(pdf, x + 3.5, cy, kind, 1.0)
-                pdf.set_text_color(0)
-                pdf.text(x + 7.5, cy + 1.0, text)
+                    _marker(pdf, x + 2.5, y, kind, 1.0)
+                pdf.text(x + 6.5, y + 1.0, text)
+                x += 10 + pdf.get_string_width(text)
+            y += 4
         pdf.set_draw_color(0)
         pdf.set_fill_color(255)
         pdf.set_line_width(0.2)
-        pdf.set_y(self.top + self.h + (13 if self.xlabel else 8))
+        pdf.set_y(y)
 
 
 def _marker(pdf, x: float, y: float, shape: str, size: float) -> None:

@@ -339,3 +339,15 @@ def test_environment_from_the_lab_or_a_daq_channel():
                           {"measured": {"temperature_c": 26.5}}, {"operating_point": {}}]}
     assert environment_text(measured, {}).startswith("temperature 24.0 to 26.5 °C")
     assert environment_text({"tests": [{}]}, {}) == "not recorded"
+
+
+def test_a_test_without_a_model_verdict_does_not_make_its_source_undetermined():
+    from reports.content import NO_VERDICT, _section
+
+    judged = {"test_id": "a", "outcome": "passed", "injection": {"x_a": 1.0},
+              "verdict": {"decision": "pass", "measured_pk_pk_pu": 0.01}}
+    sensitivity = {"test_id": "b", "outcome": "passed", "injection": {}}
+    errored = {"test_id": "c", "outcome": "error", "injection": {}}
+    assert _section("s", [judged, sensitivity]).statement == "pass"
+    assert _section("s", [sensitivity]).statement == NO_VERDICT
+    assert _section("s", [judged, sensitivity, errored]).statement == "not determined"
