@@ -291,6 +291,36 @@ def test_a_killed_sim_bench_aborts_the_run_in_one_line(tmp_path):
                if t["outcome"] == "not run")
 
 
+VANISH = '''
+import pytest
+from hil.measurement import PointPlan
+
+pytestmark = pytest.mark.ripple_source("dc_offset")
+
+
+@pytest.mark.parametrize("offset_a", [0.1, 0.2, 0.3, 0.4, 0.5])
+def test_point(measure, bench, offset_a):
+    if offset_a == 0.3:
+        bench.simulated.stop()          # every in-process simulated instrument vanishes
+    measure(PointPlan(source="dc_offset", injection={"ia_offset_a": offset_a, "ib_offset_a": 0.0},
+                      speed_rpm=500.0, current_a=20.0, revolutions=3))
+'''
+
+
+def test_an_in_process_bench_that_vanishes_aborts_the_run(tmp_path):
+    (tmp_path / "test_vanish.py").write_text(VANISH)
+    done = subprocess.run(PYTEST + ["test_vanish.py", "--hil-record", "records"],
+                          capture_output=True, text=True, timeout=240, cwd=tmp_path, env=ENV)
+    assert done.returncode == 7, done.stdout[-3000:]
+    assert "Traceback" not in done.stdout and done.stdout.count("\n") < 30, done.stdout
+    record = load_record(only_record(tmp_path / "records"))
+    assert record["status"] == "aborted"
+    assert [t["outcome"] for t in record["tests"]] == ["passed", "passed", "error", "not run",
+                                                       "not run"]
+    assert record["run"]["abort"]["instrument"] == "drive"
+    assert "InstrumentTimeout" in record["run"]["abort"]["error"]
+
+
 # ---------------------------------------------------------------------------------- Ctrl-C twice
 def test_ctrl_c_twice_is_as_clean_as_once(tmp_path):
     (tmp_path / "test_sweep.py").write_text(SWEEP)
