@@ -94,7 +94,9 @@ def test_plain():
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 def test_plain_too():
-    pass
+    import sys
+    loaded = [m for m in sys.modules if m.startswith(("hil.sim", "hil.analysis", "numba"))]
+    assert loaded == []           # the plugin costs an unrelated run no simulation import
 '''
 
 
@@ -107,3 +109,13 @@ def test_the_plugin_is_inert_in_an_unrelated_pytest_run(tmp_path):
     assert "ripple-hil" not in done.stdout
     assert not (tmp_path / "records").exists()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_loading_the_plugin_imports_no_simulation_or_analysis():
+    """The plugin is in every pytest run of the environment: it must cost little to load."""
+    code = ("import sys, fixtures.plugin; "
+            "print(sorted(m for m in sys.modules if m.startswith(('hil.sim', 'hil.analysis', "
+            "'numba', 'matplotlib', 'fpdf'))))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0 and done.stdout.strip() == "[]", done.stdout + done.stderr
