@@ -46,8 +46,9 @@ def test_random_drives_every_identifiable_estimate_within_its_expanded_uncertain
 def test_random_drives_with_a_coarse_encoder():
     """A count line in band: the decimation is found, dead time is not stated, the gain is
     within U; the offsets are known to be under-covered (study: 80-90 % at k = 2, errors up to
-    about 1 % of the offset — the loop's response to the stepping firmware angle is not
-    modelled), so they are checked within 2·U here."""
+    about 1 % of the offset: with dead time, the reference's dwell at zero for the count after
+    each zero crossing breaks the half-wave symmetry and adds an order-1 torque, which no model
+    here has), so they are checked within 2·U here."""
     for case in _cases(77, decimation_1=False):
         checks = {c["name"]: c for c in case.checks}
         assert checks["encoder_decimation"]["covered"], case.faults
