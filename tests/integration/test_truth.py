@@ -281,10 +281,13 @@ def test_a_killed_sim_bench_aborts_the_run_in_one_line(tmp_path):
     assert output.count("\n") < 40, output
     lost = [line for line in output.splitlines() if line.startswith("bench lost: ")]
     assert len(lost) == 1 and "not answering" in lost[0], output
+    threads = re.search(r"background-thread errors: (\d+)", output)
     record = load_record(only_record(tmp_path / "records"))
     assert record["status"] == "aborted"
     abort = record["run"]["abort"]
     assert abort["instrument"] in ("drive", "daq", "torque") and abort["utc"]
+    if threads:                 # the remote CAN threads' errors: counted, kept, not printed
+        assert record["run"]["thread_error_count"] == int(threads.group(1)) >= 1
     outcomes = [t["outcome"] for t in record["tests"]]
     assert outcomes.count("not run") >= 1 and len(outcomes) == 8
     assert all(t["message"].startswith("not run: bench lost") for t in record["tests"]
