@@ -325,10 +325,13 @@ def test_an_in_process_bench_that_vanishes_aborts_the_run(tmp_path):
 
 
 # ---------------------------------------------------------------------------------- Ctrl-C twice
-def test_ctrl_c_twice_is_as_clean_as_once(tmp_path):
+@pytest.mark.parametrize("where", ["in-process", "sim-bench"])
+def test_ctrl_c_twice_is_as_clean_as_once(tmp_path, where):
     (tmp_path / "test_sweep.py").write_text(SWEEP)
+    server = SimBench(tmp_path) if where == "sim-bench" else None
+    bench = ["--bench", str(server.file)] if server else []
     run = subprocess.Popen(PYTEST + ["test_sweep.py", "--hil-record", "records",
-                                     "--hil-report", "auto"],
+                                     "--hil-report", "auto", *bench],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                            cwd=tmp_path, env=ENV)
     try:
@@ -342,12 +345,16 @@ def test_ctrl_c_twice_is_as_clean_as_once(tmp_path):
     finally:
         if run.poll() is None:
             run.kill()
+        if server:
+            server.stop()
     assert took_s <= 2.0, f"exited {took_s:.2f} s after the second Ctrl-C"
     assert run.returncode == 2, output
     assert "Traceback" not in output and output.count("\n") < 40, output
     folder = only_record(tmp_path / "records")
     record = load_record(folder)
     assert record["status"] == "interrupted" and record["run"]["interrupts"] >= 2
+    safe = record["run"]["final_safe_state"]             # every step of leaving the bench safe
+    assert safe["failures"] == [] and len(safe["steps"]) == 6, safe
     outcomes = [t["outcome"] for t in record["tests"]]
     assert len(outcomes) == 8 and "not run" in outcomes and outcomes.count("passed") >= 2
     assert verify_record(folder, record) == []
