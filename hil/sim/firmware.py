@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from numba import njit
 
 from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_ANGLE_ADVANCE, P_DEAD_TIME, P_DECOUPLE_PU,
@@ -43,7 +45,9 @@ def qfix(x, lsb):
     (2^(1-n) for an n-bit word, see ``word_lsb``); lsb 0 = floating point, unchanged."""
     if lsb == 0.0:
         return x
-    y = math.floor(x * (1.0 / lsb)) * lsb          # exact: lsb is a power of two
+    # exact: lsb is a power of two. np.floor stays in float64 (one rounding instruction);
+    # math.floor would go through int64 and back, the same value at twice the latency
+    y = np.floor(x * (1.0 / lsb)) * lsb
     if y > 1.0 - lsb:
         return 1.0 - lsb
     if y < -1.0:
@@ -80,14 +84,14 @@ def firmware_constants(params):
     max_compare = counts_top
     if dead > 0.0:
         period = 1.0 / params[P_PWM_FREQ]
-        max_compare = float(math.floor(counts_top * (1.0 - 2.0 * dead / period)))
+        max_compare = float(np.floor(counts_top * (1.0 - 2.0 * dead / period)))
     return lsb, adc_half, max_compare
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
 def encoder_count(theta_m, cpr):
     """Encoder position (counts, truncated toward −inf) of the mechanical angle ``theta_m``."""
-    return math.floor(theta_m * cpr / TWO_PI)
+    return np.floor(theta_m * cpr / TWO_PI)
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
@@ -98,7 +102,7 @@ def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
     current reads zero: the ADC adds quantisation but no offset of its own.
     """
     sensed = (1.0 + gain_error_pu) * current_a + offset_a
-    code = math.floor((sensed / full_scale_a + 1.0) * half + 0.5)
+    code = np.floor((sensed / full_scale_a + 1.0) * half + 0.5)
     if code < 0.0:
         code = 0.0
     elif code > 2.0 * half - 1.0:
@@ -110,7 +114,7 @@ def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
 def _modulo(value, modulus):
     """``value % modulus`` (Python sign convention) for integer-valued floats, |value| < 2^53 and
     modulus > 0: exact, and cheaper than the library fmod."""
-    remainder = value - math.floor(value / modulus) * modulus
+    remainder = value - np.floor(value / modulus) * modulus
     if remainder < 0.0:
         remainder += modulus
     elif remainder >= modulus:
@@ -127,12 +131,12 @@ def firmware_angle_fraction(theta_m, params):
     """
     pole_pairs = params[P_POLE_PAIRS]
     if params[P_HALL] != 0.0:
-        sector = math.floor(pole_pairs * theta_m / (math.pi / 3.0))
+        sector = np.floor(pole_pairs * theta_m / (math.pi / 3.0))
         return _modulo(sector, 6.0) / 6.0
     cpr = params[P_ENC_CPR]
     counts = encoder_count(theta_m, cpr)
     decimation = params[P_ENC_DECIM]
-    used = math.floor(counts / decimation) * decimation
+    used = np.floor(counts / decimation) * decimation
     return _modulo(used * pole_pairs, cpr) / cpr
 
 
@@ -214,7 +218,7 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, max_c
     i_c = qfix(-i_a - i_b, lsb)                                   # eq (17)
 
     table_size = params[P_TABLE_SIZE]
-    index = _modulo(math.floor(firmware_angle_fraction(theta_m, params) * table_size), table_size)
+    index = _modulo(np.floor(firmware_angle_fraction(theta_m, params) * table_size), table_size)
     s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, lsb, angle_cache)
 
     two_thirds = qfix(2.0 / 3.0, lsb)                             # eq (11)
@@ -248,7 +252,7 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, max_c
         v_q = qfix(v_q * limit / magnitude, lsb)
 
     if params[P_ANGLE_ADVANCE] != 0.0:      # rotate the output by the angle turned meanwhile
-        shift = math.floor(omega_m * params[P_POLE_PAIRS] * params[P_ANGLE_ADVANCE] / TWO_PI
+        shift = np.floor(omega_m * params[P_POLE_PAIRS] * params[P_ANGLE_ADVANCE] / TWO_PI
                            * table_size + 0.5)
         s_a, c_a, s_b, s_c, c_b, c_c = angle_values(_modulo(index + shift, table_size),
                                                     table_size, lsb, angle_cache)
@@ -271,7 +275,7 @@ def _compare(leg_voltage_pu, counts_top, max_compare):
     Pulses too wide to fit a dead time before the period end (above ``max_compare``) are
     rounded to the nearer of ``max_compare`` and full-on (pulse dropping).
     """
-    compare = math.floor((0.5 + leg_voltage_pu) * counts_top)
+    compare = np.floor((0.5 + leg_voltage_pu) * counts_top)
     if compare < 0.0:
         return 0.0
     if compare > max_compare:

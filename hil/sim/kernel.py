@@ -88,7 +88,7 @@ def _stepping_angle(time_s, params, speed):
     step = params[P_STEP_ANGLE]
     dwell = params[P_DWELL]
     cycle = dwell + step / speed
-    cycles = math.floor(time_s / cycle)
+    cycles = np.floor(time_s / cycle)
     within = time_s - cycles * cycle
     moving = min(max((within - dwell) * speed, 0.0), step)
     return cycles * step + moving

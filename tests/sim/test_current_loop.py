@@ -30,13 +30,31 @@ R, IND = TABLE_I.phase_resistance_ohm, TABLE_I.phase_inductance_h
 RPM = 2 * math.pi / 60
 
 
-def test_default_loop_is_bit_for_bit_the_fixed_loop_it_replaced():
-    """``golden_loop``'s runs were stored from the commit before the loop became configurable."""
+#: the engine's continuous outputs may move in their last bits when its polynomials are evaluated
+#: in another order (issue 17: Estrin instead of Horner), ~1e-14 of the peak; the issue allows
+#: 1e-9. Any change of physics or of a firmware decision moves them by far more (one ADC code
+#: is 1.5e-2 A, i.e. 5e-4 of the peak current), and the firmware's readings must stay exact.
+RELATIVE_TO_PEAK = 1e-9
+FIRMWARE_CHANNELS = ("ia_sensed_a",)
+
+
+def test_default_loop_is_the_fixed_loop_it_replaced():
+    """``golden_loop``'s runs were stored from the commit before the loop became configurable:
+    the firmware's readings bit for bit, the currents, voltages and torques (and their ripple,
+    peak to peak) within ``RELATIVE_TO_PEAK`` of each channel's peak."""
     reference = np.load(GOLDEN)
     today = run_cases()
     assert sorted(today) == sorted(reference.files)
     for name in reference.files:
-        assert np.array_equal(today[name], reference[name]), name
+        expected, actual = reference[name], today[name]
+        if name.split("/")[1] in FIRMWARE_CHANNELS:
+            assert np.array_equal(actual, expected), name
+            continue
+        peak = np.abs(expected).max()
+        worst = np.abs(actual - expected).max()
+        assert worst <= RELATIVE_TO_PEAK * peak, f"{name}: off by {worst / peak:.2e} of the peak"
+        ripple = np.ptp(expected)
+        assert abs(np.ptp(actual) - ripple) <= RELATIVE_TO_PEAK * ripple, name
 
 
 # ---- step response against a sampled-data model of the loop --------------------------------
