@@ -95,15 +95,19 @@ def _stepping_angle(time_s, params, speed):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
-def _sort(values, count):
-    """In-place insertion sort of values[:count] (a handful of switching instants)."""
+def _sort(values, tags, count):
+    """In-place insertion sort of values[:count] (a handful of switching instants), carrying
+    ``tags`` (the leg each instant belongs to) along."""
     for i in range(1, count):
         v = values[i]
+        t = tags[i]
         j = i - 1
         while j >= 0 and values[j] > v:
             values[j + 1] = values[j]
+            tags[j + 1] = tags[j]
             j -= 1
         values[j + 1] = v
+        tags[j + 1] = t
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
@@ -262,6 +266,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     u = np.zeros(3)
     v_integral = np.zeros(3)
     edges = np.zeros(20)
+    edge_leg = np.zeros(20, np.int64)
     seg_gate = np.zeros((20, 3), np.int64)
     angle_cache = np.empty((ANGLE_CACHE_ROWS, 7))
     angle_cache[:, A_INDEX] = -1.0
@@ -318,26 +323,38 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
 
         n_edges = 0
         edges[n_edges] = 0.0
+        edge_leg[n_edges] = -1
         n_edges += 1
         for x in range(3):
             t_on[x] = (counts_top - compare[x]) / counts_top * 0.5 * period
             t_off[x] = period - t_on[x]
             if state[S_HIGH_END + x] != 0.0 and compare[x] < counts_top:
                 edges[n_edges] = dead
+                edge_leg[n_edges] = x
                 n_edges += 1
             if compare[x] > 0.0:
                 for edge in (t_on[x], t_on[x] + dead, t_off[x], t_off[x] + dead):
                     edges[n_edges] = min(edge, period)
+                    edge_leg[n_edges] = x
                     n_edges += 1
         edges[n_edges] = period
+        edge_leg[n_edges] = -1
         n_edges += 1
-        _sort(edges, n_edges)
-        for e in range(n_edges - 1):                  # gate states of every segment
+        _sort(edges, edge_leg, n_edges)
+        # gate states of every segment, at its middle. A leg's state changes only at its own
+        # edges (``_leg_state``'s breakpoints are among them), so after the first segment only
+        # the leg whose edge opens the segment is re-evaluated; all three where the segment is
+        # (near) empty, since its middle may then round onto a tied edge of another leg
+        for e in range(n_edges - 1):
             middle = 0.5 * (edges[e] + edges[e + 1])
             for x in range(3):
-                seg_gate[e, x] = LOW if gates_off else _leg_state(
-                    middle, t_on[x], t_off[x], dead, compare[x], counts_top,
-                    state[S_HIGH_END + x] != 0.0)
+                if gates_off:
+                    seg_gate[e, x] = LOW
+                elif e == 0 or x == edge_leg[e] or edges[e + 1] - edges[e] <= tiny:
+                    seg_gate[e, x] = _leg_state(middle, t_on[x], t_off[x], dead, compare[x],
+                                                counts_top, state[S_HIGH_END + x] != 0.0)
+                else:
+                    seg_gate[e, x] = seg_gate[e - 1, x]
 
         j_period = j
         v_integral[:] = 0.0
@@ -462,7 +479,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                                        exp_small(-resistance * (tau_b - tau) / inductance),
                                        resistance)
                 crossing = -1
-                if mode != MODE_ZERO and e_last == e:
+                if mode != MODE_ZERO and e_last == e and (
+                        gate[0] == DEAD or gate[1] == DEAD or gate[2] == DEAD):
                     for x in range(3):
                         end_value = (ia, ib, ic)[x]
                         if gate[x] == DEAD and cur[x] != 0.0 and cur[x] * end_value <= 0.0:
@@ -535,9 +553,17 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     j += 1
 
                 # ---- line-to-neutral voltage integral (EMF taken at the sub-segment mean)
+                if mode == MODE_FREE and clamped == 0 and isolated:    # the common case
+                    shift = (0.5 * omega * (k_a + kb_a + k_b + kb_b + k_c + kb_c)
+                             - (volts[0] + volts[1] + volts[2])) / 3.0
+                    for x in range(3):
+                        v_integral[x] += (volts[x] + shift) * span
+                    n_legs = 0
+                else:
+                    n_legs = 3
                 e_mean = (0.5 * omega * (k_a + kb_a), 0.5 * omega * (k_b + kb_b),
                           0.5 * omega * (k_c + kb_c))
-                for x in range(3):
+                for x in range(n_legs):
                     if mode == MODE_ZERO or clamped & (1 << x):
                         v_xn = e_mean[x]
                     elif mode == MODE_ONE_CLAMPED:
