@@ -287,7 +287,8 @@ def test_a_killed_sim_bench_aborts_the_run_in_one_line(tmp_path):
     abort = record["run"]["abort"]
     assert abort["instrument"] in ("drive", "daq", "torque") and abort["utc"]
     if threads:                 # the remote CAN threads' errors: counted, kept, not printed
-        assert record["run"]["thread_error_count"] == int(threads.group(1)) >= 1
+        assert record["run"]["thread_error_count"] <= int(threads.group(1))  # later ones: after
+        assert int(threads.group(1)) >= 1                                     # the record closed
     outcomes = [t["outcome"] for t in record["tests"]]
     assert outcomes.count("not run") >= 1 and len(outcomes) == 8
     assert all(t["message"].startswith("not run: bench lost") for t in record["tests"]
