@@ -133,33 +133,65 @@ def period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _harmonic_terms(k, s_d, c_d, orders, basis):
+    """Harmonic k's forced currents and EMF per speed (a, b, c), its angle advanced by the
+    increment whose sin/cos are (s_d, c_d) since the period start."""
+    order = int(orders[k])
+    s = basis[k, B_ESIN] * c_d + basis[k, B_ECOS] * s_d
+    c = basis[k, B_ECOS] * c_d - basis[k, B_ESIN] * s_d
+    xa, xb, xc = spread(order, s, c)
+    emf = basis[k, B_EMF]
+    gain = basis[k, B_GAIN]
+    if gain == 0.0:
+        return 0.0, 0.0, 0.0, emf * xa, emf * xb, emf * xc
+    s = basis[k, B_FSIN] * c_d + basis[k, B_FCOS] * s_d
+    c = basis[k, B_FCOS] * c_d - basis[k, B_FSIN] * s_d
+    fa, fb, fc = spread(order, s, c)
+    return gain * fa, gain * fb, gain * fc, emf * xa, emf * xb, emf * xc
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def evaluate(tau, omega_e, orders, count, basis):
     """At τ into the period: forced currents i_e (A) and EMF per speed k_x (V·s/rad), a/b/c.
 
     e_x = ω_m·k_x; the electromagnetic torque is Σ k_x·i_x (= Σ e_x·i_x/ω_m, also at ω = 0).
     """
-    fa = 0.0
-    fb = 0.0
-    fc = 0.0
-    ka = 0.0
-    kb = 0.0
-    kc = 0.0
+    fa = fb = fc = ka = kb = kc = 0.0
     for k in range(count):
-        order = int(orders[k])
         s_d, c_d = sincos_small(orders[k] * omega_e * tau)
-        s = basis[k, B_ESIN] * c_d + basis[k, B_ECOS] * s_d
-        c = basis[k, B_ECOS] * c_d - basis[k, B_ESIN] * s_d
-        xa, xb, xc = spread(order, s, c)
-        emf = basis[k, B_EMF]
-        ka += emf * xa
-        kb += emf * xb
-        kc += emf * xc
-        gain = basis[k, B_GAIN]
-        if gain != 0.0:
-            s = basis[k, B_FSIN] * c_d + basis[k, B_FCOS] * s_d
-            c = basis[k, B_FCOS] * c_d - basis[k, B_FSIN] * s_d
-            xa, xb, xc = spread(order, s, c)
-            fa += gain * xa
-            fb += gain * xb
-            fc += gain * xc
+        dfa, dfb, dfc, dka, dkb, dkc = _harmonic_terms(k, s_d, c_d, orders, basis)
+        fa += dfa
+        fb += dfb
+        fc += dfc
+        ka += dka
+        kb += dkb
+        kc += dkc
     return fa, fb, fc, ka, kb, kc
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def evaluate_advanced(advance, count, orders, basis):
+    """``evaluate`` where each harmonic's angle increment since the period start is given:
+    ``advance[k] = (sin, cos)`` of orders[k]·ωe·τ (kept by rotation for equally spaced samples,
+    see ``advance_by``)."""
+    fa = fb = fc = ka = kb = kc = 0.0
+    for k in range(count):
+        dfa, dfb, dfc, dka, dkb, dkc = _harmonic_terms(k, advance[k, 0], advance[k, 1], orders,
+                                                       basis)
+        fa += dfa
+        fb += dfb
+        fc += dfc
+        ka += dka
+        kb += dkb
+        kc += dkc
+    return fa, fb, fc, ka, kb, kc
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def advance_by(advance, step, count):
+    """Rotate every harmonic's increment ``advance[k]`` by ``step[k]`` (both (sin, cos))."""
+    for k in range(count):
+        s = advance[k, 0] * step[k, 1] + advance[k, 1] * step[k, 0]
+        c = advance[k, 1] * step[k, 1] - advance[k, 0] * step[k, 0]
+        advance[k, 0] = s
+        advance[k, 1] = c

@@ -11,8 +11,10 @@ conduction); a zero crossing there is an event (located by bisection on the exac
 ~1e-14 s) after which the phase is held at zero while the floating terminal voltage stays between
 the rails. Where a dead leg's current provably keeps its sign (|i| above a bound on its change),
 the dead interval merely extends the neighbouring gate state and its boundary is skipped (same
-solution, fewer steps). Outputs are the exact solution evaluated at the sample instants. State
-lives in a flat array so a later call continues where this one stopped.
+solution, fewer steps). Outputs are the exact solution evaluated at the sample instants (the
+first sample of a sub-segment directly, the next equally spaced ones by recurrence: decays
+multiplied, harmonic angles rotated by a per-sample step; within ~1e-12 of the peak of direct
+evaluation). State lives in a flat array so a later call continues where this one stopped.
 
 Approximations (stated): the speed is constant within a PWM period (the dyno's profile is
 piecewise linear in angle at period resolution); the transducer's first-order filter is driven by
@@ -39,8 +41,9 @@ from numba import njit, prange
 
 from hil.sim import compiled_cache  # noqa: F401  (before any compiled code runs)
 from hil.sim.electrical import (B_ECOS, B_ESIN, B_GAIN, BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS,
-                                evaluate, exp_small, harmonic_table, impedance_angles,
-                                period_basis, sincos_small, spread)
+                                advance_by, evaluate, evaluate_advanced, exp_small,
+                                harmonic_table, impedance_angles, period_basis, sincos_small,
+                                spread)
 from hil.sim.firmware import (ANGLE_CACHE_ROWS, A_INDEX, adc_read, encoder_count,
                               firmware_constants, firmware_step)
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
@@ -200,7 +203,12 @@ def _shaft_torque(tau, omega_m, k_a, k_b, k_c, ia, ib, ic, n_cogging, cogging):
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def _filter(y0, x0, slope, h, tau_f):
     """First-order low-pass output after h seconds of the input x0 + slope·t (exact)."""
-    decay = exp_small(-h / tau_f)
+    return _filter_decayed(y0, x0, slope, h, tau_f, exp_small(-h / tau_f))
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _filter_decayed(y0, x0, slope, h, tau_f, decay):
+    """``_filter`` given decay = exp(−h/τf)."""
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
@@ -271,6 +279,14 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
     angle_cache = np.empty((ANGLE_CACHE_ROWS, 7))
     angle_cache[:, A_INDEX] = -1.0
     tiny = 1e-12 * period
+    # equally spaced samples: per-sample decay factors and harmonic rotations (see below)
+    advance = np.zeros((MAX_HARMONICS, 2))
+    step = np.zeros((MAX_HARMONICS, 2))
+    step_omega = math.nan
+    decay_step = exp_small(-resistance * sample_dt_s / inductance)
+    filter_step = exp_small(-sample_dt_s / tau_f)
+    decay_s = 1.0
+    filter_s = 1.0
 
     while state[S_TIME] < end_s:
         committed[:] = state
@@ -516,21 +532,40 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                                                      inductance)
                     peak_pending = False
 
-                # ---- samples inside [tau, tau_b)
+                # ---- samples inside [tau, tau_b): the first one evaluated at its instant, the
+                # following ones (equally spaced) by recurrence: decays multiplied by their
+                # per-sample factor, harmonic angles rotated by their per-sample step
+                first = True
                 while j < n_samples:
                     t_sample = record_start_s + j * sample_dt_s
                     tau_s = t_sample - t_period
                     if tau_s >= tau_b:
                         break
-                    fs_a, fs_b, fs_c, ks_a, ks_b, ks_c = evaluate(tau_s, omega_e, orders, count,
-                                                                  basis)
-                    sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c,
-                                           exp_small(-resistance * (tau_s - tau) / inductance),
+                    if first:
+                        first = False
+                        decay_s = exp_small(-resistance * (tau_s - tau) / inductance)
+                        filter_s = exp_small(-(tau_s - tau) / tau_f)
+                        for h in range(count):
+                            advance[h, 0], advance[h, 1] = sincos_small(orders[h] * omega_e
+                                                                        * tau_s)
+                    else:
+                        if omega_e != step_omega:
+                            for h in range(count):
+                                step[h, 0], step[h, 1] = sincos_small(orders[h] * omega_e
+                                                                      * sample_dt_s)
+                            step_omega = omega_e
+                        decay_s *= decay_step
+                        filter_s *= filter_step
+                        advance_by(advance, step, count)
+                    fs_a, fs_b, fs_c, ks_a, ks_b, ks_c = evaluate_advanced(advance, count, orders,
+                                                                           basis)
+                    sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c, decay_s,
                                            resistance)
                     theta_m = theta_m0 + omega * tau_s
                     t_em, t_shaft = _shaft_torque(tau_s, omega, ks_a, ks_b, ks_c, sa, sb, sc,
                                                   n_cogging, cogging)
-                    s_d, c_d = sincos_small(omega_e * tau_s)
+                    s_d = advance[0, 0]                       # the fundamental (order 1)
+                    c_d = advance[0, 1]
                     sin_e = sin_e0 * c_d + cos_e0 * s_d
                     cos_e = cos_e0 * c_d - sin_e0 * s_d
                     q_a, q_b, q_c = spread(1, sin_e, cos_e)       # sin(θe − x·2π/3)
@@ -543,8 +578,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     out[C_IC, j] = sc
                     out[C_TORQUE_EM, j] = t_em
                     out[C_TORQUE_SHAFT, j] = t_shaft
-                    out[C_TORQUE_SHAFT_FILTERED, j] = _filter(y_a, torque_a, slope,
-                                                              tau_s - tau, tau_f)
+                    out[C_TORQUE_SHAFT_FILTERED, j] = _filter_decayed(y_a, torque_a, slope,
+                                                                      tau_s - tau, tau_f,
+                                                                      filter_s)
                     out[C_SPEED_RPM, j] = omega / RPM
                     out[C_IQ, j] = 2.0 / 3.0 * (sa * q_a + sb * q_b + sc * q_c)
                     out[C_ID, j] = 2.0 / 3.0 * (sa * d_a + sb * d_b + sc * d_c)
