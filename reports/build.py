@@ -117,7 +117,8 @@ def render_report(record_dir: str | Path, *, revision: Revision | None = None
     _statements_pages(pdf, content)
     _method_pages(pdf, content, record_dir)
     for section in content.sources:
-        _source_pages(pdf, section, record_dir)
+        _source_pages(pdf, section, record_dir,
+                      (content.record.get("sensitivity") or {}).get(section.name))
     _deviations_and_traceability(pdf, content)
     _attach(pdf, content, record_dir, created)
     return RenderedReport(bytes(pdf.output()), content, pdf.pages_count)
@@ -453,10 +454,13 @@ def _capture_meta(record_dir: Path, relative: str | None) -> dict:
 
 # ---------------------------------------------------------------------- per source
 
-def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> None:
+def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
+                  sensitivity: dict | None = None) -> None:
     pdf.add_page()
     pdf.heading(f"Source: {section.name}")
     pdf.para(f"Statement: {STATEMENTS[section.statement]}", style="B")
+    if sensitivity:
+        pdf.para(_sensitivity_text(sensitivity), size=8)
     if figures.sweep(pdf, section):
         pdf.caption("Measured ripple with its expanded uncertainty (k = 2), the paper's "
                     "prediction and the tolerance limits of the decision rule where recorded.")
@@ -498,6 +502,25 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path) -> N
         if view.mismatch:
             pdf.para(f"Warning: {view.mismatch}", style="B")
     _budget(pdf, worst.entry)
+
+
+def _sensitivity_text(fit: dict) -> str:
+    """The sweep's sensitivity check (testplans/sensitivity.py) in one sentence."""
+    kind = "scaling exponent" if fit.get("mode") == "scaling" else "slope"
+    low, high = fit.get("limits") or (None, None)
+    text = (f"Sensitivity across the sweep ({len(fit.get('points') or [])} points): measured "
+            f"against expected ripple, {kind} {fmt(fit.get('slope'))} ± "
+            f"{fmt(2 * fit.get('slope_u', float('nan')), 2)} (k = 2), limits [{fmt(low)}, "
+            f"{fmt(high)}]: {str(fit.get('decision', '')).upper()}.")
+    per_knob = fit.get("per_knob")
+    if per_knob:
+        knob = per_knob["knob"]
+        # % of the mean torque per µs for a time knob (dead time), else per unit of the knob
+        scale, unit = (1e-4, "µs") if knob.endswith("_s") else (100.0, knob.rsplit("_", 1)[-1])
+        text += (f" Ripple per {unit} of {knob}: measured "
+                 f"{fmt(per_knob['measured_pu_per_unit'] * scale)} %, expected "
+                 f"{fmt(per_knob['expected_pu_per_unit'] * scale)} %.")
+    return text
 
 
 def _budget(pdf: ReportPDF, entry: dict) -> None:

@@ -162,3 +162,14 @@ def test_dead_time_plan_follows_the_loop_the_bench_file_states(tmp_path):
                         for t in record["tests"] if t.get("verdict")}
     for dead_time_s, default in ripple["default"].items():
         assert 1.1 < ripple["discrete"][dead_time_s] / default < 1.5, ripple
+
+
+def test_report_states_each_sweeps_sensitivity(tmp_path):
+    report = tmp_path / "report.pdf"
+    done = subprocess.run(HIL + ["run", "--source", "gain_mismatch", "--record-dir",
+                                 str(tmp_path / "records"), "-o", str(report)],
+                          capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    text = " ".join(p.extract_text() for p in PdfReader(report).pages).replace("\n", " ")
+    assert "Sensitivity across the sweep (3 points)" in text
+    assert "limits [0.8, 1.2]: PASS" in text
