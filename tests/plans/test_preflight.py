@@ -98,3 +98,22 @@ def test_a_bad_plan_fails_at_collection_and_nothing_is_sent(tmp_path):
     assert "pre-flight refused" in result.stderr
     assert "speed_rpm-3500" in result.stderr or "3500" in result.stderr
     assert not records.exists()          # the bench was never opened: no record, no command
+
+
+def test_a_plan_imported_from_elsewhere_is_not_taken_for_this_modules_convention(tmp_path):
+    """A user module that reuses a shipped plan's ``plan`` under other parameter names is not
+    refused at collection (its points are checked when measured)."""
+    (tmp_path / "test_reuse.py").write_text(textwrap.dedent('''
+        import pytest
+        from testplans.test_dc_offset import plan
+
+        pytestmark = pytest.mark.ripple_source("dc_offset")
+
+        @pytest.mark.parametrize("a, b", [(0.01, 0.0)])
+        def test_user(measure, bench, a, b):
+            assert measure(plan(bench.config, a, b)).passed
+    '''))
+    result = subprocess.run([sys.executable, "-m", "pytest", "test_reuse.py", "--collect-only",
+                             "-q", "-p", "no:cacheprovider", "--hil-record", str(tmp_path / "r")],
+                            capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
