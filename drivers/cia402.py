@@ -5,7 +5,10 @@ The driver does its own CiA 402 state handling on a ``canopen.RemoteNode`` inste
 ``canopen.BaseNode402``, whose 2.4.x version asserts the NMT state with a substring test in
 ``setup_pdos()``, swallows errors in the ``op_mode`` setter and has a ``reset_from_fault()`` that
 never produces the rising edge of the fault-reset bit. Here every step has a timeout and raises a
-typed error (``drivers.errors``) naming the instrument and what it was doing.
+typed error (``drivers.errors``) naming the instrument and what it was doing. A lost bus (the CAN
+interface, or the TCP link of a remote bus, gone: a send fails or the receive thread sees an error)
+makes every later failure ``TransportLost`` with the operating system's reason, raised from the
+original error, not a timeout.
 
 Cyclic objects (configured by ``connect``, asynchronous with an event timer):
 RPDO1 = controlword 0x6040; TPDO1 = statusword 0x6041 + mode display 0x6061;
@@ -37,13 +40,15 @@ from drivers import canopen_402 as sm
 from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  ScaledObject, current_command_object, injection_objects,
                                  load_dictionary)
-from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
+from drivers.canopen_transport import NOTIFIER_CYCLE_S, BusLossWatch, CanBusSettings, open_bus
 from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
-                            InstrumentTimeout, ProtocolError)
+                            InstrumentTimeout, ProtocolError, TransportLost, transport_reason)
 from hil.errors import InputError
 
 logger = logging.getLogger(__name__)
 
+#: Errors that a lost bus explains: raised as TransportLost once the bus is known to be lost.
+LOSS_SYMPTOMS = (InstrumentError, InstrumentTimeout, HeartbeatLost)
 CIA402_PROFILE = 402
 VALUE_RANGE_ABORTS = (0x06090030, 0x06090031, 0x06090032)
 NMT_OPERATIONAL = 5
@@ -110,25 +115,59 @@ class Cia402Drive:
         self._rated_torque_cache_nm: float | None = None
         self.network: canopen.Network | None = None
         self.node: canopen.RemoteNode | None = None
+        self._loss_watch: BusLossWatch | None = None
 
     # -- errors -----------------------------------------------------------------------------
     def _error(self, cls, action: str, detail: str) -> InstrumentError:
+        """A ``cls`` error, or ``TransportLost`` (caused by the loss) if the bus is lost and a
+        lost bus explains a ``cls`` failure (a timeout, a silent heartbeat, a bus error)."""
+        lost = self.bus_lost()
+        if lost is not None and cls in LOSS_SYMPTOMS:
+            error = TransportLost(self.instrument_name, action, transport_reason(lost),
+                                  what="CAN bus lost")
+            error.__cause__ = lost
+            return error
         return cls(self.instrument_name, action, detail)
 
+    def bus_lost(self) -> BaseException | None:
+        """The error that broke the CAN bus (a failed send, or the receive thread's error), or
+        None while it works."""
+        watch, network = self._loss_watch, self.network
+        if watch is None or network is None:
+            return None
+        return watch.lost(network.bus)
+
+    @staticmethod
+    def _raise(error: InstrumentError, original: BaseException):
+        """Raise ``error`` from the bus loss it stands for, else from ``original``."""
+        raise error from (error.__cause__ or original)
+
     def _sdo(self, action: str, func):
+        """Run one bus transaction (SDO, NMT, PDO configuration); typed errors."""
         try:
             return func()
         except SdoAbortedError as exc:
             if exc.code in VALUE_RANGE_ABORTS:
-                raise self._error(InjectionRangeError, action, f"drive refused the value: {exc}") from None
-            raise self._error(ProtocolError, action, f"SDO abort: {exc}") from None
+                raise self._error(InjectionRangeError, action, f"drive refused the value: {exc}") from exc
+            raise self._error(ProtocolError, action, f"SDO abort: {exc}") from exc
         except SdoCommunicationError as exc:
             if "No SDO response" in str(exc):
-                raise self._error(InstrumentTimeout, action,
-                                  f"no SDO answer within {self.sdo_timeout_s} s") from None
-            raise self._error(ProtocolError, action, f"SDO error: {exc}") from None
-        except can.CanError as exc:
-            raise self._error(InstrumentError, action, f"CAN bus error: {exc}") from None
+                self._raise(self._error(InstrumentTimeout, action,
+                                        f"no SDO answer within {self.sdo_timeout_s} s"), exc)
+            self._raise(self._error(ProtocolError, action, f"SDO error: {exc}"), exc)
+        except (can.CanError, OSError) as exc:
+            self._raise(self._bus_error(action, exc), exc)
+
+    def _bus_error(self, action: str, exc: BaseException) -> InstrumentError:
+        """A failed send: TransportLost if the bus is known lost or the OS said why, else a plain
+        InstrumentError (a bus error that does not mean the bus is gone)."""
+        if self.bus_lost() is None and any(isinstance(e, OSError) for e in
+                                           (exc, exc.__cause__, exc.__context__)):
+            error = TransportLost(self.instrument_name, action, transport_reason(exc),
+                                  what="CAN bus lost")
+            error.__cause__ = exc
+            return error
+        return self._error(InstrumentError, action, f"CAN bus error: {exc}")
 
     def _require_node(self, action: str) -> canopen.RemoteNode:
         if self.node is None:
@@ -174,11 +213,18 @@ class Cia402Drive:
         action = f"connect to node {self.node_id} on {self.settings.interface}:{self.settings.channel}"
         try:
             bus = open_bus(self.settings)
-        except (can.CanError, OSError, ValueError, ImportError) as exc:
-            raise self._error(InstrumentError, action, f"cannot open CAN bus: {exc}") from None
+        except (can.CanError, OSError) as exc:
+            if isinstance(exc, OSError) or isinstance(exc.__cause__ or exc.__context__, OSError):
+                raise TransportLost(self.instrument_name, action, transport_reason(exc),
+                                    what="cannot open CAN bus") from exc
+            raise self._error(InstrumentError, action, f"cannot open CAN bus: {exc}") from exc
+        except (ValueError, ImportError) as exc:
+            raise self._error(InstrumentError, action, f"cannot open CAN bus: {exc}") from exc
         self.network = canopen.Network(bus)
         self.network.NOTIFIER_CYCLE = NOTIFIER_CYCLE_S  # bounds close() time
         self.network.connect()
+        self._loss_watch = BusLossWatch()
+        self.network.notifier.add_listener(self._loss_watch)
         node = canopen.RemoteNode(self.node_id, load_dictionary(self.eds_path, self.node_id))
         node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
         node.sdo.MAX_RETRIES = 1  # canopen counts attempts: 1 = no retry; 0 would retry forever
@@ -193,13 +239,14 @@ class Cia402Drive:
                 raise self._error(ProtocolError, action,
                                   f"device type 0x{device_type:08X} is not a CiA 402 device")
             self._identity = self._read_identity()
-            node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO configuration allowed
+            self._sdo(f"{action}: NMT pre-operational",   # PDO configuration allowed
+                      lambda: node.nmt.send_command(0x80))
             self._write_verified(0x1017, self.producer_heartbeat_ms, f"{action}: set producer heartbeat time")
             self._start_master_heartbeat(action)
             self._configure_pdos(action)
             with self._heartbeat_update:
                 self._heartbeat_state = None  # wait for a heartbeat sent after the command
-            node.nmt.send_command(0x01)  # OPERATIONAL
+            self._sdo(f"{action}: NMT operational", lambda: node.nmt.send_command(0x01))
             self._wait_heartbeat_state(NMT_OPERATIONAL, time.monotonic() + 3 * self.heartbeat_timeout_s,
                                        f"{action}: heartbeat showing OPERATIONAL")
             self._wait_tpdo(0x6041, time.monotonic() + max(1.0, 10 * self.tpdo_event_timer_ms / 1000),
@@ -232,9 +279,8 @@ class Cia402Drive:
             self._master_heartbeat = self.network.send_periodic(
                 HEARTBEAT_COB_BASE + self.master_node_id, bytes([NMT_OPERATIONAL]),
                 self.heartbeat_timeout_s / 4)
-        except can.CanError as exc:
-            raise self._error(InstrumentError, action,
-                              f"cannot start the master heartbeat: {exc}") from None
+        except (can.CanError, OSError) as exc:
+            self._raise(self._bus_error(f"{action}: start the master heartbeat", exc), exc)
 
     def _stop_master_heartbeat(self) -> None:
         """Clean-close path: stop the drive consuming our heartbeat, then stop producing it.
@@ -248,8 +294,7 @@ class Cia402Drive:
                 self.sdo_write(CONSUMER_HEARTBEAT_INDEX, 1, 0,
                                action="close: stop the drive's consumer heartbeat 0x1016:01")
             except (InstrumentError, RuntimeError) as exc:  # RuntimeError: bus already closed
-                logger.warning("%s: %s; the drive will take its master-loss action",
-                               self.instrument_name, exc)
+                logger.warning("%s; the drive will take its master-loss action", exc)
         task, self._master_heartbeat = self._master_heartbeat, None
         if task is not None:
             try:
@@ -293,6 +338,8 @@ class Cia402Drive:
         network, self.network, self.node = self.network, None, None
         self._rated_torque_cache_nm = None
         if network is not None:
+            if self._loss_watch is not None and self._loss_watch.error is not None:
+                network.notifier.exception = None   # kept and raised already (TransportLost)
             try:
                 network.disconnect()
             except Exception:  # already broken bus: nothing more to release
@@ -430,8 +477,8 @@ class Cia402Drive:
             self._controlword_pdo[0x6040].raw = controlword
             try:
                 self._controlword_pdo.transmit()
-            except can.CanError as exc:
-                raise self._error(InstrumentError, action, f"CAN bus error: {exc}") from None
+            except (can.CanError, OSError) as exc:
+                self._raise(self._bus_error(action, exc), exc)
         return sent_at
 
     def _await_state(self, wanted: tuple[str, ...], sent_at: float, deadline: float,
@@ -630,6 +677,8 @@ class Cia402Drive:
         action = "check health"
         if self._connected_at is None:
             raise self._error(HeartbeatLost, action, f"not connected to node {self.node_id}")
+        if self.bus_lost() is not None:     # TransportLost, whatever the last heartbeat's age
+            raise self._error(HeartbeatLost, action, "CAN bus lost")
         self._check_heartbeat(action)
         emcy = self._emcy
         if emcy is not None:

@@ -29,8 +29,9 @@ what was wrong, with the data as received attached (``error.capture``) so the ca
 
 Modbus exception codes become typed errors (all ``DeviceFault``): ``IllegalFunction`` (1),
 ``IllegalAddress`` (2), ``IllegalValue`` (3), ``DeviceFailure`` (4), ``DeviceBusy`` (6); no answer
-is ``InstrumentTimeout``; a broken connection is ``InstrumentError``. Each message says which
-instrument and what the driver was doing.
+is ``InstrumentTimeout``; a link that cannot be made or breaks (refused, reset, closed, serial port
+gone) is ``TransportLost`` with the operating system's reason, raised from the original. Each
+message says which instrument and what the driver was doing.
 """
 
 from __future__ import annotations
@@ -43,14 +44,14 @@ from dataclasses import dataclass
 
 import numpy as np
 from pymodbus import FramerType, ModbusException
-from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 
 from drivers import modbus_pipeline
+from drivers.modbus_link import SerialClient, TcpClient
 from drivers.daq_register_map import Channel, RegisterMap, load_register_map
 from drivers.serial_line import PARITIES, STOPBITS, line_for_port
 from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
-                            ProtocolError)
+                            ProtocolError, TransportLost, transport_reason)
 from hil.capture import Capture
 from hil.errors import InputError
 
@@ -188,15 +189,14 @@ class ModbusDaq:
         self.line_note = ""         # RTU on a pseudo-terminal: why parity is not applied
         self._tid = 0x8000           # pipelined transaction ids (pymodbus counts from 0)
         if isinstance(settings, ModbusTcpSettings):
-            self._client = ModbusTcpClient(settings.host, port=settings.port, timeout=timeout_s,
+            self._client = TcpClient(settings.host, port=settings.port, timeout=timeout_s,
                                            retries=0, reconnect_delay=0.0)
         elif isinstance(settings, ModbusRtuSettings):
             parity, self.line_note = line_for_port(settings.port, settings.parity)
-            self._client = ModbusSerialClient(settings.port, framer=FramerType.RTU,
-                                              baudrate=settings.baudrate, bytesize=8,
-                                              parity=parity,
-                                              stopbits=settings.stopbits, timeout=timeout_s,
-                                              retries=0, reconnect_delay=0.0)
+            self._client = SerialClient(settings.port, framer=FramerType.RTU,
+                                        baudrate=settings.baudrate, bytesize=8, parity=parity,
+                                        stopbits=settings.stopbits, timeout=timeout_s,
+                                        retries=0, reconnect_delay=0.0)
         else:
             raise InputError(f"daq settings must be ModbusTcpSettings or ModbusRtuSettings, "
                              f"got {type(settings).__name__}")
@@ -205,8 +205,23 @@ class ModbusDaq:
     def connect(self) -> "ModbusDaq":
         with self._lock:
             if not self._client.connect():
-                raise InstrumentError(self.name, "connect", f"cannot open {self.settings}")
+                raise TransportLost(self.name, "connect", self._client.connect_error or "?",
+                                    what=f"cannot connect to {self.endpoint}")
         return self
+
+    @property
+    def endpoint(self) -> str:
+        """Where the DAQ is: "host:port" (TCP) or the serial port (RTU)."""
+        if isinstance(self.settings, ModbusTcpSettings):
+            return f"{self.settings.host}:{self.settings.port}"
+        return self.settings.port
+
+    def _lost(self, action: str, error: BaseException) -> TransportLost:
+        """The typed error of a link that broke (or could not be re-made) during ``action``."""
+        if getattr(self._client, "socket", None) is None and self._client.connect_error:
+            return TransportLost(self.name, action, self._client.connect_error,
+                                 what=f"connection lost, cannot reconnect to {self.endpoint}")
+        return TransportLost(self.name, action, transport_reason(error))
 
     def close(self) -> None:
         with self._lock:
@@ -225,12 +240,15 @@ class ModbusDaq:
             try:
                 response = request(*args, device_id=self.unit_id, **kwargs)
             except ConnectionException as exc:
-                raise InstrumentError(self.name, action, f"connection lost: {exc}") from None
+                raise self._lost(action, exc) from exc
             except ModbusIOException as exc:
                 raise InstrumentTimeout(self.name, action,
-                                        f"no answer within {self.timeout_s} s ({exc})") from None
+                                        f"no answer within {self.timeout_s} s ({exc})") from exc
             except ModbusException as exc:
-                raise InstrumentError(self.name, action, str(exc)) from None
+                raise InstrumentError(self.name, action, str(exc)) from exc
+            except OSError as exc:          # a socket or serial error pymodbus let through
+                self._client.close()
+                raise self._lost(action, exc) from exc
         if response.isError():
             code = getattr(response, "exception_code", 0)
             raise exception_error(self.name, action, code)
@@ -481,7 +499,8 @@ class ModbusDaq:
         with self._lock:
             sock = getattr(self._client, "socket", None)
             if sock is None and not self._client.connect():
-                raise InstrumentError(self.name, action, "not connected")
+                raise TransportLost(self.name, action, self._client.connect_error or "?",
+                                    what=f"not connected, cannot reconnect to {self.endpoint}")
             sock = self._client.socket
             first_tid, self._tid = self._tid, 0x8000 + (self._tid + len(counts)) % 0x8000
             self._round_trips += -(-len(counts) // depth)
@@ -492,14 +511,17 @@ class ModbusDaq:
             except modbus_pipeline.ExceptionAnswer as exc:
                 self._client.close()        # later answers may still be on their way
                 raise exception_error(self.name, f"{action}, window {exc.index}",
-                                      exc.code) from None
+                                      exc.code) from exc
             except TimeoutError as exc:
                 self._client.close()
                 raise InstrumentTimeout(self.name, action, f"{exc} ({self.timeout_s} s)") \
-                    from None
+                    from exc
+            except modbus_pipeline.UnexpectedAnswer as exc:
+                self._client.close()
+                raise InstrumentError(self.name, action, f"connection dropped: {exc}") from exc
             except OSError as exc:          # ConnectionError included
                 self._client.close()
-                raise InstrumentError(self.name, action, f"connection lost: {exc}") from None
+                raise self._lost(action, exc) from exc
 
     def _to_capture(self, frames, channels, packed, first_values, rate, settle_s,
                     clipped) -> tuple[Capture, list[str]]:

@@ -6,8 +6,10 @@ answer with its request. pymodbus's clients send one request at a time, so a cap
 over a 2 ms link would cost one round trip per 125 registers; this module keeps up to ``depth``
 function-code-4 requests outstanding on an already connected socket and returns the answers in
 request order. It raises :class:`ExceptionAnswer` (the server's exception code and which request),
-``TimeoutError`` (no complete answer in time) or ``ConnectionError`` (closed, or an answer that
-does not match any outstanding request); the caller owns the socket and closes it on error.
+``TimeoutError`` (no complete answer in time), :class:`UnexpectedAnswer` (a ``ConnectionError``:
+an answer that does not match any outstanding request, or is malformed) or another
+``ConnectionError``/``OSError`` (closed or reset by the server); the caller owns the socket and
+closes it on error.
 """
 
 from __future__ import annotations
@@ -19,6 +21,11 @@ import time
 
 READ_INPUT_REGISTERS = 4
 _MBAP = struct.Struct(">HHHB")          # transaction id, protocol id (0), length, unit id
+
+
+class UnexpectedAnswer(ConnectionError):
+    """An answer that matches no outstanding request, or is empty or malformed: the stream of
+    answers cannot be trusted any more (the connection is still there)."""
 
 
 class ExceptionAnswer(Exception):
@@ -63,7 +70,7 @@ def read_input_registers_pipelined(sock: socket.socket, unit_id: int, address: i
             del buffer[:6 + length]
             index = outstanding.pop(tid, None)
             if index is None or protocol != 0 or unit != unit_id:
-                raise ConnectionError(f"answer with transaction id {tid}, protocol {protocol}, "
+                raise UnexpectedAnswer(f"answer with transaction id {tid}, protocol {protocol}, "
                                       f"unit {unit} matches no outstanding request")
             answers[index] = _decode_read_answer(index, pdu, counts[index])
             deadline = time.monotonic() + timeout_s     # ``timeout_s`` per answer
@@ -72,12 +79,12 @@ def read_input_registers_pipelined(sock: socket.socket, unit_id: int, address: i
 
 def _decode_read_answer(index: int, pdu: bytes, count: int) -> list[int]:
     if not pdu:
-        raise ConnectionError(f"request {index}: empty answer")
+        raise UnexpectedAnswer(f"request {index}: empty answer")
     if pdu[0] == READ_INPUT_REGISTERS | 0x80:
         raise ExceptionAnswer(index, pdu[1] if len(pdu) > 1 else 0)
     if pdu[0] != READ_INPUT_REGISTERS or len(pdu) < 2 or pdu[1] != 2 * count \
             or len(pdu) != 2 + 2 * count:
-        raise ConnectionError(f"request {index}: malformed answer {pdu[:8].hex()}… "
+        raise UnexpectedAnswer(f"request {index}: malformed answer {pdu[:8].hex()}… "
                               f"({len(pdu)} bytes for {count} registers)")
     return list(struct.unpack(f">{count}H", pdu[2:]))
 

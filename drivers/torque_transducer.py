@@ -6,7 +6,9 @@ non-printable bytes are dropped, so line noise before an answer does not break a
 each question the input buffer is flushed (stale or garbage bytes from earlier). An answer that
 does not parse is asked again ``retries`` times, then raises ProtocolError; silence raises
 InstrumentTimeout; an error message from the instrument (Himmelstein ``!...``, Magtrol alarm
-``A`` or ``COMMAND ERROR``) raises DeviceFault. Readings are returned in SI (``Reading.torque_nm``) whatever unit the
+``A`` or ``COMMAND ERROR``) raises DeviceFault; a port that cannot be opened or that vanishes (a
+serial or OS error: unplugged adapter, closed pseudo-terminal) raises TransportLost with the
+operating system's reason, from the original error. Readings are returned in SI (``Reading.torque_nm``) whatever unit the
 instrument is set to.
 
 Line settings follow the dialect's published family defaults (``transducer_dialects.LINE_SETTINGS``:
@@ -24,12 +26,14 @@ signed speed.
 
 from __future__ import annotations
 
+import termios
 import time
 from dataclasses import dataclass
 
 import serial
 
-from drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout, ProtocolError
+from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, ProtocolError,
+                            TransportLost, transport_reason)
 from drivers.transducer_dialects import (TORQUE_UNIT_NM, DeviceReportedError, DialectError,
                                          Reading, make_dialect)
 from hil.errors import InputError
@@ -38,6 +42,9 @@ __all__ = ["Reading", "SerialSettings", "TorqueTransducer"]
 
 STREAM_CHUNK = 32
 _NON_PRINTABLE = bytes(b for b in range(256) if not 0x20 <= b < 0x7F)
+#: What pyserial and the OS raise when a port is gone (pyserial's SerialException is an OSError;
+#: a raw OSError comes from ``in_waiting``'s ioctl, termios.error from a flush or a setting).
+_PORT_ERRORS = (OSError, termios.error)
 
 
 @dataclass(frozen=True)
@@ -89,15 +96,21 @@ class TorqueTransducer:
         try:
             self._serial = serial.Serial(s.port, baudrate=s.baudrate, bytesize=s.bytesize,
                                          parity=s.parity, stopbits=s.stopbits, timeout=0.05)
-        except (serial.SerialException, ValueError) as exc:
-            raise InstrumentError(self.name, "connect", f"cannot open {s.port}: {exc}") from None
+        except ValueError as exc:
+            raise InstrumentError(self.name, "connect", f"cannot open {s.port}: {exc}") from exc
+        except _PORT_ERRORS as exc:
+            raise TransportLost(self.name, "connect", transport_reason(exc),
+                                what=f"cannot open {s.port}") from exc
         self._transaction("set up", lambda: self.dialect.setup(self))
         return self
 
     def close(self) -> None:
-        if self._serial is not None:
-            self._serial.close()
-            self._serial = None
+        port, self._serial = self._serial, None
+        if port is not None:
+            try:
+                port.close()
+            except _PORT_ERRORS:
+                pass                    # a port that vanished has nothing left to release
 
     def __enter__(self) -> "TorqueTransducer":
         return self.connect()
@@ -197,18 +210,25 @@ class TorqueTransducer:
     def _line_time_s(self) -> float:
         return 40 * 10.0 / self.settings.baudrate        # a 40-character answer on the line
 
+    def _port_lost(self, step: str, error: BaseException) -> InstrumentError:
+        """The typed error of a serial ``step`` that failed: a write timeout, else the port gone."""
+        if isinstance(error, serial.SerialTimeoutException):
+            return InstrumentTimeout(self.name, self._action, f"{step} timed out: {error}")
+        return TransportLost(self.name, self._action, transport_reason(error),
+                             what=f"serial port {self.settings.port} lost ({step} failed)")
+
     def _write(self, data: bytes) -> None:
         try:
             self._serial.write(data)
-        except serial.SerialException as exc:
-            raise InstrumentError(self.name, self._action, f"write failed: {exc}") from None
+        except _PORT_ERRORS as exc:
+            raise self._port_lost("write", exc) from exc
 
     def _flush_input(self) -> None:
         self._pending.clear()
         try:
             self._serial.reset_input_buffer()
-        except serial.SerialException as exc:
-            raise InstrumentError(self.name, self._action, f"flush failed: {exc}") from None
+        except _PORT_ERRORS as exc:
+            raise self._port_lost("flush", exc) from exc
 
     def _read_line(self, deadline: float) -> str:
         """Next non-empty line (terminated by CR or LF), printable characters only."""
@@ -231,7 +251,6 @@ class TorqueTransducer:
                 try:
                     self._serial.timeout = min(remaining, 0.05)
                     chunk = self._serial.read(max(1, self._serial.in_waiting))
-                except serial.SerialException as exc:
-                    raise InstrumentError(self.name, self._action,
-                                          f"read failed: {exc}") from None
+                except _PORT_ERRORS as exc:
+                    raise self._port_lost("read", exc) from exc
                 self._pending += chunk
