@@ -70,8 +70,8 @@ class TransportLost(InstrumentError):
 def transport_reason(error: BaseException) -> str:
     """The operating system's reason behind ``error``: the innermost OS-level error in its chain
     of causes and contexts (``[Errno 104] Connection reset by peer``; ``termios.error(5, ...)``
-    reads ``[Errno 5] Input/output error``), else ``error`` itself with its type
-    (``WebsocketClosed: Status: 1006, reason: Socket closed unexpectedly``)."""
+    reads ``[Errno 5] Input/output error``), else the innermost OSError, else the innermost error,
+    with its type (``WebsocketClosed: Status: 1006, reason: Socket closed unexpectedly``)."""
     chain, seen = [], set()
     while error is not None and id(error) not in seen:
         seen.add(id(error))
@@ -81,7 +81,7 @@ def transport_reason(error: BaseException) -> str:
     if with_errno:
         return _errno_text(with_errno[-1])
     os_errors = [e for e in chain if isinstance(e, OSError) and str(e)]
-    chosen = os_errors[-1] if os_errors else chain[0]
+    chosen = os_errors[-1] if os_errors else chain[-1]
     text = " ".join(str(chosen).split())
     return f"{type(chosen).__name__}: {text}" if text else type(chosen).__name__
 

@@ -47,7 +47,7 @@ from pymodbus import FramerType, ModbusException
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 
 from drivers import modbus_pipeline
-from drivers.modbus_link import SerialClient, TcpClient
+from drivers.modbus_link import SerialClient, TcpClient, connect_reason
 from drivers.daq_register_map import Channel, RegisterMap, load_register_map
 from drivers.serial_line import PARITIES, STOPBITS, line_for_port
 from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
@@ -205,8 +205,9 @@ class ModbusDaq:
     def connect(self) -> "ModbusDaq":
         with self._lock:
             if not self._client.connect():
-                raise TransportLost(self.name, "connect", self._client.connect_error or "?",
-                                    what=f"cannot connect to {self.endpoint}")
+                raise TransportLost(self.name, "connect", connect_reason(self._client),
+                                    what=f"cannot connect to {self.endpoint}") \
+                    from self._client.connect_error
         return self
 
     @property
@@ -217,11 +218,20 @@ class ModbusDaq:
         return self.settings.port
 
     def _lost(self, action: str, error: BaseException) -> TransportLost:
-        """The typed error of a link that broke (or could not be re-made) during ``action``."""
+        """The typed error of a link that broke (or could not be re-made) during ``action``,
+        caused by the OS error of the failed reconnection, else by ``error``."""
         if getattr(self._client, "socket", None) is None and self._client.connect_error:
-            return TransportLost(self.name, action, self._client.connect_error,
+            lost = TransportLost(self.name, action, connect_reason(self._client),
                                  what=f"connection lost, cannot reconnect to {self.endpoint}")
-        return TransportLost(self.name, action, transport_reason(error))
+            lost.__cause__ = self._client.connect_error
+        elif isinstance(error, ConnectionException) and "unexpectedly closed" in str(error) \
+                and not isinstance(error.__context__, OSError):
+            lost = TransportLost(self.name, action, f"{self.endpoint} closed the connection "
+                                                    f"without answering")
+        else:
+            lost = TransportLost(self.name, action, transport_reason(error))
+        lost.__cause__ = lost.__cause__ or error
+        return lost
 
     def close(self) -> None:
         with self._lock:
@@ -240,7 +250,7 @@ class ModbusDaq:
             try:
                 response = request(*args, device_id=self.unit_id, **kwargs)
             except ConnectionException as exc:
-                raise self._lost(action, exc) from exc
+                raise self._lost(action, exc)       # noqa: B904 - _lost sets the cause
             except ModbusIOException as exc:
                 raise InstrumentTimeout(self.name, action,
                                         f"no answer within {self.timeout_s} s ({exc})") from exc
@@ -248,7 +258,7 @@ class ModbusDaq:
                 raise InstrumentError(self.name, action, str(exc)) from exc
             except OSError as exc:          # a socket or serial error pymodbus let through
                 self._client.close()
-                raise self._lost(action, exc) from exc
+                raise self._lost(action, exc)       # noqa: B904 - _lost sets the cause
         if response.isError():
             code = getattr(response, "exception_code", 0)
             raise exception_error(self.name, action, code)
@@ -499,8 +509,9 @@ class ModbusDaq:
         with self._lock:
             sock = getattr(self._client, "socket", None)
             if sock is None and not self._client.connect():
-                raise TransportLost(self.name, action, self._client.connect_error or "?",
-                                    what=f"not connected, cannot reconnect to {self.endpoint}")
+                raise TransportLost(self.name, action, connect_reason(self._client),
+                                    what=f"not connected, cannot reconnect to {self.endpoint}") \
+                    from self._client.connect_error
             sock = self._client.socket
             first_tid, self._tid = self._tid, 0x8000 + (self._tid + len(counts)) % 0x8000
             self._round_trips += -(-len(counts) // depth)
@@ -521,7 +532,7 @@ class ModbusDaq:
                 raise InstrumentError(self.name, action, f"connection dropped: {exc}") from exc
             except OSError as exc:          # ConnectionError included
                 self._client.close()
-                raise self._lost(action, exc) from exc
+                raise self._lost(action, exc)       # noqa: B904 - _lost sets the cause
 
     def _to_capture(self, frames, channels, packed, first_values, rate, settle_s,
                     clipped) -> tuple[Capture, list[str]]:
