@@ -28,6 +28,8 @@ EPILOG = ("Run 'hil COMMAND --help' for a command's options. Bad input exits 2 w
 #: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
 COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "verify", "predict", "budget",
                               "yield_cmd", "diagnose"]
+#: Command names whose module name differs (the others are their module's name).
+COMMAND_NAMES = {"sim_bench": "sim-bench", "yield_cmd": "yield"}
 
 
 class UsageError(Exception):
@@ -45,15 +47,26 @@ class OneLineErrorParser(argparse.ArgumentParser):
         raise UsageError(self.prog, message)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The parser; with ``argv`` naming a command, only that command's module is imported (a
+    command's heavy imports — SALib, scipy.stats, dask — never slow another command down)."""
     parser = OneLineErrorParser(prog="hil", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"ripple-hil {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND",
                                        parser_class=OneLineErrorParser)
     subparsers.required = True
-    for name in COMMAND_MODULES:
+    for name in _modules_for(argv):
         importlib.import_module(f"hil.commands.{name}").register(subparsers)
     return parser
+
+
+def _modules_for(argv: list[str] | None) -> list[str]:
+    """The command module ``argv``'s first word names, else every module (help, errors)."""
+    first = next((word for word in argv or () if not word.startswith("-")), None)
+    for name in COMMAND_MODULES:
+        if first == COMMAND_NAMES.get(name, name):
+            return [name]
+    return COMMAND_MODULES
 
 
 def report_error(command: str, kind: str, message: str, status: int, as_json: bool) -> int:
@@ -71,7 +84,7 @@ def report_error(command: str, kind: str, message: str, status: int, as_json: bo
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     as_json = "--json" in argv
-    parser = build_parser()
+    parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)
     except UsageError as exc:
