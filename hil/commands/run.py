@@ -100,14 +100,14 @@ def build_pytest_args(args) -> list[str]:
     for defect in args.sim_defect:
         pytest_args += ["--hil-sim-defect", defect]
     if args.bench:
-        pytest_args += ["--bench", args.bench]
+        pytest_args += ["--hil-bench", args.bench]
     if not args.no_report:
         pytest_args += ["--hil-report", args.report]
     if args.requirements:
         from hil.requirements import load_requirements
 
         load_requirements(args.requirements)    # a bad file: one-line error before pytest starts
-        pytest_args += ["--requirements", args.requirements]
+        pytest_args += ["--hil-requirements", args.requirements]
     if args.exitfirst:
         pytest_args.append("-x")
     return pytest_args + list(args.pytest_args)

@@ -167,7 +167,7 @@ def outcomes_run(request, tmp_path_factory):
     server = SimBench(folder, bench) if request.param == "sim-bench" else None
     try:
         done = subprocess.run(
-            PYTEST + ["test_plan.py", "--bench", str(server.file if server else bench),
+            PYTEST + ["test_plan.py", "--hil-bench", str(server.file if server else bench),
                       "--hil-record", "records", "--hil-report", "auto",
                       "--hil-allow-expired-calibration", "certificate in the post",
                       "--hil-operator", "A. Tester", "--hil-customer", "ACME Drives GmbH",
@@ -264,7 +264,7 @@ def test_a_partial_selection_is_not_complete(tmp_path):
 def test_a_killed_sim_bench_aborts_the_run_in_one_line(tmp_path):
     (tmp_path / "test_sweep.py").write_text(SWEEP)
     server = SimBench(tmp_path)
-    run = subprocess.Popen(PYTEST + ["test_sweep.py", "--bench", str(server.file),
+    run = subprocess.Popen(PYTEST + ["test_sweep.py", "--hil-bench", str(server.file),
                                      "--hil-record", "records"],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                            cwd=tmp_path, env=ENV)
@@ -330,7 +330,7 @@ def test_an_in_process_bench_that_vanishes_aborts_the_run(tmp_path):
 def test_ctrl_c_twice_is_as_clean_as_once(tmp_path, where):
     (tmp_path / "test_sweep.py").write_text(SWEEP)
     server = SimBench(tmp_path) if where == "sim-bench" else None
-    bench = ["--bench", str(server.file)] if server else []
+    bench = ["--hil-bench", str(server.file)] if server else []
     run = subprocess.Popen(PYTEST + ["test_sweep.py", "--hil-record", "records",
                                      "--hil-report", "auto", *bench],
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -365,7 +365,7 @@ def test_ctrl_c_twice_is_as_clean_as_once(tmp_path, where):
 # ---------------------------------------------------------------------------------- bench open
 def test_expired_calibration_is_one_line_and_nothing_runs(tmp_path):
     (tmp_path / "test_plan.py").write_text(PLAN)
-    done = subprocess.run(PYTEST + ["test_plan.py", "--bench", str(bench_file(tmp_path,
+    done = subprocess.run(PYTEST + ["test_plan.py", "--hil-bench", str(bench_file(tmp_path,
                                                                               expired=True)),
                                     "--hil-record", "records"],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path, env=ENV)

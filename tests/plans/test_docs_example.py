@@ -24,7 +24,7 @@ def test_the_documented_user_plan_runs_and_judges_its_requirements(tmp_path):
     (tmp_path / "my-spec.toml").write_text(blocks("toml")[0])
     records = tmp_path / "records"
     done = subprocess.run([sys.executable, "-m", "pytest", "test_eps_production.py", "-q",
-                           "-p", "no:cacheprovider", "--requirements", "my-spec.toml",
+                           "-p", "no:cacheprovider", "--hil-requirements", "my-spec.toml",
                            "--hil-record", str(records)],
                           capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]

@@ -121,11 +121,11 @@ def test_unreadable_bench_file(tmp_path, content, words):
 
 
 def test_bad_bench_file_stops_the_run_before_anything_starts(tmp_path):
-    """pytest with a bad --bench: one usage error, no test run, no record, no instrument."""
+    """pytest with a bad --hil-bench: one usage error, no test run, no record, no instrument."""
     path = write_bench(tmp_path / "bench.toml", edited("sim-bench", "limits", "current_a", 500.0))
     done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider",
                            str(Path(__import__("testplans").__file__).parent / "test_baseline.py"),
-                           "--bench", str(path), "--hil-record", str(tmp_path / "records")],
+                           "--hil-bench", str(path), "--hil-record", str(tmp_path / "records")],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert done.returncode == 4, done.stdout[-2000:]          # pytest's usage error
     assert "limits.current_a = 500.0 is out of range; allowed 0.1..100" in done.stderr

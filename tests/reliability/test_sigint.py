@@ -141,7 +141,7 @@ def test_killed_test_process_leaves_the_drive_disabled(tmp_path):
         wait_for(bench_file.exists, 60, "the sim-bench bench file", server)
         config = load_bench(bench_file)
         run = subprocess.Popen([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                                str(plan), "--bench", str(bench_file),
+                                str(plan), "--hil-bench", str(bench_file),
                                 "--hil-record", str(tmp_path / "records")],
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                cwd=tmp_path)
