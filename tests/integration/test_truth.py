@@ -319,7 +319,7 @@ def test_an_in_process_bench_that_vanishes_aborts_the_run(tmp_path):
     assert "Traceback" not in done.stdout and done.stdout.count("\n") < 30, done.stdout
     record = load_record(only_record(tmp_path / "records"))
     assert record["status"] == "aborted"
-    assert [t["outcome"] for t in record["tests"]] == ["passed", "passed", "error", "not run",
+    assert [t["outcome"] for t in record["tests"]] == ["passed", "passed", "failed", "not run",
                                                        "not run"]
     assert record["run"]["abort"]["instrument"] == "drive"
     assert "InstrumentTimeout" in record["run"]["abort"]["error"]
