@@ -26,7 +26,7 @@ from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_r
 from reports import figures, revisions
 from reports.angle_view import angle_view
 from reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
-                             ReportContent,
+                             VOIDED, ReportContent,
                              SourceSection, fmt, fmt_pct, report_content, status_text)
 from reports.document import ReportPDF
 from reports.revisions import Revision
@@ -55,6 +55,8 @@ STATEMENTS = {
     "fail": "FAIL: at least one point lies outside its limits beyond the guard band, or shows "
             "a ripple order other than the predicted one.",
     NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped or not run, or has no verdict.",
+    VOIDED: "NOT STATED: the bench self-check failed or did not complete, which voids this "
+            "run's model-validation verdicts (the points' decisions below are not a statement).",
     NO_VERDICT: "NO MODEL VERDICT: these tests judge no prediction (their outcomes and any "
                 "requirement verdicts are stated elsewhere).",
 }
@@ -200,9 +202,7 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
         ("1. Requirements conformity", statement.requirements
          + (f" (demonstration requirement(s): {', '.join(statement.demonstration)})"
             if statement.demonstration else "")),
-        ("2. Model validation (vs the paper)", "; ".join(
-            f"{source}: {decision.upper()}" for source, decision in statement.model.items())
-         or "no model verdict recorded"),
+        ("2. Model validation (vs the paper)", statement.model_text),
         ("3. Bench self-check", statement.self_check
          + (f" ({'; '.join(statement.failed_checks)})" if statement.failed_checks else "")),
         ("4. Run status and integrity", f"{statement.run}; {statement.integrity}"),

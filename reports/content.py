@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,8 @@ DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
 NOT_DETERMINED = "not determined"
 #: A passed test that records no model verdict: it does not enter its source's statement.
 NO_VERDICT = "no model verdict"
+#: A source's statement when a failed or unfinished bench self-check voids it (§7).
+VOIDED = "not stated"
 
 RIPPLE_DEFINITION = (
     "Torque ripple (per unit) = peak-to-peak of the synchronously averaged torque over whole "
@@ -97,6 +99,8 @@ def report_content(record: dict, record_dir: Path, capture_problems: list[str],
             continue
         groups.setdefault(source_of(entry), []).append(entry)
     sources = [_section(name, entries) for name, entries in groups.items()]
+    if statement.voided:        # the points' decisions stay listed; the statement is void
+        sources = [replace(section, statement=VOIDED) for section in sources]
     revision = revision or Revision(1, None, None, None)
     return ReportContent(record=record, report_id=report_id(record, record_json, revision.number),
                          partial=record.get("status") != "complete", sources=sources,

@@ -4,11 +4,14 @@
    NOT STATED (run incomplete, bench self-check failed, a value inside the guard band) or
    "no requirements given";
 2. **model validation** — measured vs the paper's (or a derived) prediction, per source;
-3. **bench self-check** — PASS, FAILED (naming the checks) or "not run";
+3. **bench self-check** — PASS, FAILED (naming the checks), "not completed" (it did not run to
+   its end, e.g. the bench was lost) or "not run";
 4. **run status and integrity** — the record's status and whether every hash verifies.
 
-Overall, from worst to best: INVALID (a hash does not verify) > NOT STATED (the run did not
-finish every selected test, or the bench self-check failed: the other verdicts are void) > FAIL
+A failed or not completed self-check voids the requirement and model-validation statements
+(design.md §7): both read NOT STATED. Overall, from worst to best: INVALID (a hash does not
+verify) > NOT STATED (the run did not finish every selected test, the self-check failed or did
+not complete, requirements were given but judged no point, or nothing at all was judged) > FAIL
 (a failed or errored test, a requirement not met) > CONDITIONAL PASS > PASS. Never PASS with a
 failed or errored test, an incomplete run or a broken hash.
 """
@@ -47,6 +50,16 @@ class Statement:
     run: str = ""
     integrity: str = "not checked"
     bad_tests: list[str] = field(default_factory=list)
+    #: Why the requirement and model statements are void ("" when they stand).
+    voided: str = ""
+
+    @property
+    def model_text(self) -> str:
+        """Statement 2 as page 1 and the summary print it."""
+        if self.voided:
+            return f"{NOT_STATED} ({self.voided})"
+        return "; ".join(f"{source}: {decision.upper()}" for source, decision
+                         in self.model.items()) or "no model verdict recorded"
 
 
 def accepted(verdict: dict) -> bool:
@@ -58,6 +71,42 @@ def accepted(verdict: dict) -> bool:
                                   and decision == "conditional pass")
 
 
+def self_check_statement(record: dict) -> tuple[str, list[str], str]:
+    """``(statement 3, what failed or did not complete, void reason or "")``.
+
+    FAILED only when a check ran and failed (or the self-check test failed with every recorded
+    check passing); a self-check that stopped before its end (an error, not run, a lost bench)
+    is "not completed", never FAILED with checks that never ran."""
+    tests = record.get("tests", [])
+    lost = bool((record.get("run") or {}).get("abort"))
+    self_check_tests = [t for t in tests if t.get("kind") == "self_check" or t.get("checks")]
+    failed = [f"{c.get('name')} ({t['test_id']})" for t in self_check_tests
+              for c in t.get("checks") or [] if not c.get("passed")]
+    unfinished = []
+    for test in self_check_tests:
+        outcome = test.get("outcome")
+        if any(not c.get("passed") for c in test.get("checks") or []):
+            continue
+        if outcome == "failed" and not lost:
+            failed.append(f"{test['test_id']}: failed ({test.get('message') or 'no detail'})")
+        elif outcome in ("failed", "error", "not run", None):
+            unfinished.append(f"{test['test_id']}: {outcome or 'no outcome'}"
+                              + (", bench lost" if lost else ""))
+    if failed:
+        return "FAILED: the other verdicts of this run are not stated", failed, \
+            "voided by the failed bench self-check"
+    if unfinished:
+        text = "not completed (bench lost)" if lost else "not completed"
+        return f"{text}: the other verdicts of this run are not stated", unfinished, \
+            "voided: the bench self-check did not complete"
+    if not self_check_tests:
+        return "not run", [], ""
+    if all(t.get("outcome") == "passed" for t in self_check_tests):
+        return PASS, [], ""
+    return "not run (" + ", ".join(f"{t['test_id']}: {t.get('outcome')}"
+                                   for t in self_check_tests) + ")", [], ""
+
+
 def overall_statement(record: dict, integrity_problems: list[str] | None) -> Statement:
     """The four statements of a record and the overall one (``integrity_problems`` None: the
     hashes were not checked, e.g. the summary printed as the run ends)."""
@@ -65,20 +114,7 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
     status = record.get("status")
     complete = status == "complete"
     bad = [t["test_id"] for t in tests if t.get("outcome") in BAD_OUTCOMES]
-
-    checks = [c | {"test_id": t["test_id"]} for t in tests for c in t.get("checks") or []]
-    self_check_tests = [t for t in tests if t.get("kind") == "self_check" or t.get("checks")]
-    failed_checks = [f"{c.get('name')} ({c['test_id']})" for c in checks if not c.get("passed")]
-    failed_checks += [f"{t['test_id']}: {t.get('outcome')}" for t in self_check_tests
-                      if t.get("outcome") in BAD_OUTCOMES and not any(
-                          not c.get("passed") for c in t.get("checks") or [])]
-    if failed_checks:
-        self_check = "FAILED: the other verdicts of this run are not stated"
-    elif self_check_tests:
-        ran = [t for t in self_check_tests if t.get("outcome") == "passed"]
-        self_check = PASS if len(ran) == len(self_check_tests) else "not run to its end"
-    else:
-        self_check = "not run"
+    self_check, failed_checks, voided = self_check_statement(record)
 
     verdicts = [r for t in tests for r in t.get("requirements") or []]
     failed_req = sorted({r["id"] for r in verdicts
@@ -86,10 +122,11 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
     guard = sorted({r["id"] for r in verdicts if not accepted(r)} - set(failed_req))
     demonstration = sorted({r["id"] for r in verdicts if r.get("demonstration")})
     listed = (record.get("requirements") or {}).get("lines") or []
+    unjudged_requirements = bool(listed) and not verdicts
     if not verdicts and not listed:
         requirements = "no requirements given"
-    elif failed_checks:
-        requirements = f"{NOT_STATED} (bench self-check FAILED)"
+    elif voided:
+        requirements = f"{NOT_STATED} ({voided})"
     elif failed_req:
         requirements = f"{FAIL}: {', '.join(failed_req)}" + ("" if complete else
                                                               f" (run {status})")
@@ -116,17 +153,24 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
                  "intact: every hash verifies" if not integrity_problems else
                  f"{INVALID}: {len(integrity_problems)} problem(s)")
 
+    not_stated = [reason for condition, reason in (
+        (not complete, run),
+        (bool(voided), "bench self-check " + ("FAILED" if self_check.startswith("FAILED")
+                                              else "not completed")),
+        (unjudged_requirements, "requirements were given but applied to no measured point"),
+        (not verdicts and not model and bool(tests), "nothing was judged (no model or "
+                                                     "requirement verdict)"),
+    ) if condition]
+    failing = "; ".join(part for part in (
+        f"{len(bad)} test(s) failed or errored" if bad else "",
+        f"requirement(s) not met: {', '.join(failed_req)}" if failed_req and not voided
+        else "") if part)
     if integrity_problems:
         overall, reason = INVALID, "the record or a capture does not match its hash"
-    elif not complete:
-        overall, reason = NOT_STATED, run
-    elif failed_checks:
-        overall, reason = NOT_STATED, "bench self-check FAILED"
-    elif bad or failed_req:
-        overall = FAIL
-        reason = "; ".join(part for part in (
-            f"{len(bad)} test(s) failed or errored" if bad else "",
-            f"requirement(s) not met: {', '.join(failed_req)}" if failed_req else "") if part)
+    elif not_stated:
+        overall, reason = NOT_STATED, "; ".join(not_stated + ([failing] if failing else []))
+    elif failing:
+        overall, reason = FAIL, failing
     elif not tests:
         overall, reason = NOT_STATED, "no test was recorded"
     elif guard or any(d != "pass" for d in model.values()):
@@ -136,4 +180,4 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
     return Statement(overall=overall, reason=reason, requirements=requirements,
                      failed_requirements=failed_req, demonstration=demonstration, model=model,
                      self_check=self_check, failed_checks=failed_checks, run=run,
-                     integrity=integrity, bad_tests=bad)
+                     integrity=integrity, bad_tests=bad, voided=voided)

@@ -289,10 +289,18 @@ def test_requirements_map_and_self_check_sections(extras_pdf):
 
 def test_a_failed_self_check_voids_the_other_statements(tmp_path):
     record = write_record(tmp_path, name="bad-bench", extras=True, self_check_passes=False)
-    first = flat_lines(page_texts(build_report(record, tmp_path / "r.pdf"))[0])
+    pages = [flat_lines(text) for text in page_texts(build_report(record, tmp_path / "r.pdf"))]
+    first = pages[0]
     assert "3. Bench self-check FAILED: the other verdicts of this run are not stated" in first
-    assert "1. Requirements conformity NOT STATED (bench self-check FAILED)" in first
-    assert "Overall: NOT STATED (bench self-check FAILED)" in first
+    assert ("1. Requirements conformity NOT STATED (voided by the failed bench self-check)"
+            in first)
+    assert ("2. Model validation (vs the paper) NOT STATED (voided by the failed bench "
+            "self-check)" in first)
+    assert "PASS" not in first.split("Statements", 1)[1].split("Overall")[0]
+    assert "Overall: NOT STATED (bench self-check FAILED" in first
+    later = " ".join(pages[1:])
+    assert "every point meets its acceptance limits" not in later
+    assert later.count("NOT STATED: the bench self-check failed or did not complete") >= 2
 
 
 def test_long_tokens_break_only_after_separators():
