@@ -51,7 +51,8 @@ def register(subparsers) -> None:
     parser.add_argument("-o", "--report", metavar="FILE.pdf", default=AUTO_REPORT,
                         help="PDF report path (default: report.pdf in the record folder)")
     parser.add_argument("--no-report", action="store_true", help="do not write the PDF report")
-    parser.add_argument("--seed", type=int, default=0, help="simulated bench seed (default 0)")
+    parser.add_argument("--seed", type=seed_value, default=0,
+                        help="simulated bench seed, an integer >= 0 (default 0)")
     parser.add_argument("--requirements", metavar="SPEC.toml",
                         help="the user's ripple requirements, judged on every point they apply "
                              "to (e.g. hil/examples/requirements.toml)")
@@ -79,6 +80,24 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
+def seed_value(text: str) -> int:
+    """argparse type of a seed: an integer >= 0 (numpy's SeedSequence refuses negatives)."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} is negative; allowed: an integer >= 0")
+    return value
+
+
+#: The plan that verifies the bench; ``--source`` always runs it too (a failed self-check voids
+#: the other verdicts, an unverified bench has no basis for them).
+SELF_CHECK = "self_check"
+
+
 def build_pytest_args(args) -> list[str]:
     modules = plan_modules()
     selected = args.source or list(modules)
@@ -86,6 +105,9 @@ def build_pytest_args(args) -> list[str]:
     if unknown:
         raise InputError(f"--source {', '.join(unknown)} is not a test plan; allowed: "
                          f"{', '.join(modules)}")
+    if SELF_CHECK in modules and SELF_CHECK not in selected:
+        selected = [SELF_CHECK, *selected]
+    _check_report_path(args)
     if args.bench:
         from hil.config import load_bench
 
@@ -113,6 +135,19 @@ def build_pytest_args(args) -> list[str]:
     return pytest_args + list(args.pytest_args)
 
 
+def _check_report_path(args) -> None:
+    """A report path that cannot be written is refused before the bench opens (never after a
+    whole run); an existing file is never overwritten."""
+    if args.no_report or args.report == AUTO_REPORT:
+        return
+    target = Path(args.report)
+    if target.exists():
+        raise InputError(f"-o {target}: the file exists and a report is never overwritten; "
+                         "choose another path (or use hil report --reason for a revision)")
+    if not target.parent.is_dir():
+        raise InputError(f"-o {target}: folder {target.parent} does not exist")
+
+
 def unrelated_plugins() -> list[str]:
     """``-p no:NAME`` for every installed pytest plugin that a bench run does not need."""
     import importlib.metadata
@@ -123,9 +158,15 @@ def unrelated_plugins() -> list[str]:
 
 
 def run(args) -> int:
+    import signal
+
     import pytest
 
-    code = pytest.main(build_pytest_args(args))
+    pytest_args = build_pytest_args(args)
+    # SIGTERM (a CI timeout, systemd, kill) takes the Ctrl-C path: the bench is made safe and
+    # the record closed as interrupted.
+    signal.signal(signal.SIGTERM, lambda signum, frame: signal.raise_signal(signal.SIGINT))
+    code = pytest.main(pytest_args)
     if code == pytest.ExitCode.NO_TESTS_COLLECTED:
         print("hil run: no test plan point was collected", file=sys.stderr)
         return 2

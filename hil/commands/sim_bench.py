@@ -13,6 +13,7 @@ import sys
 import threading
 from pathlib import Path
 
+from hil.commands.run import seed_value
 from hil.errors import InputError
 
 
@@ -25,7 +26,8 @@ def register(subparsers) -> None:
                         help="also write the bench file here (atomically, once all are ready)")
     parser.add_argument("--duration-s", type=float, default=None,
                         help="stop after this many seconds (default: until Ctrl-C / SIGTERM)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the simulated drive")
+    parser.add_argument("--seed", type=seed_value, default=0,
+                        help="seed of the simulated drive, an integer >= 0")
     parser.add_argument("--defect", metavar="KEY=VALUE", action="append", default=[],
                         help="test-only defect of the simulated drive (repeatable; overrides the "
                         "bench file's [simulation.defects]), e.g. injection_scale=1.2, "

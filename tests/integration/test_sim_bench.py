@@ -30,12 +30,14 @@ def test_second_process_runs_plans_against_sim_bench(tmp_path):
                               capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
         record = load_record(next((tmp_path / "rec").iterdir()))
-        measured = [t for t in record["tests"] if t["measured"]]
+        # --source always runs the bench self-check first
+        measured = [t for t in record["tests"] if t["measured"] and t["source"] == "gain_mismatch"]
         assert record["status"] == "complete" and len(measured) == 3
         assert all(t["outcome"] == "passed" for t in record["tests"])
         assert {t["measured"]["dominant_order"] for t in measured} == {2}
+        assert record["tests"][0]["test_id"] == "testplans/test_self_check.py::test_bench_self_check"
         assert all(t["test_id"].startswith("testplans/test_gain_mismatch.py::")   # as pytest
-                   for t in record["tests"])
+                   for t in record["tests"][1:])
     finally:
         server.terminate()
         server.wait(timeout=30)
