@@ -1,0 +1,86 @@
+"""What a run may state (reports.statement, fixtures.summary) on small synthetic records: a failed
+or unfinished self-check voids the other verdicts, nothing judged is never PASS, and the summary
+counts each test by its outcome."""
+
+from __future__ import annotations
+
+from fixtures.summary import summary_lines
+from record_factory import requirement_verdict, self_check_entry
+from reports.statement import NOT_STATED, PASS, overall_statement
+
+
+def measured(test_id: str, source: str, decision: str, outcome: str = "passed",
+             requirements: list | None = None) -> dict:
+    return {"test_id": test_id, "source": source, "kind": "measurement", "outcome": outcome,
+            "verdict": {"decision": decision}, "requirements": requirements or []}
+
+
+def record(*tests: dict, status: str = "complete", **top) -> dict:
+    return {"status": status, "tests": list(tests)} | top
+
+
+def test_a_good_run_passes():
+    stated = overall_statement(record(self_check_entry(True), measured("a", "baseline", "pass",
+                               requirements=[requirement_verdict("REQ-1", 2.0, 30.0)])), [])
+    assert (stated.overall, stated.requirements, stated.self_check) == (PASS, PASS, PASS)
+    assert stated.model_text == "baseline: PASS"
+
+
+def test_a_failed_self_check_voids_requirements_and_models():
+    tests = (self_check_entry(False),
+             measured("a", "baseline", "pass",
+                      requirements=[requirement_verdict("REQ-1", 2.0, 30.0)]),
+             measured("b", "dc_offset", "pass"))
+    stated = overall_statement(record(*tests), [])
+    assert stated.self_check.startswith("FAILED")
+    assert stated.requirements.startswith(NOT_STATED) and "voided" in stated.requirements
+    assert stated.model_text.startswith(NOT_STATED) and "PASS" not in stated.model_text
+    assert stated.overall == NOT_STATED and "self-check FAILED" in stated.reason
+    text = "\n".join(summary_lines(record(*tests)))
+    assert "all pass" not in text
+    assert "model validation: NOT STATED" in text and "overall: NOT STATED" in text
+
+
+def test_a_self_check_stopped_by_a_lost_bench_is_not_completed_not_failed():
+    lost = self_check_entry(True) | {"outcome": "failed", "checks": [],
+                                     "message": "TransportLost: DAQ link reset"}
+    stated = overall_statement(record(lost, measured("a", "baseline", "pass"), status="aborted",
+                                      run={"abort": {"instrument": "daq"}}), [])
+    assert stated.self_check.startswith("not completed (bench lost)")
+    assert "FAILED" not in stated.self_check + " ".join(stated.failed_checks)
+    assert stated.overall == NOT_STATED and stated.model_text.startswith(NOT_STATED)
+    errored = self_check_entry(True) | {"outcome": "error", "checks": []}
+    stated = overall_statement(record(errored, measured("a", "baseline", "pass")), [])
+    assert stated.self_check.startswith("not completed:") and stated.overall == NOT_STATED
+
+
+def test_a_run_that_judged_nothing_is_not_stated():
+    diagnosis = {"test_id": "d", "source": "diagnosis", "kind": "diagnosis", "outcome": "passed"}
+    cell = {"test_id": "m", "source": "ripple_map", "kind": "ripple_map", "outcome": "passed"}
+    for tests in ((diagnosis,), (cell,), (self_check_entry(True),)):
+        stated = overall_statement(record(*tests), [])
+        assert stated.overall == NOT_STATED and "nothing was judged" in stated.reason
+
+
+def test_requirements_applied_to_no_point_are_not_stated_overall():
+    given = {"lines": [{"id": "REQ-7"}]}
+    stated = overall_statement(record(measured("a", "baseline", "pass"), requirements=given), [])
+    assert stated.requirements.startswith(NOT_STATED)
+    assert stated.overall == NOT_STATED and "applied to no measured point" in stated.reason
+    stated = overall_statement(record(measured("a", "baseline", "pass")), [])
+    assert stated.requirements == "no requirements given" and stated.overall == PASS
+
+
+def test_a_non_strict_xpass_is_not_a_failure():
+    xpass = {"test_id": "x", "source": "baseline", "outcome": "xpassed"}
+    stated = overall_statement(record(measured("a", "baseline", "pass"), xpass), [])
+    assert stated.overall == PASS and stated.bad_tests == []
+
+
+def test_summary_counts_a_test_that_failed_its_requirement_as_failed():
+    failing = measured("a", "baseline", "pass", outcome="failed",
+                       requirements=[requirement_verdict("REQ-90", 5.0, 1.0)])
+    lines = summary_lines(record(self_check_entry(True), failing))
+    row = next(line for line in lines if line.startswith("baseline")).split()
+    assert row[1:7] == ["1", "0", "0", "0", "1", "0"]        # pts, pass, c.pass, c.fail, fail, err
+    assert any("not accepted: REQ-90" in line for line in lines)
