@@ -121,8 +121,19 @@ def _requirement_problems(plan, requirements) -> list[str]:
 
 
 def check_plans(points: dict, config: BenchConfig, requirements=()) -> list[str]:
-    """``{test id: PointPlan}`` → one line per problem, naming the test (empty: all fine)."""
+    """``{test id: PointPlan}`` → one line per problem, naming the test (empty: all fine); and
+    every requirement whose injection names a knob the drive's EDS does not have (a typo that
+    would silently make the line apply nowhere)."""
     lines = []
     for test_id, plan in points.items():
         lines += [f"{test_id}: {problem}" for problem in check_point(plan, config, requirements)]
-    return lines
+    return lines + requirement_knob_problems(requirements, config)
+
+
+def requirement_knob_problems(requirements, config: BenchConfig) -> list[str]:
+    from drivers.canopen_eds import injection_objects
+
+    knobs = injection_objects(config.drive.eds)
+    return [f"requirement {req.id}: injection knob {knob!r} is not a knob of the drive's EDS "
+            f"(known: {', '.join(sorted(knobs))})"
+            for req in requirements for knob, _ in req.injection if knob not in knobs]

@@ -170,8 +170,8 @@ def requirement_from_dict(table: Any, *, origin: str = "plan") -> Requirement:
         limit_min=_number(limit.get("min"), f"{where}: limit min"),
         limit_max=_number(limit.get("max"), f"{where}: limit max"),
         order=table.get("order"), sources=sources,
-        speed_rpm=_span(table.get("speed_rpm"), f"{where}: speed_rpm"),
-        current_a=_span(table.get("current_a"), f"{where}: current_a"),
+        speed_rpm=_span(table.get("speed_rpm"), f"{where}: speed_rpm", magnitude=True),
+        current_a=_span(table.get("current_a"), f"{where}: current_a", magnitude=True),
         injected=table.get("injected", "any"),
         injection=_knobs(table.get("injection", {}), f"{where}: injection"),
         rule=table.get("rule", "guarded"),
@@ -282,7 +282,17 @@ def _number(value: Any, where: str) -> float | None:
     return float(value)
 
 
-def _span(value: Any, where: str) -> tuple[float, float] | None:
+def _span(value: Any, where: str, *, magnitude: bool = False) -> tuple[float, float] | None:
+    """A value or [low, high]; ``magnitude``: matched against |speed| or the peak current, so a
+    negative bound could never match and is refused."""
+    span = _parse_span(value, where)
+    if magnitude and span is not None and span[0] < 0:
+        raise InputError(f"{where} = {value!r}: matched against the magnitude (|speed|, peak "
+                         f"current); give values >= 0")
+    return span
+
+
+def _parse_span(value: Any, where: str) -> tuple[float, float] | None:
     if value is None:
         return None
     if isinstance(value, (int, float)) and not isinstance(value, bool):

@@ -117,3 +117,12 @@ def test_a_plan_imported_from_elsewhere_is_not_taken_for_this_modules_convention
                              "-q", "-p", "no:cacheprovider", "--hil-record", str(tmp_path / "r")],
                             capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_a_requirement_naming_an_unknown_knob_is_refused():
+    from hil.preflight import check_plans
+
+    req = requirement_from_dict({"id": "REQ-9", "name": "x", "quantity": "pk_pk_pct",
+                                 "limit": {"max": 3.0}, "injection": {"nosuch_knob": 1}})
+    problems = check_plans({"t": point()}, CONFIG, [req])
+    assert any("REQ-9" in p and "nosuch_knob" in p for p in problems), problems

@@ -134,3 +134,10 @@ def test_statement_names_id_limit_and_demonstration():
                                 limit_max=1.0, demonstration=True), result)
     assert verdict["statement"].startswith("REQ-12 total ripple ≤ 1 %: measured 2")
     assert verdict["statement"].endswith("FAIL (demonstration)")
+
+
+def test_negative_speed_or_current_bounds_are_refused():
+    with pytest.raises(InputError, match="magnitude"):
+        line(speed_rpm=-500)
+    with pytest.raises(InputError, match="magnitude"):
+        line(current_a=[-5, 10])
