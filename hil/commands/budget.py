@@ -75,18 +75,31 @@ def run(args: argparse.Namespace) -> int:
         combination = combine_sources(op, sources) if sources else None
     except InputError as error:
         raise in_option_names(error) from None
+    except ValueError as error:         # a root search with no sign change: limit out of reach
+        raise InputError(f"--limit-pct {limit_pct:g}: no source limit reaches this share "
+                         f"({error})") from None
+    unmet = [name for name, entry in spec.to_dict().get("limits", {}).items()
+             if isinstance(entry, dict) and entry.get("met") is False]
+    attainable = not unmet and spec.check.worst_case_sum_pu <= spec.limit_pu * (1 + 1e-9)
     if args.json:
         data = {"operating_point": op.to_dict(), **spec.to_dict(),
                 "combination": combination.to_dict() if combination else None}
         if combination:
             data["combination"]["meets_worst_case"] = combination.worst_case_sum_pu <= spec.limit_pu
             data["combination"]["meets_rss"] = combination.rss_pu <= spec.limit_pu
+        data["attainable"] = attainable
+        data["not_met"] = unmet
         print(json.dumps(data))
-        return 0
+        return 0 if attainable else 1
     print("\n".join(format_specification(spec, op, limit_pct)))
     if combination:
         print("\n".join(format_combination(combination, spec.limit_pu)))
-    return 0
+    if not attainable:
+        print(f"LIMIT NOT ATTAINABLE: {limit_pct:g} % is not met "
+              + (f"(no allowed setting meets the share of {', '.join(unmet)}; "
+                 if unmet else "(")
+              + f"worst-case sum {100 * spec.check.worst_case_sum_pu:.4g} %)")
+    return 0 if attainable else 1
 
 
 def format_specification(spec, op, limit_pct: float) -> list[str]:

@@ -1,0 +1,28 @@
+"""``hil budget`` says when a limit cannot be met and exits 1; a limit too small to invert is
+one error line (no traceback), with a JSON error object under --json."""
+
+import json
+import subprocess
+import sys
+
+HIL = [sys.executable, "-m", "hil"]
+
+
+def budget(*args):
+    return subprocess.run(HIL + ["budget", *args], capture_output=True, text=True, timeout=120)
+
+
+def test_an_unattainable_limit_is_stated_and_exits_1():
+    done = budget("--limit-pct", "2")
+    assert done.returncode == 1, done.stderr
+    assert done.stdout.splitlines()[-1].startswith("LIMIT NOT ATTAINABLE: 2 % is not met")
+    data = json.loads(budget("--limit-pct", "2", "--json").stdout)
+    assert data["attainable"] is False and data["not_met"]
+
+
+def test_a_limit_too_small_to_invert_is_one_error_line():
+    done = budget("--limit-pct", "1e-9")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "Traceback" not in done.stderr
+    error = json.loads(budget("--limit-pct", "1e-9", "--json").stdout)["error"]
+    assert error["kind"] == "input" and error["exit_status"] == 2
