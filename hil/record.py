@@ -7,6 +7,14 @@ a capture saved, a test entry, an outcome, a section — is one line appended (a
 ``record.sha256`` and removes the journal. :func:`load_record` replays a journal it finds, so a
 run killed mid-way reads back with every event it had written and status ``running``.
 
+The journal is hash-chained: each line carries ``chain`` = SHA-256 of the previous line's
+``chain`` (for line 1, of the header ``record.json`` as created) and of the line's own event, so
+an edited line — or an edited header — is found by :func:`load_record` (``journal_problems``) and
+:func:`verify_record`. Without a secret key this is evidence of careless or partial edits, not a
+signature: whoever rewrites every later line can forge the chain, and lines cut from the end
+leave no trace. An unsealed record (a run killed before :meth:`RunRecord.finish`) is never
+"intact": ``hil verify`` says it is not sealed.
+
 A test's raw capture is saved *before* it is analysed (:meth:`RunRecord.save_capture`); until its
 test entry is added, the capture is listed under ``pending_captures`` so its SHA-256 is never lost.
 Every pytest outcome has an entry (``passed``, ``failed``, ``error``, ``skipped``, ``xfailed``,
@@ -192,6 +200,7 @@ class RunRecord:
         self.data = data
         self._lock = threading.RLock()
         self._journal = None
+        self._chain: str | None = None
 
     # ------------------------------------------------------------------ create / open
     @classmethod
@@ -387,8 +396,13 @@ class RunRecord:
                            f"({self.data['status']}); it cannot be changed")
 
     def _apply(self, event: dict) -> None:
-        """Append ``event`` to the journal (flushed and fsynced), then apply it in memory."""
-        line = json.dumps(event, allow_nan=False, separators=(",", ":")) + "\n"
+        """Append ``event`` to the journal (flushed and fsynced, chained to the line before),
+        then apply it in memory."""
+        if self._chain is None:
+            self._chain = _journal_tail(self.path)
+        self._chain = chain_hash(self._chain, event)
+        line = json.dumps(event | {"chain": self._chain}, allow_nan=False,
+                          separators=(",", ":")) + "\n"
         if self._journal is None:
             self._journal = open(self.path / JOURNAL_FILE, "a", encoding="utf-8")
         self._journal.write(line)
@@ -400,6 +414,27 @@ class RunRecord:
         if self._journal is not None:
             self._journal.close()
             self._journal = None
+
+
+def chain_hash(previous: str, event: dict) -> str:
+    """SHA-256 (hex) of the previous journal line's chain and one event (without its chain)."""
+    body = json.dumps({k: v for k, v in event.items() if k != "chain"}, allow_nan=False,
+                      separators=(",", ":"))
+    return hashlib.sha256(f"{previous}\n{body}".encode("utf-8")).hexdigest()
+
+
+def _journal_tail(folder: Path) -> str:
+    """The chain to continue from: the last complete journal line's, else the header's hash."""
+    try:
+        lines = (folder / JOURNAL_FILE).read_text(encoding="utf-8").split("\n")[:-1]
+    except FileNotFoundError:
+        lines = []
+    for line in reversed(lines):
+        try:
+            return str(json.loads(line)["chain"])
+        except (json.JSONDecodeError, KeyError, TypeError):
+            continue
+    return _sha256_file(folder / RECORD_FILE)
 
 
 def apply_event(data: dict, event: dict) -> None:
@@ -510,6 +545,7 @@ def _replay_journal(folder: Path, data: dict) -> None:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"record {str(folder)!r}: cannot read {JOURNAL_FILE}: {exc}") from None
     lines = text.split("\n")
+    chain, problems, chained = _sha256_file(folder / RECORD_FILE), [], False
     for number, line in enumerate(lines[:-1], start=1):   # the last piece has no newline
         try:
             event = json.loads(line)
@@ -517,6 +553,15 @@ def _replay_journal(folder: Path, data: dict) -> None:
         except (json.JSONDecodeError, KeyError, StopIteration, TypeError, AttributeError) as exc:
             raise InputError(f"record {str(folder)!r}: {JOURNAL_FILE} line {number} is damaged "
                              f"({type(exc).__name__})") from None
+        expected = chain_hash(chain, event)
+        chained = chained or "chain" in event
+        if event.get("chain") != expected:
+            problems.append(f"{JOURNAL_FILE} line {number} does not match its hash chain: the "
+                            f"line" + (f" or the header {RECORD_FILE}" if number == 1 else "")
+                            + " was changed after it was written")
+        chain = str(event.get("chain", expected))
+    if problems and chained:        # a journal without any chain: written before chaining
+        data["journal_problems"] = problems
 
 
 def verify_record(folder: str | Path, data: dict | None = None) -> list[str]:
@@ -524,7 +569,8 @@ def verify_record(folder: str | Path, data: dict | None = None) -> list[str]:
     hash to ``record.sha256``) and every capture it names (:func:`verify_captures`)."""
     folder = _record_folder(folder)
     data = data if data is not None else load_record(folder)
-    return verify_seal(folder, data) + verify_captures(folder, data)
+    return (list(data.get("journal_problems") or []) + verify_seal(folder, data)
+            + verify_captures(folder, data))
 
 
 def verify_seal(folder: str | Path, data: dict) -> list[str]:

@@ -150,8 +150,9 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
 
     run = STATUS_TEXT.get(status, f"status {status!r}")
     integrity = ("not checked" if integrity_problems is None else
-                 "intact: every hash verifies" if not integrity_problems else
-                 f"{INVALID}: {len(integrity_problems)} problem(s)")
+                 f"{INVALID}: {len(integrity_problems)} problem(s)" if integrity_problems else
+                 "NOT SEALED: the run never finished (no record.sha256); every capture hash "
+                 "verifies" if status == "running" else "intact: every hash verifies")
 
     not_stated = [reason for condition, reason in (
         (not complete, run),

@@ -298,3 +298,29 @@ def test_a_torn_last_journal_line_is_dropped(record: RunRecord):
     with open(record.path / JOURNAL_FILE, "a") as handle:
         handle.write('{"event": "test", "entry": {"test_id": "half')
     assert [t["test_id"] for t in load_record(record.path)["tests"]] == ["kept"]
+
+
+def test_an_edited_journal_line_or_header_breaks_the_chain(record: RunRecord):
+    for name in ("a", "b", "c"):
+        record.add_test({"test_id": name, "outcome": "failed"})
+    journal = record.path / JOURNAL_FILE
+    assert "journal_problems" not in load_record(record.path)
+    assert verify_record(record.path) == []
+    lines = journal.read_text().splitlines(keepends=True)
+    edited = lines[1].replace('"failed"', '"passed"')
+    journal.write_text(lines[0] + edited + lines[2])
+    data = load_record(record.path)
+    assert [t["outcome"] for t in data["tests"]] == ["failed", "passed", "failed"]
+    assert len(data["journal_problems"]) == 1 and "line 2" in data["journal_problems"][0]
+    assert any("line 2 does not match its hash chain" in p for p in verify_record(record.path))
+    journal.write_text("".join(lines))
+    header = record.path / "record.json"
+    header.write_text(header.read_text().replace('"running"', '"running" '))
+    assert "line 1" in load_record(record.path)["journal_problems"][0]
+
+
+def test_a_reopened_record_continues_the_chain(record: RunRecord):
+    record.add_test({"test_id": "a", "outcome": "passed"})
+    reopened = RunRecord.open(record.path)
+    reopened.add_test({"test_id": "b", "outcome": "passed"})
+    assert "journal_problems" not in load_record(record.path)

@@ -141,12 +141,17 @@ def test_record_and_captures_are_attached(full_record, full_pdf):
             assert attachments[name][0] == (full_record / test["capture"]["file"]).read_bytes()
 
 
-def test_partial_record_says_so(partial_record, tmp_path):
+def test_partial_record_says_so(partial_record, tmp_path, capsys):
     record = load_record(partial_record)
     assert record["status"] == "running"
+    assert main(["verify", str(partial_record)]) == 1            # never sealed: not intact
+    out = capsys.readouterr().out
+    assert "not sealed (the run never finished" in out and "intact" not in out
+    assert "capture(s) match their SHA-256" in out
     pdf = build_report(partial_record, tmp_path / "partial.pdf")
     pages = page_texts(pdf)
     assert all("INCOMPLETE RUN (running)" in text for text in pages)
+    assert "NOT SEALED: the run never finished" in flat_lines(pages[0])
     text = flat_lines("\n".join(pages))
     assert "no overall statement of conformity" in text
     assert "Overall: NOT STATED (never finished" in text
