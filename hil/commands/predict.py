@@ -139,11 +139,21 @@ def option_unit(option: SourceOption) -> str:
     return " " + {"pct": "%", "us": "µs", "a": "A", "hz": "Hz", "rev": "counts/rev"}.get(suffix, suffix)
 
 
+#: Largest current angle a per-unit prediction is given at (cos 85° = 0.087: the mean torque is
+#: still 9 % of its φ = 0 value; nearer 90° a per-unit figure explodes).
+MAX_CURRENT_ANGLE_DEG = 85.0
+
+
 def operating_point(args: argparse.Namespace) -> OperatingPoint:
     check_range("--speed-rpm", args.speed_rpm, -3000.0, 3000.0, unit=" rpm")
     check_range("--current-a", args.current_a, 0.0, 100.0, unit=" A", low_open=True)
     angle_deg = 0.0 if args.current_angle_deg is None else args.current_angle_deg
     check_range("--current-angle-deg", angle_deg, -90.0, 90.0, unit=" deg")
+    if abs(angle_deg) > MAX_CURRENT_ANGLE_DEG:
+        # a ripple per unit of the mean torque K_t·I·cos φ is undefined where cos φ → 0
+        raise InputError(f"--current-angle-deg {angle_deg:g}: the mean torque K_t·I·cos φ is "
+                         f"(nearly) zero, so a ripple per unit of it is undefined; allowed "
+                         f"|φ| <= {MAX_CURRENT_ANGLE_DEG:g} deg")
     if args.dc_bus_v is not None:
         check_range("--dc-bus-v", args.dc_bus_v, 0.0, 1000.0, unit=" V", low_open=True)
     try:

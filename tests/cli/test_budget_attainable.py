@@ -26,3 +26,10 @@ def test_a_limit_too_small_to_invert_is_one_error_line():
     assert "Traceback" not in done.stderr
     error = json.loads(budget("--limit-pct", "1e-9", "--json").stdout)["error"]
     assert error["kind"] == "input" and error["exit_status"] == 2
+
+
+def test_a_prediction_per_unit_of_a_zero_mean_torque_is_refused():
+    done = subprocess.run(HIL + ["predict", "dc_offset", "--ia-offset-a", "0.2",
+                                 "--current-angle-deg", "90"], capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 2 and "undefined" in done.stderr and "e+16" not in done.stdout
