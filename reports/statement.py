@@ -159,8 +159,8 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
         (bool(voided), "bench self-check " + ("FAILED" if self_check.startswith("FAILED")
                                               else "not completed")),
         (unjudged_requirements, "requirements were given but applied to no measured point"),
-        (not verdicts and not model and bool(tests), "nothing was judged (no model or "
-                                                     "requirement verdict)"),
+        (not verdicts and not model and bool(tests), "nothing was judged: no model or "
+                                                     "requirement verdict"),
     ) if condition]
     failing = "; ".join(part for part in (
         f"{len(bad)} test(s) failed or errored" if bad else "",

@@ -67,6 +67,8 @@ def test_requirements_applied_to_no_point_are_not_stated_overall():
     stated = overall_statement(record(measured("a", "baseline", "pass"), requirements=given), [])
     assert stated.requirements.startswith(NOT_STATED)
     assert stated.overall == NOT_STATED and "applied to no measured point" in stated.reason
+    lines = summary_lines(record(measured("a", "baseline", "pass"), requirements=given))
+    assert "requirements: NOT STATED: no measured point was judged against a requirement" in lines
     stated = overall_statement(record(measured("a", "baseline", "pass")), [])
     assert stated.requirements == "no requirements given" and stated.overall == PASS
 
