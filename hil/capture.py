@@ -86,8 +86,13 @@ class Capture:
     def load(cls, path: str | os.PathLike) -> "Capture":
         """Read a capture file; a missing, truncated or foreign file raises InputError."""
         path = Path(path)
+        if path.is_dir():
+            raise InputError(f"capture file {str(path)!r} is a directory, not a capture")
         if not path.is_file():
             raise InputError(f"capture file {str(path)!r} does not exist")
+        if not zipfile.is_zipfile(path):   # numpy would try it as a pickle and say allow_pickle
+            raise InputError(f"capture file {str(path)!r} is not a ripple-hil capture (.npz, a "
+                             "zip archive); another DAQ's CSV or npz: hil analyze --time-col …")
         try:
             with np.load(path, allow_pickle=False) as npz:
                 header = json.loads(bytes(npz["__header__"]).decode())

@@ -163,7 +163,7 @@ def test_a_pickled_capture_is_refused_unopened(tmp_path, capsys):
     raw = target.with_suffix(".npy")
     raw.write_bytes(pickle.dumps(Payload()))          # a bare pickle named like a capture
     for path in (target, raw):
-        with pytest.raises(InputError, match="not a readable ripple-hil capture"):
+        with pytest.raises(InputError, match="not a (readable )?ripple-hil capture"):
             Capture.load(path)
         assert hil_main(["analyze", str(path)]) == 2
     assert "pickled" in capsys.readouterr().err
