@@ -86,6 +86,7 @@ def run(args) -> int:
             op["current_angle_rad"] = math.radians(args.current_angle_deg)
         op.pop("speed_rpm", None)      # measured from the capture itself (signed)
         pairs.append((capture, op))
+    _check_one_drive_state(args.captures, [c for c, _ in pairs])
     setup, class_pct = setup_from_bench_dict(
         _bench_dict(args, records), current_loop_bandwidth_hz=args.loop_bandwidth_hz,
         current_loop_delay_s=args.loop_delay_s,
@@ -102,3 +103,14 @@ def run(args) -> int:
         for note in result.notes:
             print(f"note: {note}")
     return 0
+
+
+def _check_one_drive_state(names, captures) -> None:
+    """A diagnosis is of one drive as it is: captures recorded with different injections are
+    different drives to the fit (their shares and calibration would be meaningless)."""
+    states = {json.dumps(c.meta.get("injection") or {}, sort_keys=True) for c in captures}
+    if len(states) > 1:
+        raise InputError(f"the {len(names)} captures were recorded with different injections "
+                         f"({'; '.join(sorted(states))}); a diagnosis is of one drive state: "
+                         "give captures with the same injection (hil run --source diagnosis "
+                         "records such a set)")

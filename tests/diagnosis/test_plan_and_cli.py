@@ -98,3 +98,26 @@ def test_report_section_is_drawn_from_the_record(diagnosis_run, tmp_path):
     correction = section["calibration"]["ia_offset_correction_a"]["value"]
     assert f"{correction:+.4g}" in text.replace("\u2212", "-")
     assert "after the correction" in text
+
+
+def test_captures_of_different_injections_are_not_one_drive(tmp_path):
+    """hil diagnose refuses a set of captures recorded with different injections."""
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from hil.capture import Capture
+
+    paths = []
+    for index, offset in enumerate((0.0, 0.2)):
+        time_s = np.arange(200) / 1000.0
+        capture = Capture({"time_s": time_s, "torque_nm": np.ones(200),
+                           "rotor_angle_mech_rad": time_s * 50.0},
+                          meta={"injection": {"ia_offset_a": offset} if offset else {}})
+        path = tmp_path / f"c{index}.npz"
+        capture.save(path)
+        paths.append(str(path))
+    done = subprocess.run([sys.executable, "-m", "hil", "diagnose", *paths, "--current-a", "20"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "different injections" in done.stderr, done.stderr
