@@ -300,8 +300,9 @@ def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
         pdf.grid(["check", "measured", "expected", "tolerance", "unit", "result", "detail"],
                  [[c.get("name"), fmt(c.get("measured")), fmt(c.get("expected")),
                    fmt(c.get("tolerance")), c.get("unit") or "",
+                   "not completed" if c.get("passed") is None else
                    "pass" if c.get("passed") else "FAILED", c.get("detail") or ""]
-                  for c in content.self_checks], widths=(30, 17, 17, 17, 12, 14, 0), size=7)
+                  for c in content.self_checks], widths=(28, 16, 16, 16, 12, 20, 0), size=7)
     else:
         pdf.para("No bench self-check was run.")
     if content.map_cells:

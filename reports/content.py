@@ -129,12 +129,13 @@ def map_cells(record: dict) -> list[dict]:
 
 
 def self_checks(record: dict) -> list[dict]:
-    """Every self-check of the run (``{test_id, outcome, name, measured, expected, ...}``)."""
+    """Every self-check of the run (``{test_id, outcome, name, measured, expected, ...}``); a
+    self-check test that recorded no check gives one row with ``passed`` None (not completed)."""
     rows = []
     for entry in record.get("tests", []):
         if entry.get("kind") != "self_check" and not entry.get("checks"):
             continue
-        for check in entry.get("checks") or [{"name": "(no check recorded)", "passed": False,
+        for check in entry.get("checks") or [{"name": "(no check recorded)", "passed": None,
                                               "detail": entry.get("message") or
                                               entry.get("error") or entry.get("outcome")}]:
             rows.append({"test_id": entry.get("test_id"), "outcome": entry.get("outcome")}

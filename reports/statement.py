@@ -74,9 +74,9 @@ def accepted(verdict: dict) -> bool:
 def self_check_statement(record: dict) -> tuple[str, list[str], str]:
     """``(statement 3, what failed or did not complete, void reason or "")``.
 
-    FAILED only when a check ran and failed (or the self-check test failed with every recorded
-    check passing); a self-check that stopped before its end (an error, not run, a lost bench)
-    is "not completed", never FAILED with checks that never ran."""
+    FAILED only when a check ran and failed (or the self-check test failed after its checks ran
+    and passed); a self-check that stopped before its checks were recorded (an exception, an
+    error, not run, a lost bench) is "not completed", never FAILED with checks that never ran."""
     tests = record.get("tests", [])
     lost = bool((record.get("run") or {}).get("abort"))
     self_check_tests = [t for t in tests if t.get("kind") == "self_check" or t.get("checks")]
@@ -87,11 +87,13 @@ def self_check_statement(record: dict) -> tuple[str, list[str], str]:
         outcome = test.get("outcome")
         if any(not c.get("passed") for c in test.get("checks") or []):
             continue
-        if outcome == "failed" and not lost:
-            failed.append(f"{test['test_id']}: failed ({test.get('message') or 'no detail'})")
+        detail = test.get("message") or test.get("error")
+        if outcome == "failed" and test.get("checks") and not lost:
+            failed.append(f"{test['test_id']}: failed ({detail or 'no detail'})")
         elif outcome in ("failed", "error", "not run", None):
             unfinished.append(f"{test['test_id']}: {outcome or 'no outcome'}"
-                              + (", bench lost" if lost else ""))
+                              + (", bench lost" if lost else "")
+                              + (f" ({detail})" if detail else ""))
     if failed:
         return "FAILED: the other verdicts of this run are not stated", failed, \
             "voided by the failed bench self-check"

@@ -49,9 +49,12 @@ def test_a_self_check_stopped_by_a_lost_bench_is_not_completed_not_failed():
     assert stated.self_check.startswith("not completed (bench lost)")
     assert "FAILED" not in stated.self_check + " ".join(stated.failed_checks)
     assert stated.overall == NOT_STATED and stated.model_text.startswith(NOT_STATED)
-    errored = self_check_entry(True) | {"outcome": "error", "checks": []}
-    stated = overall_statement(record(errored, measured("a", "baseline", "pass")), [])
-    assert stated.self_check.startswith("not completed:") and stated.overall == NOT_STATED
+    for raised in ({"outcome": "error", "checks": []},
+                   {"outcome": "failed", "checks": None, "message": "CaptureIntegrityError: x"}):
+        stated = overall_statement(record(self_check_entry(True) | raised,
+                                          measured("a", "baseline", "pass")), [])
+        assert stated.self_check.startswith("not completed:") and stated.overall == NOT_STATED
+        assert "FAILED" not in stated.reason and stated.model_text.startswith(NOT_STATED)
 
 
 def test_a_run_that_judged_nothing_is_not_stated():
