@@ -139,7 +139,8 @@ def test_a_silent_master_is_told_by_emcy(drive, sim_drive, twin):
     assert drive.last_emcy.code == 0x8130
     with pytest.raises(DeviceFault, match="0x8130"):
         drive.check_health()
-    assert drive.state == sm.SWITCH_ON_DISABLED
+    # the EMCY goes out as the drive takes its abort action; the statusword TPDO follows it
+    assert eventually(lambda: drive.state == sm.SWITCH_ON_DISABLED)
     assert eventually(lambda: not twin.enabled)
 
 
