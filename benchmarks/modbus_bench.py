@@ -48,8 +48,8 @@ MODES = {"before": LEGACY_TRANSFER, "after": TransferOptions()}
 
 def plan_points(config) -> dict[str, list]:
     """The 8 sources' PointPlans, built by the test plans' own ``plan`` functions."""
-    from testplans import conditions as c
-    from testplans import (test_baseline, test_dc_offset, test_dead_time, test_encoder,
+    from ripple_hil_testplans import conditions as c
+    from ripple_hil_testplans import (test_baseline, test_dc_offset, test_dead_time, test_encoder,
                            test_gain_mismatch, test_pwm_resolution, test_pwm_switching,
                            test_word_length)
 

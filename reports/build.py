@@ -23,13 +23,13 @@ from pathlib import Path
 from hil.capture import Capture, atomic_write_bytes
 from hil.errors import InputError
 from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_record
-from reports import figures, revisions
-from reports.angle_view import angle_view
-from reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
+from ripple_hil_reports import figures, revisions
+from ripple_hil_reports.angle_view import angle_view
+from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
                              VOIDED, ReportContent,
                              SourceSection, fmt, fmt_pct, report_content, status_text)
-from reports.document import ReportPDF
-from reports.revisions import Revision
+from ripple_hil_reports.document import ReportPDF
+from ripple_hil_reports.revisions import Revision
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
@@ -311,7 +311,7 @@ def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
     diagnosis = record.get("diagnosis")
     if diagnosis:
         try:
-            from reports.diagnosis_section import add_diagnosis_section
+            from ripple_hil_reports.diagnosis_section import add_diagnosis_section
         except ImportError:
             pdf.para("A diagnosis was recorded, but this installation cannot draw it "
                      "(reports.diagnosis_section missing).")

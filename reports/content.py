@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from hil.record import RECORD_FILE
-from reports.revisions import Revision
-from reports.statement import STATUS_TEXT, Statement, overall_statement
+from ripple_hil_reports.revisions import Revision
+from ripple_hil_reports.statement import STATUS_TEXT, Statement, overall_statement
 
 #: ILAC-G8 decisions from best to worst; a source's statement is the worst of its points.
 DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")

@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from reports.content import SourceSection, knob_display
-from reports.plot import Plot
+from ripple_hil_reports.content import SourceSection, knob_display
+from ripple_hil_reports.plot import Plot
 
 WIDTH_MM = 170.0
 #: Decades of spread above which a sweep's ripple axis is logarithmic.

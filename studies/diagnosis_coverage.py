@@ -22,7 +22,7 @@ import numpy as np
 
 from hil.diagnosis.twin_proof import (corrected_config, draw_faults, prove, simulate_points,
                                       twin_config)
-from testplans import diagnosis_design as design
+from ripple_hil_testplans import diagnosis_design as design
 
 
 def run_drive(rng, seed: int):

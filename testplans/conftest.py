@@ -5,7 +5,7 @@ from dataclasses import asdict
 
 import pytest
 
-from testplans import conditions as c
+from ripple_hil_testplans import conditions as c
 
 
 @pytest.fixture(scope="session", autouse=True)

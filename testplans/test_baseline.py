@@ -3,7 +3,7 @@ sensor noise), kept in the record for comparison with every injected point."""
 
 import pytest
 
-from testplans import conditions as c
+from ripple_hil_testplans import conditions as c
 
 pytestmark = pytest.mark.ripple_source("baseline")
 

@@ -4,8 +4,8 @@ as in the paper, and injected in amperes."""
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("dc_offset")
 

@@ -8,8 +8,8 @@ rejection of the drive's current loop, whose bandwidth and delay the bench file 
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("dead_time")
 

@@ -16,7 +16,7 @@ from hil.diagnosis import diagnose, spectra_from_captures
 from hil.diagnosis.bench_setup import check_setup_known, setup_from_bench_dict
 from hil.measurement import PointPlan
 from hil.record import capture_path
-from testplans import diagnosis_design as design
+from ripple_hil_testplans import diagnosis_design as design
 
 pytestmark = pytest.mark.ripple_source("diagnosis")
 

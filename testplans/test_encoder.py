@@ -6,8 +6,8 @@ lagging the EMF by φ = 10°, which reproduces the paper's 4.5 % at 10° electri
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("encoder")
 

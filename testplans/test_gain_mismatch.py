@@ -3,8 +3,8 @@
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("gain_mismatch")
 

@@ -11,8 +11,8 @@ that the ripple scales with the counter as the model says; the bound and eq 28 a
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_resolution")
 

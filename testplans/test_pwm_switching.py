@@ -30,8 +30,8 @@ between zero crossings. The paper's figure is recorded beside the verdict
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_switching")
 

@@ -4,7 +4,7 @@ requirements (e.g. "≤ 3 % everywhere below 1500 rpm") judge it. The report dra
 
 import pytest
 
-from testplans import conditions as c
+from ripple_hil_testplans import conditions as c
 
 pytestmark = pytest.mark.ripple_source("ripple_map")
 

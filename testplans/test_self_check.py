@@ -8,7 +8,7 @@ self-check voids every other verdict of the run (the report says so on page 1).
 
 import pytest
 
-from testplans import conditions as c
+from ripple_hil_testplans import conditions as c
 
 pytestmark = pytest.mark.ripple_source("self_check")
 

@@ -5,8 +5,8 @@ the sweep's slope, and records the paper's bound beside each point."""
 
 import pytest
 
-from testplans import conditions as c
-from testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("word_length")
 

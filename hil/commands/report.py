@@ -36,8 +36,8 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from hil.errors import InputError
     from hil.record import load_record
-    from reports import issue_report  # fpdf2 loads only for this command
-    from reports.revisions import issued
+    from ripple_hil_reports import issue_report  # fpdf2 loads only for this command
+    from ripple_hil_reports.revisions import issued
 
     record_dir = args.record_dir.parent if args.record_dir.name == "record.json" \
         else args.record_dir

@@ -22,10 +22,11 @@ AUTO_REPORT = "auto"
 
 
 def plan_modules() -> dict[str, Path]:
-    """Ripple source name → test-plan module file, from the installed ``testplans`` package."""
-    import testplans
+    """Ripple source name → test-plan module file, from the installed ``ripple_hil_testplans``
+    package (the testplans/ folder)."""
+    import ripple_hil_testplans
 
-    folder = Path(testplans.__file__).parent
+    folder = Path(ripple_hil_testplans.__file__).parent
     return {path.stem.removeprefix("test_"): path for path in sorted(folder.glob("test_*.py"))}
 
 

@@ -9,7 +9,7 @@ import pytest
 from hil.diagnosis import OrderSpectrum, diagnose
 from hil.diagnosis import encoder as enc
 from hil.diagnosis import signatures as sig
-from testplans import diagnosis_design as design
+from ripple_hil_testplans import diagnosis_design as design
 
 SETUP = sig.DriveSetup(current_loop_bandwidth_hz=1600.0, current_loop_delay_s=75e-6,
                        transducer_bandwidth_hz=1000.0)

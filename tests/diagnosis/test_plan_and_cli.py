@@ -82,8 +82,8 @@ def test_report_section_is_drawn_from_the_record(diagnosis_run, tmp_path):
 
     import pypdf
 
-    from reports.diagnosis_section import add_diagnosis_section
-    from reports.document import ReportPDF
+    from ripple_hil_reports.diagnosis_section import add_diagnosis_section
+    from ripple_hil_reports.document import ReportPDF
 
     _, folder = diagnosis_run
     section = _record(folder)["diagnosis"]

@@ -8,7 +8,7 @@ import pytest
 
 from hil.diagnosis.twin_proof import (HiddenFaults, corrected_config, draw_faults, prove,
                                       simulate_points, twin_config)
-from testplans import diagnosis_design as design
+from ripple_hil_testplans import diagnosis_design as design
 
 POINTS = design.design_points()
 SETTINGS = dict(revolutions_elec=design.REVOLUTIONS_ELEC, sample_rate_hz=design.SAMPLE_RATE_HZ,

@@ -12,10 +12,10 @@ import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 
-import testplans
+import ripple_hil_testplans
 from hil.record import load_record
 
-PLANS = Path(testplans.__file__).parent
+PLANS = Path(ripple_hil_testplans.__file__).parent
 FAILED = ("failed", "error")
 
 

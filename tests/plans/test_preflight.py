@@ -14,7 +14,7 @@ from hil.config import default_sim_bench
 from hil.measurement import PointPlan
 from hil.preflight import check_point, voltage_limit_v, voltage_needed_v
 from hil.requirements import requirement_from_dict
-from testplans import conditions as c
+from ripple_hil_testplans import conditions as c
 
 CONFIG = default_sim_bench()
 
@@ -77,7 +77,7 @@ def test_a_bad_plan_fails_at_collection_and_nothing_is_sent(tmp_path):
     plan_file.write_text(textwrap.dedent('''
         import pytest
         from hil.measurement import PointPlan
-        from testplans import conditions as c
+        from ripple_hil_testplans import conditions as c
 
         pytestmark = pytest.mark.ripple_source("gain_mismatch")
 
@@ -105,7 +105,7 @@ def test_a_plan_imported_from_elsewhere_is_not_taken_for_this_modules_convention
     refused at collection (its points are checked when measured)."""
     (tmp_path / "test_reuse.py").write_text(textwrap.dedent('''
         import pytest
-        from testplans.test_dc_offset import plan
+        from ripple_hil_testplans.test_dc_offset import plan
 
         pytestmark = pytest.mark.ripple_source("dc_offset")
 

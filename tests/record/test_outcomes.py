@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from fixtures.outcomes import merged_outcome, outcome_of
+from ripple_hil_fixtures.outcomes import merged_outcome, outcome_of
 
 pytest_plugins = ["pytester"]
 

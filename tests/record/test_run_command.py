@@ -10,7 +10,7 @@ import importlib.metadata
 
 import pytest
 
-from fixtures.summary import WIDTH, margin_pu, summary_lines
+from ripple_hil_fixtures.summary import WIDTH, margin_pu, summary_lines
 from hil.commands import run as run_command
 from hil.errors import InputError
 

@@ -15,7 +15,7 @@ import pytest
 import tomli_w
 
 from drivers.errors import InjectionRangeError
-from fixtures.session import CalibrationGateError, HilSession
+from ripple_hil_fixtures.session import CalibrationGateError, HilSession
 from hil.cli import main as hil_main
 from hil.config import example_bench_path, load_bench
 from hil.errors import InputError
@@ -124,7 +124,7 @@ def test_bad_bench_file_stops_the_run_before_anything_starts(tmp_path):
     """pytest with a bad --hil-bench: one usage error, no test run, no record, no instrument."""
     path = write_bench(tmp_path / "bench.toml", edited("sim-bench", "limits", "current_a", 500.0))
     done = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider",
-                           str(Path(__import__("testplans").__file__).parent / "test_baseline.py"),
+                           str(Path(__import__("ripple_hil_testplans").__file__).parent / "test_baseline.py"),
                            "--hil-bench", str(path), "--hil-record", str(tmp_path / "records")],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert done.returncode == 4, done.stdout[-2000:]          # pytest's usage error

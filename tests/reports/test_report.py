@@ -16,9 +16,9 @@ import pytest
 from hil.cli import main
 from hil.record import load_record
 from record_factory import EXPECTED_DECISIONS, POINTS, write_record
-from reports import build_report, render_report
-from reports.content import knob_display, swept_knobs, worst_decision
-from reports.document import ZERO_WIDTH_SPACE, breakable
+from ripple_hil_reports import build_report, render_report
+from ripple_hil_reports.content import knob_display, swept_knobs, worst_decision
+from ripple_hil_reports.document import ZERO_WIDTH_SPACE, breakable
 
 
 @pytest.fixture(scope="module")
@@ -319,9 +319,9 @@ def test_long_tokens_break_only_after_separators():
 def test_wide_sweeps_get_a_log_axis_and_spectra_are_in_db(tmp_path):
     from datetime import datetime, timezone
 
-    from reports import figures
-    from reports.content import Point, SourceSection
-    from reports.document import ReportPDF
+    from ripple_hil_reports import figures
+    from ripple_hil_reports.content import Point, SourceSection
+    from ripple_hil_reports.document import ReportPDF
 
     def point(x, measured):
         return Point(test_id=f"t{x}", outcome="passed", x=x, label=f"d = {x}",
@@ -345,7 +345,7 @@ def test_wide_sweeps_get_a_log_axis_and_spectra_are_in_db(tmp_path):
 
 
 def test_environment_from_the_lab_or_a_daq_channel():
-    from reports.build import environment_text
+    from ripple_hil_reports.build import environment_text
 
     assert environment_text({"tests": []}, {"environment": "23 °C, 45 % RH"}) == "23 °C, 45 % RH"
     measured = {"tests": [{"operating_point": {"temperature_c": 24.0}},
@@ -355,7 +355,7 @@ def test_environment_from_the_lab_or_a_daq_channel():
 
 
 def test_a_test_without_a_model_verdict_does_not_make_its_source_undetermined():
-    from reports.content import NO_VERDICT, _section
+    from ripple_hil_reports.content import NO_VERDICT, _section
 
     judged = {"test_id": "a", "outcome": "passed", "injection": {"x_a": 1.0},
               "verdict": {"decision": "pass", "measured_pk_pk_pu": 0.01}}

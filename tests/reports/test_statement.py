@@ -4,9 +4,9 @@ counts each test by its outcome."""
 
 from __future__ import annotations
 
-from fixtures.summary import summary_lines
+from ripple_hil_fixtures.summary import summary_lines
 from record_factory import requirement_verdict, self_check_entry
-from reports.statement import NOT_STATED, PASS, overall_statement
+from ripple_hil_reports.statement import NOT_STATED, PASS, overall_statement
 
 
 def measured(test_id: str, source: str, decision: str, outcome: str = "passed",
