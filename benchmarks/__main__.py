@@ -26,6 +26,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_JSON = HERE / "results.json"
+#: Figures measured before issue 17's work by the same scripts (the table's "before" column).
+BEFORE_JSON = HERE / "before_issue17.json"
 #: One benchmark may not run longer than this, s (a stuck server must not hang ``make bench``).
 TIMEOUT_S = 1800.0
 _NUMBER = r"([-+]?[\d,]*\.?\d+(?:[eE][-+]?\d+)?)"
@@ -59,6 +61,10 @@ def _v(unit_text: str) -> str:
     """A value followed by its printed unit."""
     return rf"(?P<value>{_NUMBER[1:-1]})\s*{unit_text}"
 
+
+#: The plans of the 25-point run issue 17 timed (before the ripple map and diagnosis existed).
+ISSUE17_SOURCES = ("baseline", "dc_offset", "gain_mismatch", "encoder", "word_length",
+                   "pwm_resolution", "pwm_switching", "dead_time")
 
 BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark(
@@ -120,6 +126,17 @@ BENCHMARKS: tuple[Benchmark, ...] = (
          Pattern(r"pytest start-up and collection of one plan:.*?,\s*" + _v(r"s with hil run"),
                  "startup_hil_run_plugins_s", "s", required=False)),
         "the whole `hil run` on the simulated bench (all plans), then `hil report`"),
+    Benchmark(
+        "hil_run_issue17", "run_bench.py",
+        ("--pdf", "--repeat", "3", *(a for s in ISSUE17_SOURCES for a in ("--source", s))),
+        ("--source", "baseline"),
+        (Pattern(r"hil run \((?P<which>[^,]+(?:, [^,]+)*?), simulated bench\):\s*"
+                 r"(?P<value>\d+) points", "points", "points"),
+         Pattern(r"hil run .*points in\s*" + _v(r"wall s"), "wall_s", "s"),
+         Pattern(r"hil run .*median of \d+:\s*(?P<value>[\d.]+)", "fastest_of_3_wall_s", "s",
+                 required=False)),
+        "`hil run` of the 8 plans issue 17 timed (its 25 points + self-check + sensitivity "
+        "checks), PDF included, median of 3 (issue 17: <= 8 s)"),
     Benchmark(
         "yield", "yield_bench.py", (), ("--quick",),
         (Pattern(r"closed form, one core:\s*" + _v(r"drives/s"), "closed_form_drives_per_s",
@@ -206,17 +223,28 @@ def machine() -> dict:
             "cpu_count": os.cpu_count(), "load_average_1min_start": os.getloadavg()[0]}
 
 
-def table(results: dict[str, dict]) -> str:
-    """The human summary: one line per figure."""
-    rows = [("benchmark", "figure", "value", "unit")]
+def load_before(path: Path = BEFORE_JSON) -> dict[str, dict]:
+    """The recorded before-figures (``{benchmark: {figure: {value, unit, command}}}``), or {}."""
+    if not path.is_file():
+        return {}
+    return json.loads(path.read_text()).get("figures", {})
+
+
+def table(results: dict[str, dict], before: dict[str, dict] | None = None) -> str:
+    """The human summary: one line per figure, with its recorded before-figure where one exists
+    (``before_issue17.json``, measured by the same script before issue 17's work)."""
+    before = before or {}
+    rows = [("benchmark", "figure", "value", "unit", "before")]
     for name, result in results.items():
         for figure, item in result["figures"].items():
-            rows.append((name, figure, _format(item["value"]), item["unit"]))
+            old = before.get(name, {}).get(figure)
+            rows.append((name, figure, _format(item["value"]), item["unit"],
+                         _format(old["value"]) if old else ""))
         if "error" in result:
-            rows.append((name, "ERROR", result["error"][:60], ""))
-    widths = [max(len(row[i]) for row in rows) for i in range(4)]
-    lines = [f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:>{widths[2]}}  {r[3]}"
-             for r in rows]
+            rows.append((name, "ERROR", result["error"][:60], "", ""))
+    widths = [max(len(row[i]) for row in rows) for i in range(5)]
+    lines = [(f"{r[0]:<{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:>{widths[2]}}  "
+              f"{r[3]:<{widths[3]}}  {r[4]:>{widths[4]}}").rstrip() for r in rows]
     lines.insert(1, "-" * len(lines[0]))
     return "\n".join(lines)
 
@@ -250,7 +278,12 @@ def main(argv: list[str] | None = None) -> int:
     summary["machine"]["load_average_1min_end"] = os.getloadavg()[0]
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(summary, indent=2) + "\n")
-    print(table(summary["benchmarks"]))
+    before = load_before()
+    summary["before"] = before
+    print(table(summary["benchmarks"], before))
+    if before:
+        print(f"before: {BEFORE_JSON.name} (commit {json.loads(BEFORE_JSON.read_text())['commit']}"
+              ", same scripts, measured before issue 17's work)")
     m = summary["machine"]
     print(f"\n{m['cpu_count']} cores, load average {m['load_average_1min_start']:.2f} -> "
           f"{m['load_average_1min_end']:.2f}{' (QUICK sizes)' if args.quick else ''}; "

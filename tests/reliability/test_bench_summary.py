@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from benchmarks.__main__ import (BENCHMARKS, Benchmark, missing_figures, parse_figures,
-                                 run_benchmark, table)
+from benchmarks.__main__ import (BENCHMARKS, Benchmark, load_before, missing_figures,
+                                 parse_figures, run_benchmark, table)
 
 OUTPUTS = {
     "simulation": """first calls (compile or cache load): 0.41 s
@@ -35,6 +35,9 @@ himmelstein pty paced at 115200 baud: stream(500): 478 samples/s (500 in 1.045 s
 """,
     "hil_run": """hil run (all plans, simulated bench): 22 points in 8.06 wall s = 2.731 points/s (exit 0, record complete; 22 passed)
 hil report on that record: 7.53 wall s (exit 0)
+pytest start-up and collection of one plan: 2.20 s with every installed plugin, 1.28 s with hil run's
+""",
+    "hil_run_issue17": """hil run (baseline, dc_offset, gain_mismatch, encoder, word_length, pwm_resolution, pwm_switching, dead_time, simulated bench): 33 points in 7.06 wall s = 4.677 points/s (exit 0, record complete; 33 passed; PDF written by the run; median of 3: 6.75, 7.06, 7.21)
 """,
     "yield": """cores: 2, load average: 3.10
 closed form, one core: 412,000 drives/s (3 operating points, 100,000 drives)
@@ -59,7 +62,9 @@ EXPECTED = {
                "RTU_pty_(unpaced)_registers_per_s": 13652.0},
     "transducer": {"magtrol_unpaced_pty_polled_read()_samples_per_s": 3514.0,
                    "himmelstein_pty_paced_at_115200_baud_stream(500)_samples_per_s": 478.0},
-    "hil_run": {"points": 22.0, "wall_s": 8.06, "points_per_s": 2.731, "report_wall_s": 7.53},
+    "hil_run": {"points": 22.0, "wall_s": 8.06, "points_per_s": 2.731, "report_wall_s": 7.53,
+                "startup_all_plugins_s": 2.2, "startup_hil_run_plugins_s": 1.28},
+    "hil_run_issue17": {"points": 33.0, "wall_s": 7.06, "fastest_of_3_wall_s": 6.75},
     "yield": {"closed_form_drives_per_s": 412000.0, "closed_form_campaign_wall_s": 4.2,
               "twin_1_workers_drive_s_per_wall_s": 3.5, "twin_2_workers_drive_s_per_wall_s": 6.2,
               "dask_overhead_per_task_1_workers_ms": 2.1,
@@ -100,3 +105,21 @@ def test_a_failing_script_is_reported(tmp_path):
     broken = Benchmark("broken", str(script), (), (), BENCHMARKS[0].patterns, "nothing")
     result = run_benchmark(broken, quick=False, timeout_s=60)
     assert result["returncode"] == 1 and "bus off" in result["error"]
+
+
+def test_recorded_before_figures_name_figures_the_benchmarks_print():
+    """Every before-figure is one a benchmark's patterns produce (else the column stays empty)."""
+    before = load_before()
+    assert before, "benchmarks/before_issue17.json is missing"
+    for name, figures in before.items():
+        benchmark = next(b for b in BENCHMARKS if b.name == name)
+        printed = parse_figures(benchmark, OUTPUTS[name])
+        assert set(figures) <= set(printed), (name, set(figures) - set(printed))
+
+
+def test_table_puts_the_before_figure_beside_the_new_one():
+    run = next(b for b in BENCHMARKS if b.name == "hil_run_issue17")
+    result = {"figures": parse_figures(run, OUTPUTS["hil_run_issue17"])}
+    line = next(row for row in table({"hil_run_issue17": result}, load_before()).splitlines()
+                if " wall_s " in row)
+    assert line.split()[-3:] == ["7.06", "s", "23.65"]
