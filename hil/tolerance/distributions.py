@@ -16,6 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.special import ndtri
 
+from hil.errors import InputError
+
 
 @dataclass(frozen=True)
 class Normal:
@@ -92,13 +94,31 @@ class Fixed:
         return {"distribution": "fixed", "value": self.value}
 
 
+#: How far the weights of a choice may sum from 1 (rounding of decimal weights, e.g. 3 × 1/3).
+WEIGHT_SUM_TOLERANCE = 1e-9
+
+
 @dataclass(frozen=True)
 class Choice:
+    """Discrete values with probabilities ``weights`` (each >= 0, summing to 1 within
+    ``WEIGHT_SUM_TOLERANCE``: weights that do not are refused, never silently normalised)."""
+
     values: tuple[float, ...]
     weights: tuple[float, ...]
 
     kind = "choice"
     spread = 0.0
+
+    def __post_init__(self) -> None:
+        if len(self.weights) != len(self.values) or not self.values:
+            raise InputError(f"choice: {len(self.values)} values and {len(self.weights)} "
+                             "weights (need as many, at least one)")
+        if not all(0.0 <= w < math.inf for w in self.weights):
+            raise InputError(f"choice weights {list(self.weights)} must each be >= 0")
+        total = math.fsum(self.weights)
+        if abs(total - 1.0) > WEIGHT_SUM_TOLERANCE:
+            raise InputError(f"choice weights sum to {total:.12g}, not 1 (|sum - 1| must be "
+                             f"<= {WEIGHT_SUM_TOLERANCE:g}; they are probabilities, not ratios)")
 
     def scaled(self, factor: float) -> "Choice":
         return self
@@ -107,7 +127,7 @@ class Choice:
         return self.ppf(rng.random(n))
 
     def ppf(self, u: np.ndarray) -> np.ndarray:
-        edges = np.cumsum(self.weights) / math.fsum(self.weights)
+        edges = np.cumsum(self.weights) / math.fsum(self.weights)  # the last edge exactly 1
         index = np.minimum(np.searchsorted(edges, np.asarray(u), side="right"),
                            len(self.values) - 1)
         return np.asarray(self.values, dtype=float)[index]

@@ -24,7 +24,7 @@
     mean = 2e-6
     half_width = 0.5e-6
     [parameters.encoder_counts_per_rev]
-    distribution = "choice"    # choice: values, weights (default equal)
+    distribution = "choice"    # choice: values, weights summing to 1 (default equal)
     values = [2048, 7200]
     [parameters.word_length_bits]
     distribution = "fixed"     # fixed: value
@@ -295,15 +295,16 @@ def _distribution(key: str, name: str, table: Any) -> Distribution:
         if not isinstance(values, list) or not values:
             raise InputError(f"{key}.values must be a non-empty array")
         numbers = tuple(value(f"values[{i}]", v) for i, v in enumerate(values))
-        weights = table.get("weights", [1.0] * len(numbers))
+        weights = table.get("weights", [1.0 / len(numbers)] * len(numbers))
         if not isinstance(weights, list) or len(weights) != len(numbers):
             raise InputError(f"{key}.weights must be an array as long as values "
                              f"({len(numbers)})")
         weights = tuple(_number(f"{key}.weights[{i}]", w, 0.0, 1e12)
                         for i, w in enumerate(weights))
-        if not sum(weights) > 0:
-            raise InputError(f"{key}.weights must not all be 0")
-        return Choice(numbers, weights)
+        try:
+            return Choice(numbers, weights)
+        except InputError as exc:  # weights not summing to 1: name the parameter
+            raise InputError(f"{key}.weights: {exc}") from None
     mean = value("mean", table.get("mean", info.nominal))
     spread_name = "sigma" if kind == "normal" else "half_width"
     if spread_name not in table:

@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hil.errors import InputError
@@ -46,6 +47,17 @@ def test_shipped_example_loads():
                                                          "values": [2048, 7200],
                                                          "weights": [1]}}},
      "parameters.encoder_counts_per_rev.weights must be an array as long as values"),
+    ({**POINT, "parameters": {"encoder_counts_per_rev": {"distribution": "choice",
+                                                         "values": [2048, 7200],
+                                                         "weights": [3, 7]}}},
+     "parameters.encoder_counts_per_rev.weights: choice weights sum to 10, not 1"),
+    ({**POINT, "parameters": {"encoder_counts_per_rev": {"distribution": "choice",
+                                                         "values": [2048, 4096, 7200],
+                                                         "weights": [0.3, 0.3, 0.3]}}},
+     "parameters.encoder_counts_per_rev.weights: choice weights sum to 0.9, not 1"),
+    ({**POINT, "parameters": {"hall_mode": {"distribution": "choice", "values": [0, 1],
+                                            "weights": [0.5, 0.5 + 2e-9]}}},
+     "parameters.hall_mode.weights: choice weights sum to 1.000000002, not 1"),
     ({**POINT, "parameters": {"word_length_bits": {"distribution": "fixed", "value": 4}}},
      "parameters.word_length_bits.value=4: word_length_bits is 0"),
     ({**POINT, "parameters": {"ia_offset_a": {"distribution": "fixed", "value": "0.1"}}},
@@ -70,6 +82,25 @@ def test_bad_tolerance_documents_name_the_key(doc, key):
     with pytest.raises(InputError, match=key) as error:
         parse_tolerances(doc, source="t.toml")
     assert "\n" not in str(error.value) and str(error.value).startswith("t.toml:")
+
+
+def test_choice_weights_are_probabilities_within_1e9_of_one():
+    """Weights summing to 1 within 1e-9 load (three thirds, the default equal weights); the
+    drawn frequencies follow them — nothing is renormalised behind the file's back."""
+    doc = {**POINT, "parameters": {"encoder_counts_per_rev": {
+        "distribution": "choice", "values": [2048, 4096, 7200],
+        "weights": [1 / 3, 1 / 3, 1 / 3 + 5e-10]}}}
+    assert isinstance(parse_tolerances(doc).parameters["encoder_counts_per_rev"], Choice)
+    doc["parameters"]["encoder_counts_per_rev"]["weights"] = [0.1, 0.2, 0.7]
+    choice = parse_tolerances(doc).parameters["encoder_counts_per_rev"]
+    drawn = choice.sample(np.random.default_rng(1), 200_000)
+    shares = [np.mean(drawn == v) for v in (2048, 4096, 7200)]
+    assert shares == pytest.approx([0.1, 0.2, 0.7], abs=0.005)
+    del doc["parameters"]["encoder_counts_per_rev"]["weights"]
+    assert parse_tolerances(doc).parameters["encoder_counts_per_rev"].weights == \
+        pytest.approx((1 / 3,) * 3)
+    with pytest.raises(InputError, match="choice weights sum to 2, not 1"):
+        Choice((1.0, 2.0), (1.0, 1.0))  # built in code: refused as well
 
 
 def test_requirement_applies_at_its_points_only(tmp_path):
