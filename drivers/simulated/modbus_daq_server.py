@@ -9,8 +9,9 @@ auto-increment (``buffer_read_mode``), in the full or packed ``capture_format``.
 ``DaqDevice.handle`` (the tests serve it with modbus-tk).
 
 A capture runs in simulated time in a worker thread: under the twin's lock it calls
-``twin.advance(settle_s, rate)`` (discarded) then ``twin.advance(n / rate, rate)`` and stores the
-scaled int16 / uint32 words of the enabled channels, and the sample-clock tick of each sample in
+``twin.advance(settle_s, rate, channels=())`` (nothing recorded) then ``twin.advance(n / rate,
+rate, channels=...)`` asking only for the enabled channels, and stores their scaled int16 /
+uint32 words, and the sample-clock tick of each sample in
 the ``sample_counter`` channel. Asking for more samples than ``buffer_capacity_samples`` stores a
 full buffer and raises the overrun flag. The twin's test-only defect ``daq_drop_every_nth``
 (``hil.sim.defects``) makes the DAQ silently lose every n-th sample (see :func:`stored_ticks`). The holding
@@ -346,12 +347,16 @@ class DaqDevice:
         packed = config.get("capture_format") == self.map.capture_formats.get("packed")
         flags = 1 << self.map.status_flags["overrun"] if wanted > capacity else 0
         ticks = stored_ticks(n, drop_every_nth(self.twin))
+        counter = self.map.sample_counter
+        # the twin computes only what this capture stores (the counter is the DAQ's own clock)
+        asked = [channel.name for channel in channels
+                 if counter is None or channel.name != counter.name]
         try:
             with self.twin.lock:
                 if config["settle_ms"]:
-                    self.twin.advance(config["settle_ms"] / 1000.0, rate)
+                    self.twin.advance(config["settle_ms"] / 1000.0, rate, channels=())
                 slots = int(ticks[-1]) + 1
-                data = self.twin.advance(slots / rate, rate)
+                data = self.twin.advance(slots / rate, rate, channels=asked)
                 with self._lock:
                     try:
                         self._apply_speed_setpoint()    # written while this capture ran
@@ -359,7 +364,6 @@ class DaqDevice:
                         log.error("dyno speed setpoint %s rpm refused by the twin",
                                   self._speed_setpoint_rpm)
             columns, first_values = [], {}
-            counter = self.map.sample_counter
             for channel in channels:
                 values = ticks if counter is not None and channel.name == counter.name \
                     else np.asarray(data[channel.name])[ticks]

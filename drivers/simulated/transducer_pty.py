@@ -4,8 +4,8 @@
 It answers the Magtrol or the Himmelstein messages as their manuals print them
 (``drivers.transducer_dialects`` lists the sources). Readings come from the twin: every data
 request (Magtrol ``OD`` / ``OD1`` / ``OD2``, Himmelstein ``DC``, ``XC``, ``YC``) advances the twin
-by ``1 / sample_rate_hz`` under its lock and reads its latest transducer torque
-(``status()["torque_nm"]``) and speed, so n readings cover n sample periods of simulated time, in
+by ``1 / sample_rate_hz`` under its lock (asking it for ``torque_nm`` only) and reads its
+latest torque (``status()["torque_nm"]``) and speed, so n readings cover n sample periods of simulated time, in
 the same run the DAQ captures from. The instrument's own digital filter (Himmelstein ``FL``) is a
 first-order low-pass at the selected cutoff, run at ``sample_rate_hz``; then tare, unit and the
 wire format's resolution apply.
@@ -91,7 +91,8 @@ class _Instrument(ABC):
     def sample(self) -> tuple[float, float, float]:
         """Advance the twin one sample period: (filtered torque N*m, speed rpm, time s)."""
         with self.twin.lock:
-            self.twin.advance(1.0 / self.sample_rate_hz, self.sample_rate_hz)
+            self.twin.advance(1.0 / self.sample_rate_hz, self.sample_rate_hz,
+                              channels=("torque_nm",))
             status = self.twin.status()
         self.readings_served += 1
         return (self.filter.step(float(status["torque_nm"])), float(status["speed_rpm"]),

@@ -19,8 +19,8 @@ from hil.sim.config import DriveConfig
 from hil.sim.firmware import ANGLE_CACHE_ROWS, A_INDEX, firmware_constants, firmware_step
 from hil.sim.kernel import run_drive
 from hil.sim.packing import new_state, pack_params
+from hil.sim.results import NO_LATEST, NO_ROWS, NO_SAMPLES
 
-_NO_SAMPLES = np.zeros((L.N_CHANNELS, 0))
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,7 @@ def period_trace(config: DriveConfig, settle_s: float, duration_s: float) -> Per
     params = pack_params(config)
     period = 1.0 / params[L.P_PWM_FREQ]
     state = new_state()
-    run_drive(params, state, 0.0, period, _NO_SAMPLES, settle_s)
+    run_drive(params, state, 0.0, period, NO_SAMPLES, NO_ROWS, NO_LATEST, settle_s)
     lsb, adc_half, max_compare = firmware_constants(params)
     counts_top = params[L.P_PWM_COUNTS]
     cache = np.empty((ANGLE_CACHE_ROWS, 7))
@@ -85,7 +85,8 @@ def period_trace(config: DriveConfig, settle_s: float, duration_s: float) -> Per
         ask = np.array(firmware_step(state[L.S_IA], state[L.S_IB], state[L.S_THETA_M],
                                      state[L.S_OMEGA_M], params, probe, counts_top,
                                      2.0 * counts_top, lsb, adc_half, cache))
-        run_drive(params, state, 0.0, period, _NO_SAMPLES, state[L.S_TIME] + 0.5 * period)
+        run_drive(params, state, 0.0, period, NO_SAMPLES, NO_ROWS, NO_LATEST,
+                  state[L.S_TIME] + 0.5 * period)
         integrators[k] = state[L.S_INT_D:L.S_INT_Q + 1] * params[L.P_VDC]
     return PeriodTrace(compare=compare[1:], demanded=demanded[1:], currents_a=currents[1:],
                        integrators_v=integrators[1:], counts_top=counts_top,

@@ -212,16 +212,46 @@ def _filter_decayed(y0, x0, slope, h, tau_f, decay):
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def _put(out, rows, latest, channel, j, every, value):
+    """Sample j of engine channel ``channel`` into its row of ``out`` (if wanted) and, at the
+    last sample (``every``), into ``latest``."""
+    row = rows[channel]
+    if row >= 0:
+        out[row, j] = value
+    if every:
+        latest[channel] = value
+
+
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH, nogil=True)
-def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
+def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end_s):
     """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
 
     Sample j is taken at record_start_s + j·sample_dt_s (only those >= the state's time).
+    ``rows[c]``: the row of ``out`` receiving engine channel c (``layout.C_*``), −1 = not wanted:
+    only wanted channels are computed per sample (the state evolves identically either way).
+    Encoder counts are written as int64 into their row's memory (``out[r].view(np.int64)``).
+    ``latest`` (``N_CHANNELS``): every channel at the last sample (j = ``out.shape[1]`` − 1),
+    whether wanted or not; channels not wanted per sample are evaluated directly there.
     Returns the state at the start of the last period run (the one containing ``end_s``): the
     caller keeps it and re-runs that period next time, so consecutive calls are continuous.
     Releases the GIL, so the simulated instruments' other threads (heartbeats) keep running.
     """
     n_samples = out.shape[1]
+    last_j = n_samples - 1
+    t_last = record_start_s + last_j * sample_dt_s
+    need_cur = False                                  # per-sample currents (and what uses them)
+    for c in (C_IA, C_IB, C_IC, C_TORQUE_EM, C_TORQUE_SHAFT, C_ID, C_IQ):
+        if rows[c] >= 0:
+            need_cur = True
+    need_torque = rows[C_TORQUE_EM] >= 0 or rows[C_TORQUE_SHAFT] >= 0
+    need_dq = rows[C_ID] >= 0 or rows[C_IQ] >= 0
+    need_filter = rows[C_TORQUE_SHAFT_FILTERED] >= 0
+    need_v = rows[C_VA] >= 0 or rows[C_VB] >= 0 or rows[C_VC] >= 0
+    if rows[C_COUNTS] >= 0:
+        counts_out = out[rows[C_COUNTS]].view(np.int64)
+    else:
+        counts_out = np.zeros(0, np.int64)
     resistance = params[P_R]
     inductance = params[P_L]
     vdc = params[P_VDC]
@@ -374,6 +404,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
 
         j_period = j
         v_integral[:] = 0.0
+        # the period average voltage: for wanted rows, or where the last sample may fall
+        period_v = need_v or (n_samples > 0 and abs(t_last - t_period - half_period) < 1.5
+                              * period)
         tau = 0.0
         f_a, f_b, f_c, k_a, k_b, k_c = evaluate(0.0, omega_e, orders, count, basis)
         _cogging_basis(params, theta_m0, cogging)
@@ -541,55 +574,70 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                     tau_s = t_sample - t_period
                     if tau_s >= tau_b:
                         break
-                    if first:
-                        first = False
-                        decay_s = exp_small(-resistance * (tau_s - tau) / inductance)
-                        filter_s = exp_small(-(tau_s - tau) / tau_f)
-                        for h in range(count):
-                            advance[h, 0], advance[h, 1] = sincos_small(orders[h] * omega_e
-                                                                        * tau_s)
-                    else:
-                        if omega_e != step_omega:
-                            for h in range(count):
-                                step[h, 0], step[h, 1] = sincos_small(orders[h] * omega_e
-                                                                      * sample_dt_s)
-                            step_omega = omega_e
-                        decay_s *= decay_step
-                        filter_s *= filter_step
-                        advance_by(advance, step, count)
-                    fs_a, fs_b, fs_c, ks_a, ks_b, ks_c = evaluate_advanced(advance, count, orders,
-                                                                           basis)
-                    sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c, decay_s,
-                                           resistance)
+                    every = j == last_j           # the last sample: every channel, to ``latest``
                     theta_m = theta_m0 + omega * tau_s
-                    t_em, t_shaft = _shaft_torque(tau_s, omega, ks_a, ks_b, ks_c, sa, sb, sc,
-                                                  n_cogging, cogging)
-                    s_d = advance[0, 0]                       # the fundamental (order 1)
-                    c_d = advance[0, 1]
-                    sin_e = sin_e0 * c_d + cos_e0 * s_d
-                    cos_e = cos_e0 * c_d - sin_e0 * s_d
-                    q_a, q_b, q_c = spread(1, sin_e, cos_e)       # sin(θe − x·2π/3)
-                    d_a, d_b, d_c = spread(1, cos_e, -sin_e)      # cos(θe − x·2π/3)
-                    out[C_TIME, j] = t_sample
-                    out[C_THETA_M, j] = theta_m
-                    out[C_COUNTS, j] = encoder_count(theta_m, cpr)
-                    out[C_IA, j] = sa
-                    out[C_IB, j] = sb
-                    out[C_IC, j] = sc
-                    out[C_TORQUE_EM, j] = t_em
-                    out[C_TORQUE_SHAFT, j] = t_shaft
-                    out[C_TORQUE_SHAFT_FILTERED, j] = _filter_decayed(y_a, torque_a, slope,
-                                                                      tau_s - tau, tau_f,
-                                                                      filter_s)
-                    out[C_SPEED_RPM, j] = omega / RPM
-                    out[C_IQ, j] = 2.0 / 3.0 * (sa * q_a + sb * q_b + sc * q_c)
-                    out[C_ID, j] = 2.0 / 3.0 * (sa * d_a + sb * d_b + sc * d_c)
-                    out[C_IA_SENSED, j] = state[S_ISENSE_A]
-                    out[C_IB_SENSED, j] = state[S_ISENSE_B]
+                    _put(out, rows, latest, C_TIME, j, every, t_sample)
+                    _put(out, rows, latest, C_THETA_M, j, every, theta_m)
+                    _put(out, rows, latest, C_SPEED_RPM, j, every, omega / RPM)
+                    _put(out, rows, latest, C_IA_SENSED, j, every, state[S_ISENSE_A])
+                    _put(out, rows, latest, C_IB_SENSED, j, every, state[S_ISENSE_B])
+                    if rows[C_COUNTS] >= 0 or every:
+                        counts = encoder_count(theta_m, cpr)
+                        if rows[C_COUNTS] >= 0:
+                            counts_out[j] = np.int64(counts)
+                        if every:
+                            latest[C_COUNTS] = counts
+                    if need_filter or every:
+                        if first or not need_filter:
+                            filter_s = exp_small(-(tau_s - tau) / tau_f)
+                        else:
+                            filter_s *= filter_step
+                        _put(out, rows, latest, C_TORQUE_SHAFT_FILTERED, j, every,
+                             _filter_decayed(y_a, torque_a, slope, tau_s - tau, tau_f, filter_s))
+                    if need_cur or every:
+                        if first or not need_cur:
+                            decay_s = exp_small(-resistance * (tau_s - tau) / inductance)
+                            for h in range(count):
+                                advance[h, 0], advance[h, 1] = sincos_small(orders[h] * omega_e
+                                                                            * tau_s)
+                        else:
+                            if omega_e != step_omega:
+                                for h in range(count):
+                                    step[h, 0], step[h, 1] = sincos_small(orders[h] * omega_e
+                                                                          * sample_dt_s)
+                                step_omega = omega_e
+                            decay_s *= decay_step
+                            advance_by(advance, step, count)
+                        fs_a, fs_b, fs_c, ks_a, ks_b, ks_c = evaluate_advanced(advance, count,
+                                                                               orders, basis)
+                        sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c,
+                                               decay_s, resistance)
+                        _put(out, rows, latest, C_IA, j, every, sa)
+                        _put(out, rows, latest, C_IB, j, every, sb)
+                        _put(out, rows, latest, C_IC, j, every, sc)
+                        if need_torque or every:
+                            t_em, t_shaft = _shaft_torque(tau_s, omega, ks_a, ks_b, ks_c, sa,
+                                                          sb, sc, n_cogging, cogging)
+                            _put(out, rows, latest, C_TORQUE_EM, j, every, t_em)
+                            _put(out, rows, latest, C_TORQUE_SHAFT, j, every, t_shaft)
+                        if need_dq or every:
+                            s_d = advance[0, 0]                   # the fundamental (order 1)
+                            c_d = advance[0, 1]
+                            sin_e = sin_e0 * c_d + cos_e0 * s_d
+                            cos_e = cos_e0 * c_d - sin_e0 * s_d
+                            q_a, q_b, q_c = spread(1, sin_e, cos_e)   # sin(θe − x·2π/3)
+                            d_a, d_b, d_c = spread(1, cos_e, -sin_e)  # cos(θe − x·2π/3)
+                            _put(out, rows, latest, C_IQ, j, every,
+                                 2.0 / 3.0 * (sa * q_a + sb * q_b + sc * q_c))
+                            _put(out, rows, latest, C_ID, j, every,
+                                 2.0 / 3.0 * (sa * d_a + sb * d_b + sc * d_c))
+                    first = False
                     j += 1
 
                 # ---- line-to-neutral voltage integral (EMF taken at the sub-segment mean)
-                if mode == MODE_FREE and clamped == 0 and isolated:    # the common case
+                if not period_v:
+                    n_legs = 0
+                elif mode == MODE_FREE and clamped == 0 and isolated:  # the common case
                     shift = (0.5 * omega * (k_a + kb_a + k_b + kb_b + k_c + kb_c)
                              - (volts[0] + volts[1] + volts[2])) / 3.0
                     for x in range(3):
@@ -642,10 +690,13 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
                 k_b = kb_b
                 k_c = kb_c
 
-        for i in range(j_period, j):
-            out[C_VA, i] = v_integral[0] / period
-            out[C_VB, i] = v_integral[1] / period
-            out[C_VC, i] = v_integral[2] / period
+        if period_v:
+            for x in range(3):
+                v_mean = v_integral[x] / period
+                if rows[C_VA + x] >= 0:
+                    out[rows[C_VA + x], j_period:j] = v_mean
+                if j_period <= last_j < j:
+                    latest[C_VA + x] = v_mean
         if enabled and mid_sampling:                  # sampled at the peak, applied at the
             ca, cb, cc = firmware_step(peak_a, peak_b, theta_m0 + omega * half_period, omega,
                                        params, state, counts_top, max_compare, lsb, adc_half,
@@ -671,7 +722,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, end_s):
 
 
 @njit(cache=True, error_model="numpy", fastmath=False, parallel=True, nogil=True)
-def run_batch(params, states, record_start_s, sample_dt_s, outs, end_s):
+def run_batch(params, states, record_start_s, sample_dt_s, outs, rows, latest, end_s):
     """``run_drive`` for many parameter sets (rows) in parallel over all cores."""
     for b in prange(params.shape[0]):
-        run_drive(params[b], states[b], record_start_s, sample_dt_s, outs[b], end_s)
+        run_drive(params[b], states[b], record_start_s, sample_dt_s, outs[b], rows, latest[b],
+                  end_s)

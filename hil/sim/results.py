@@ -30,24 +30,84 @@ ENGINE_CHANNELS: dict[int, tuple[str, str]] = {
     L.C_IB_SENSED: ("ib_sensed_a", "A"),
 }
 
+#: every standard channel a run can return, in the order results list them
+STANDARD_CHANNELS: tuple[str, ...] = tuple(name for name, _ in ENGINE_CHANNELS.values()) \
+    + ("torque_nm", "dc_bus_v")
+
+
+def select_channels(channels) -> tuple[tuple[str, ...], np.ndarray]:
+    """(names in standard order, engine row map) for a selection of standard channel names.
+
+    ``channels``: None (all) or an iterable of names; an unknown name is a ValueError naming it
+    and the valid ones. The row map (``layout.N_CHANNELS`` int64) gives each engine channel's
+    row in the output array the engine fills, −1 where no asked channel needs it (``torque_nm``
+    needs the transducer front end ``C_TORQUE_SHAFT_FILTERED``; ``dc_bus_v`` none).
+    """
+    if channels is None:
+        names = STANDARD_CHANNELS
+    else:
+        if isinstance(channels, str):
+            raise ValueError(f"channels must be an iterable of channel names, not the string "
+                             f"{channels!r}")
+        asked = set(channels)
+        unknown = sorted(asked.difference(STANDARD_CHANNELS), key=str)
+        if unknown:
+            raise ValueError(f"unknown channel {unknown[0]!r}; valid channels: "
+                             f"{', '.join(STANDARD_CHANNELS)}")
+        names = tuple(name for name in STANDARD_CHANNELS if name in asked)
+    engine_row = {name: row for row, (name, _) in ENGINE_CHANNELS.items()}
+    engine_row["torque_nm"] = L.C_TORQUE_SHAFT_FILTERED
+    rows = np.full(L.N_CHANNELS, -1, dtype=np.int64)
+    for row in sorted(engine_row[name] for name in names if name in engine_row):
+        rows[row] = int((rows >= 0).sum())
+    return names, rows
+
+
+#: arguments of an engine run that records nothing (settling): no rows, nothing at the end
+NO_SAMPLES = np.zeros((0, 0))
+NO_ROWS = np.full(L.N_CHANNELS, -1, dtype=np.int64)
+NO_LATEST = np.zeros(L.N_CHANNELS)
+
+
 def transducer_gain_error(config: DriveConfig, rng: np.random.Generator) -> float:
     """The unit's fixed gain error (per unit of reading), uniform within its accuracy class."""
     return float(rng.uniform(-1.0, 1.0)) * config.transducer.accuracy_class_pct / 100.0
 
 
-def name_channels(out: np.ndarray, config: DriveConfig, gain_error_pu: float,
-                  rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Engine output rows -> standard channels; adds the transducer reading ``torque_nm``.
+#: samples of transducer noise drawn at a time (added in place, chunk by chunk)
+_NOISE_CHUNK = 1 << 16
 
-    The engine's channels are rows of ``out`` (views, not copies: ``out`` belongs to the result).
+
+def name_channels(out: np.ndarray, rows: np.ndarray, names: tuple[str, ...],
+                  config: DriveConfig, gain_error_pu: float,
+                  rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """The engine's output rows as the standard channels ``names`` (see ``select_channels``).
+
+    No copies: engine channels are rows of ``out`` (``encoder_counts`` an int64 view of its
+    row, which the engine wrote as integers); ``torque_nm``, the transducer's reading, is its
+    front-end row scaled by the gain error and given its noise in place (drawn only when asked,
+    so a run without ``torque_nm`` leaves ``rng`` where it was). ``out`` belongs to the result.
     """
-    channels = {name: out[row] for row, (name, _) in ENGINE_CHANNELS.items()}
-    channels["encoder_counts"] = out[L.C_COUNTS].astype(np.int64)
-    torque = (1.0 + gain_error_pu) * out[L.C_TORQUE_SHAFT_FILTERED]
-    if config.transducer.noise_rms_nm > 0:
-        torque += rng.normal(0.0, config.transducer.noise_rms_nm, out.shape[1])
-    channels["torque_nm"] = torque
-    channels["dc_bus_v"] = np.full(out.shape[1], config.motor.parameters.dc_bus_v)
+    channels = {}
+    for row, (name, _) in ENGINE_CHANNELS.items():
+        if name in names:
+            channels[name] = out[rows[row]]
+    if "encoder_counts" in names:
+        channels["encoder_counts"] = out[rows[L.C_COUNTS]].view(np.int64)
+    if "torque_nm" in names:
+        torque = out[rows[L.C_TORQUE_SHAFT_FILTERED]]
+        torque *= 1.0 + gain_error_pu
+        sigma = config.transducer.noise_rms_nm
+        if sigma > 0:                         # the same draws as rng.normal(0, sigma, n)
+            noise = np.empty(min(len(torque), _NOISE_CHUNK))
+            for start in range(0, len(torque), _NOISE_CHUNK):
+                chunk = noise[:min(_NOISE_CHUNK, len(torque) - start)]
+                rng.standard_normal(out=chunk)
+                chunk *= sigma
+                torque[start:start + len(chunk)] += chunk
+        channels["torque_nm"] = torque
+    if "dc_bus_v" in names:
+        channels["dc_bus_v"] = np.full(out.shape[1], config.motor.parameters.dc_bus_v)
     return channels
 
 
@@ -89,7 +149,8 @@ class SimResult:
         return self.channels.items()
 
     def __len__(self) -> int:
-        return len(self.channels["time_s"])
+        """Samples per channel (0 for a run that asked for no channel)."""
+        return len(next(iter(self.channels.values()))) if self.channels else 0
 
     def to_capture(self) -> Capture:
         """A ``hil.capture.Capture`` with the standard channel names and meta."""

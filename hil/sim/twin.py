@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Iterable
 from dataclasses import replace
 
 import numpy as np
@@ -21,7 +22,8 @@ from hil.sim.engine import sample_count
 from hil.sim.injection import Injection
 from hil.sim.kernel import run_drive
 from hil.sim.packing import new_state, pack_params
-from hil.sim.results import name_channels, transducer_gain_error
+from hil.sim.results import (NO_LATEST, NO_ROWS, NO_SAMPLES, name_channels, select_channels,
+                             transducer_gain_error)
 
 
 class DriveTwin:
@@ -101,16 +103,20 @@ class DriveTwin:
             self._config = replace(self._config, speed_rpm=check_speed(value))
 
     # ---- simulation -----------------------------------------------------------------------
-    def advance(self, duration_s: float, sample_rate_hz: float, *,
-                settle_s: float = 0.0) -> dict[str, np.ndarray]:
+    def advance(self, duration_s: float, sample_rate_hz: float, *, settle_s: float = 0.0,
+                channels: Iterable[str] | None = None) -> dict[str, np.ndarray]:
         """Run ``settle_s`` unrecorded, then ``duration_s`` sampled at ``sample_rate_hz``.
 
-        Returns the standard channels (``time_s`` in simulated seconds since construction).
+        Returns the standard channels (``time_s`` in simulated seconds since construction), or
+        only those named in ``channels`` (``hil.sim.results.STANDARD_CHANNELS``; unknown names
+        are a ValueError): the others are not computed, the drive's state evolves the same.
+        The transducer noise is drawn only when ``torque_nm`` is asked for.
         """
         with self.lock:
             if not settle_s >= 0:
                 raise ValueError(f"settle_s must be >= 0, got {settle_s!r}")
             n = sample_count(duration_s, sample_rate_hz)
+            names, rows = select_channels(channels)
             simulated = self._config
             if self.defects.active:
                 simulated = replace(simulated,
@@ -119,21 +125,38 @@ class DriveTwin:
             dt = 1.0 / sample_rate_hz
             if settle_s > 0:
                 self._state = run_drive(params, self._state.copy(), self.time_s + settle_s, dt,
-                                        np.zeros((L.N_CHANNELS, 0)), self.time_s + settle_s)
+                                        NO_SAMPLES, NO_ROWS, NO_LATEST, self.time_s + settle_s)
                 self.time_s += settle_s
-            out = np.zeros((L.N_CHANNELS, n))
-            self._state = run_drive(params, self._state.copy(), self.time_s, dt, out,
-                                    self.time_s + duration_s)
+            out = np.zeros((int((rows >= 0).sum()), n))
+            latest = np.zeros(L.N_CHANNELS)
+            self._state = run_drive(params, self._state.copy(), self.time_s, dt, out, rows,
+                                    latest, self.time_s + duration_s)
             self.time_s += duration_s
-            channels = name_channels(out, self._config, self._gain_error_pu, self._rng)
-            if self.defects.transducer_scale != 1.0:
-                channels["torque_nm"] = channels["torque_nm"] * self.defects.transducer_scale
+            channels = name_channels(out, rows, names, self._config, self._gain_error_pu,
+                                     self._rng)
+            if "torque_nm" in channels and self.defects.transducer_scale != 1.0:
+                channels["torque_nm"] *= self.defects.transducer_scale
             if n:
-                self._latest = {name: float(channels[name][-1]) for name in
-                                ("torque_nm", "torque_em_nm", "speed_rpm", "ia_a", "ib_a",
-                                 "dc_bus_v")}
-                self._latest["position_counts"] = int(channels["encoder_counts"][-1])
+                self._remember_latest(latest, channels)
             return channels
+
+    def _remember_latest(self, latest: np.ndarray, channels: dict[str, np.ndarray]) -> None:
+        """``status()``'s scalars from the engine's every-channel values at the last sample
+        (``run_drive``'s ``latest``, the same numbers as the recorded channels; where a channel
+        was not asked for, the exact solution evaluated directly at that instant). The
+        transducer reading is the recorded ``torque_nm`` (with its noise) when it was asked
+        for, else the noise-free reading (front end × (1 + gain error) × defect scale)."""
+        if "torque_nm" in channels:
+            torque_nm = float(channels["torque_nm"][-1])
+        else:
+            torque_nm = float(latest[L.C_TORQUE_SHAFT_FILTERED] * (1.0 + self._gain_error_pu)
+                              * self.defects.transducer_scale)
+        self._latest = {"torque_nm": torque_nm,
+                        "torque_em_nm": float(latest[L.C_TORQUE_EM]),
+                        "speed_rpm": float(latest[L.C_SPEED_RPM]),
+                        "ia_a": float(latest[L.C_IA]), "ib_a": float(latest[L.C_IB]),
+                        "dc_bus_v": self._config.motor.parameters.dc_bus_v,
+                        "position_counts": int(latest[L.C_COUNTS])}
 
     def status(self) -> dict:
         """Latest scalars: from the last sample taken, else from the engine state."""

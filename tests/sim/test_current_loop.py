@@ -22,6 +22,7 @@ from hil.sim import (DriveConfig, DriveTwin, DynoModel, FirmwareModel, Injection
 from hil.sim import layout as L
 from hil.sim.kernel import run_drive
 from hil.sim.packing import new_state, pack_params
+from hil.sim.results import NO_LATEST, NO_ROWS, NO_SAMPLES
 from hil.simbench import SimulatedBench, twin_config
 from sim_spectra import amplitude_at, run
 
@@ -121,7 +122,7 @@ def integrators_v(firmware: FirmwareModel, speed_rpm=1200.0, current_a=15.0) -> 
     """(d, q) PI integrator contents in volts after 30 ms at a steady operating point."""
     config = DriveConfig(firmware=firmware, current_command_a=current_a, speed_rpm=speed_rpm)
     state = run_drive(pack_params(config), new_state(), 0.03, 1 / PWM_HZ,
-                      np.zeros((L.N_CHANNELS, 0)), 0.03)
+                      NO_SAMPLES, NO_ROWS, NO_LATEST, 0.03)
     return state[L.S_INT_D] * TABLE_I.dc_bus_v, state[L.S_INT_Q] * TABLE_I.dc_bus_v
 
 

@@ -16,7 +16,11 @@ from hil.sim.electrical import (BASIS_COLUMNS, MAX_HARMONICS, evaluate, harmonic
                                 impedance_angles, period_basis)
 from hil.sim.kernel import run_drive
 from hil.sim.packing import new_state, pack_params
+from hil.sim.results import select_channels
 from sim_spectra import amplitude_at, dominant_order, run
+
+#: the engine's row map for every channel (row c of ``out`` is channel c)
+ALL_ROWS = select_channels(None)[1]
 
 
 def test_forced_response_solves_the_phase_equation():
@@ -65,7 +69,8 @@ def test_merging_dead_intervals_does_not_change_the_solution(current_a, dead_tim
         params = pack_params(config)
         params[layout.P_MERGE_SEGMENTS] = merge
         out = np.zeros((layout.N_CHANNELS, 2000))
-        run_drive(params, new_state(), 0.0, 1e-5, out, 0.02)
+        run_drive(params, new_state(), 0.0, 1e-5, out, ALL_ROWS, np.zeros(layout.N_CHANNELS),
+                  0.02)
         outs.append(out)
     for row in (layout.C_IA, layout.C_IB, layout.C_TORQUE_EM, layout.C_VA):
         np.testing.assert_allclose(outs[0][row], outs[1][row], atol=1e-9)
@@ -247,7 +252,8 @@ def test_one_period_matches_an_independent_ode_solution():
     compares = (1500.0, 700.0, 300.0)
     state[layout.S_CMP_A:layout.S_CMP_C + 1] = compares
     out = np.zeros((layout.N_CHANNELS, 500))
-    run_drive(params, state, 0.0, period / 500, out, period)
+    run_drive(params, state, 0.0, period / 500, out, ALL_ROWS, np.zeros(layout.N_CHANNELS),
+              period)
 
     t_on = [(top - c) / top * period / 2 for c in compares]
     signs = np.sign([8.0, -3.0, -5.0])          # currents keep their sign over this period
