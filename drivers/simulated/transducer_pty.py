@@ -5,10 +5,10 @@ It answers the Magtrol or the Himmelstein messages as their manuals print them
 (``drivers.transducer_dialects`` lists the sources). Readings come from the twin: every data
 request (Magtrol ``OD`` / ``OD1`` / ``OD2``, Himmelstein ``DC``, ``XC``, ``YC``) advances the twin
 by ``1 / sample_rate_hz`` under its lock (asking it for ``torque_nm`` only) and reads its
-latest torque (``status()["torque_nm"]``) and speed, so n readings cover n sample periods of simulated time, in
-the same run the DAQ captures from. The instrument's own digital filter (Himmelstein ``FL``) is a
-first-order low-pass at the selected cutoff, run at ``sample_rate_hz``; then tare, unit and the
-wire format's resolution apply.
+latest torque (``status()["torque_nm"]``) and speed, so n readings cover n sample periods of
+simulated time, in the same run the DAQ captures from. The instrument's own digital filter
+(Himmelstein ``FL``) is a first-order low-pass at the selected cutoff, run at
+``sample_rate_hz``; then tare, unit and the wire format's resolution apply.
 
 Magtrol models (``magtrol_model``): ``"DSP6001"`` answers ``OD`` as ``SxxxxxTxxxxxR`` (speed
 right-aligned in 5 characters, no leading zeros; torque in 5 characters with the decimal point
