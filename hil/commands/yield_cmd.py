@@ -1,7 +1,7 @@
 """``hil yield TOLERANCES.toml``: Monte Carlo yield of a ripple requirement over tolerances.
 
-Prints the yield with its 95 % confidence interval, the ripple quantiles and the Sobol' ranking
-of the tolerances; writes ``yield.json``, ``histogram.png``/``.svg`` and the resumable campaign
+Prints the yield with its 95 % confidence interval (Clopper–Pearson), the ripple quantiles the
+sample supports (hil/tolerance/stats.py states the rule) and the Sobol' ranking of the tolerances; writes ``yield.json``, ``histogram.png``/``.svg`` and the resumable campaign
 chunks to ``--out``. ``--target-yield 99`` adds the inverse design: the loosest tolerances
 (cost ∝ 1/tolerance) that reach 99 % (hil/tolerance/design.py states the algorithm).
 """
@@ -104,24 +104,43 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pct(value: float) -> str:
-    return f"{100 * value:.3f} %"
+def _pct(value: float, drives: int) -> str:
+    """A fraction in % with the decimals its sample resolves (1/drives): none for 8 drives,
+    two for 2,000, at most three."""
+    decimals = min(3, max(0, math.ceil(math.log10(drives)) - 2))
+    return f"{100 * value:.{decimals}f}"
+
+
+def _yield(value: float, ci: list[float], drives: int) -> str:
+    return (f"yield {_pct(value, drives)} % (95 % CI {_pct(ci[0], drives)} .. "
+            f"{_pct(ci[1], drives)} %)")
+
+
+def _quantile(label: str, entry: dict, interval: bool = True) -> str:
+    """``q99 3.74 [3.62, 3.90]`` (%, with its 95 % interval) or why it is not stated."""
+    if entry["value"] is None:
+        return f"{label} not stated (needs >= {entry['needs_drives']:,} drives)"
+    text = f"{label} {entry['value']:.3g}"
+    if interval and entry.get("ci95"):
+        text += f" [{entry['ci95'][0]:.3g}, {entry['ci95'][1]:.3g}]"
+    return text
 
 
 def format_summary(s: dict) -> list[str]:
     req = s["requirement"]
-    ci = s["yield_ci95"]
-    q = s["worst_ripple_pct_quantiles"]
-    lines = [f"hil yield: {s['engine']} engine, {s['drives']:,} drives, "
+    n = s["drives"]
+    lines = [f"hil yield: {s['engine']} engine, {n:,} drives, "
              f"{len(s['per_point'])} operating point(s), limit {req['limit']['max']:g} % pk-pk "
              f"({req['id']})",
-             f"yield {_pct(s['yield'])}  (95 % CI {_pct(ci[0])} .. {_pct(ci[1])}, Wilson)",
-             "worst-point ripple, % of mean torque: " + ", ".join(
-                 f"{k} {v:.3g}" for k, v in q.items())]
+             f"{_yield(s['yield'], s['yield_ci95'], n)}, {s['ci_method']}",
+             "worst-point ripple, % of mean torque [95 % interval]: " + "; ".join(
+                 _quantile(k, v) for k, v in s["worst_ripple_pct_quantiles"].items())]
     for p in s["per_point"]:
-        lines.append(f"  {p['speed_rpm']:g} rpm, {p['current_a']:g} A, φ {p['current_angle_deg']:g}°: "
-                     f"yield {_pct(p['yield'])}, median {p['ripple_pct_quantiles']['q50']:.3g} %, "
-                     f"q99 {p['ripple_pct_quantiles']['q99']:.3g} %")
+        q = p["ripple_pct_quantiles"]
+        judged = _yield(p["yield"], p["yield_ci95"], n) if p["judged"] else "not judged"
+        lines.append(f"  {p['speed_rpm']:g} rpm, {p['current_a']:g} A, "
+                     f"φ {p['current_angle_deg']:g}°: {judged}; ripple %: "
+                     f"{_quantile('median', q['q50'], False)}, {_quantile('q99', q['q99'], False)}")
     if s.get("bounds_added"):
         lines.append("  (word-length and PWM-resolution bounds added to every drive's pk-pk: "
                      "conservative; --no-bounds leaves them out)")
@@ -158,8 +177,8 @@ def format_design(d: dict) -> list[str]:
                      f"{p['design_spread']:.4g}  (x{p['factor']:.3g})")
     check = d["check"]
     lines.append(f"  cost {d['cost']['file']:.3g} -> {d['cost']['design']:.3g}; check on "
-                 f"{check['drives']:,} fresh drives: yield {_pct(check['yield'])} "
-                 f"(95 % CI {_pct(check['yield_ci95'][0])} .. {_pct(check['yield_ci95'][1])})")
+                 f"{check['drives']:,} fresh drives: "
+                 f"{_yield(check['yield'], check['yield_ci95'], check['drives'])}")
     alone = [f"{n} {a['spread_kind']} {a['spread']:.4g}" for n, a in d["alone"].items() if a]
     lines.append("  one tolerance alone reaching it: " + ("; ".join(alone) if alone else
                                                           "none (several must tighten)"))

@@ -7,7 +7,7 @@ costs in inverse proportion to its width, the file's tolerances costing w_p each
 unless given). Yield: the passing fraction of a fixed sample of drives (common random numbers:
 the same uniforms u mapped through each candidate's inverse CDFs, so yield differences between
 candidates are not sampling noise); a candidate reaches the target when the lower end of its
-95 % Wilson interval on that sample does (a margin for the sample's own noise).
+95 % Clopper–Pearson interval on that sample does (a margin for the sample's own noise).
 
 Algorithm (greedy marginal cost, a heuristic — no global optimality claimed):
 1. tighten: while yield < target, take one ladder step down on the parameter with the largest
@@ -32,7 +32,7 @@ from hil.tolerance.combiner import CombinerSettings
 from hil.tolerance.distributions import Normal, Uniform
 from hil.tolerance.engines import closed_form_ripple, parameters_from_unit
 from hil.tolerance.spec import ToleranceSpec
-from hil.tolerance.stats import wilson_interval
+from hil.tolerance.stats import yield_interval
 
 STEPS_PER_OCTAVE = 4
 K_MIN, K_MAX = -24, 8
@@ -49,8 +49,8 @@ def toleranced(spec: ToleranceSpec) -> list[str]:
 
 def yield_function(spec: ToleranceSpec, drives: int, seed: int,
                    settings: CombinerSettings) -> Callable[[dict[str, float]], float]:
-    """The lower end of the 95 % Wilson interval of yield(factors) on a fixed sample of uniforms
-    (common random numbers): a design must reach the target with that margin."""
+    """The lower end of the 95 % Clopper–Pearson interval of yield(factors) on a fixed sample
+    of uniforms (common random numbers): a design must reach the target with that margin."""
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2**31,)))
     unit = {name: rng.random(drives) for name in spec.varied}
     limit_pu = spec.requirement.limit_pu
@@ -59,7 +59,7 @@ def yield_function(spec: ToleranceSpec, drives: int, seed: int,
         scaled = spec.with_spreads(factors)
         params = parameters_from_unit(scaled, unit, drives)
         ripple = closed_form_ripple(spec.operating_points, params, drives, settings)
-        return wilson_interval(int(np.count_nonzero(spec.worst_pu(ripple) <= limit_pu)), drives)[0]
+        return yield_interval(int(np.count_nonzero(spec.worst_pu(ripple) <= limit_pu)), drives)[0]
 
     return evaluate
 
@@ -170,11 +170,11 @@ def _loosest_alone(yield_at: Callable[[int], float], target: float) -> int | Non
 
 
 def _fresh_check(spec: ToleranceSpec, drives: int, seed: int, settings: CombinerSettings) -> dict:
-    """The design's yield on an independent Monte Carlo sample, with its 95 % Wilson interval."""
+    """The design's yield on an independent Monte Carlo sample, with its 95 % interval."""
     from hil.tolerance.engines import sample_parameters
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2**31 + 1,)))
     params = sample_parameters(spec, rng, drives)
     ripple = closed_form_ripple(spec.operating_points, params, drives, settings)
     passed = int(np.count_nonzero(spec.worst_pu(ripple) <= spec.requirement.limit_pu))
     return {"drives": drives, "yield": passed / drives,
-            "yield_ci95": list(wilson_interval(passed, drives))}
+            "yield_ci95": list(yield_interval(passed, drives))}

@@ -7,10 +7,13 @@ from pathlib import Path
 import numpy as np
 
 from hil.tolerance.spec import ToleranceSpec
+from hil.tolerance.stats import CI_NAME
 
 
-def plot_histogram(ripple_pu: np.ndarray, spec: ToleranceSpec, folder: Path) -> dict[str, str]:
-    """Write ``histogram.png`` and ``histogram.svg`` in ``folder``; return their paths."""
+def plot_histogram(ripple_pu: np.ndarray, spec: ToleranceSpec, folder: Path,
+                   summary: dict) -> dict[str, str]:
+    """Write ``histogram.png`` and ``histogram.svg`` in ``folder``; return their paths. The
+    title states the yield and its interval as ``summary`` (``run.summarise``) does."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -20,10 +23,12 @@ def plot_histogram(ripple_pu: np.ndarray, spec: ToleranceSpec, folder: Path) -> 
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.hist(worst, bins=80, color="#4477aa")
     ax.axvline(limit, color="#cc3311", linestyle="--", label=f"limit {limit:g} %")
-    passed = np.mean(worst <= limit)
     ax.set_xlabel("pk-pk torque ripple, % of the mean torque (worst judged operating point)")
     ax.set_ylabel("drives")
-    ax.set_title(f"{worst.size:,} drives: yield {100 * passed:.2f} %")
+    low, high = summary["yield_ci95"]
+    ax.set_title(f"{worst.size:,} drives: yield {100 * summary['yield']:.2f} % "
+                 f"(95 % CI {100 * low:.2f} .. {100 * high:.2f} %, {CI_NAME})",
+                 fontsize=10)
     ax.legend()
     fig.tight_layout()
     paths = {}

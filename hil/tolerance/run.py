@@ -3,7 +3,9 @@
 Folder layout: ``monte_carlo/`` and ``sobol/`` are campaign folders (resumable chunk files);
 ``yield.json``, ``histogram.png`` and ``histogram.svg`` are written at the end. A drive passes
 when its pk-pk ripple meets the limit at every operating point; the yield is the passing
-fraction with a 95 % Wilson interval (a statement about the Monte Carlo sample, not the model).
+fraction with its 95 % Clopper–Pearson interval, and a ripple quantile is stated only where the
+sample supports it (``hil.tolerance.stats``): statements about the Monte Carlo sample, not about
+the model's own accuracy.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from hil.tolerance.combiner import CombinerSettings
 from hil.tolerance.engines import ChunkJob, parameters_from_unit, yield_chunk
 from hil.tolerance.sobol import run_sobol
 from hil.tolerance.spec import PARAMETERS, ToleranceSpec
-from hil.tolerance.stats import histogram, quantiles, wilson_interval
+from hil.tolerance.stats import CI_METHOD, QUANTILE_RULE, histogram, quantiles, yield_interval
 
 DEFAULT_CHUNK = {"closed-form": 50_000, "twin": 16}
 
@@ -64,7 +66,8 @@ def run_yield(spec: ToleranceSpec, folder: str | Path, options: YieldOptions = Y
     folder.mkdir(parents=True, exist_ok=True)
     if options.plots:
         from hil.tolerance.plots import plot_histogram
-        summary["figures"] = plot_histogram(mc.concatenated("ripple_pu"), spec, folder)
+        summary["figures"] = plot_histogram(mc.concatenated("ripple_pu"), spec, folder,
+                                            summary)
     write_atomic(folder / "yield.json", json.dumps(summary, indent=2).encode())
     return summary
 
@@ -118,7 +121,7 @@ def summarise(spec: ToleranceSpec, mc, options: YieldOptions) -> dict:
     worst = spec.worst_pu(ripple_pct)
     passed = int(np.count_nonzero(worst <= limit))
     total = int(worst.size)
-    low, high = wilson_interval(passed, total)
+    low, high = yield_interval(passed, total)
     per_point = []
     for j, op in enumerate(spec.operating_points):
         ok = int(np.count_nonzero(ripple_pct[:, j] <= limit))
@@ -126,7 +129,7 @@ def summarise(spec: ToleranceSpec, mc, options: YieldOptions) -> dict:
         per_point.append({"speed_rpm": op.speed_rpm, "current_a": op.current_a,
                           "current_angle_deg": math.degrees(op.current_angle_rad),
                           "judged": judged, "yield": ok / total if judged else None,
-                          "yield_ci95": list(wilson_interval(ok, total)) if judged else None,
+                          "yield_ci95": list(yield_interval(ok, total)) if judged else None,
                           "ripple_pct_quantiles": quantiles(ripple_pct[:, j])})
     clipped = {}
     for name in spec.varied:
@@ -137,7 +140,7 @@ def summarise(spec: ToleranceSpec, mc, options: YieldOptions) -> dict:
         "engine": options.engine, "spec": spec.to_dict(),
         "requirement": spec.requirement.to_dict(), "drives": total, "passed": passed,
         "yield": passed / total, "yield_ci95": [low, high],
-        "ci_method": "Wilson score interval, 95 %",
+        "ci_method": CI_METHOD, "quantile_rule": QUANTILE_RULE,
         "pass_rule": "pk-pk ripple <= limit at every operating point the requirement applies to",
         "ripple_definition": ("pk-pk of the air-gap torque over one electrical revolution, "
                               f"electrical orders 1..{options.combiner.max_order if options.engine == 'closed-form' else options.twin.max_order}, "

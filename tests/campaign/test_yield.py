@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.special import erf
+from scipy.stats import binom, binomtest, norm
 
 from hil.model import predict
 from hil.model.core import PHASE_OFFSETS_RAD, OperatingPoint
@@ -17,7 +18,7 @@ from hil.tolerance.combiner import CombinerSettings, ripple_pu
 from hil.tolerance.design import inverse_design
 from hil.tolerance.run import YieldOptions, run_yield
 from hil.tolerance.spec import parse_tolerances
-from hil.tolerance.stats import wilson_interval
+from hil.tolerance.stats import QUANTILES, drives_needed, quantiles, yield_interval
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "hil" / "examples" / "tolerances.toml"
 NO_BOUNDS = CombinerSettings(bounds=False)
@@ -38,17 +39,69 @@ def offset_pass_probability(sigma_a, limit_pct=3.0, current_a=20.0):
     return erf(threshold_a / (sigma_a * math.sqrt(2))), threshold_a
 
 
-def test_wilson_interval_closed_forms_and_coverage():
-    z2 = 1.959963984540054 ** 2
-    assert wilson_interval(0, 10) == pytest.approx((0.0, z2 / (10 + z2)))  # x = 0: z²/(n+z²)
-    assert wilson_interval(10, 10) == pytest.approx((10 / (10 + z2), 1.0))
-    low, high = wilson_interval(81, 263)
-    assert low == pytest.approx(0.2553, abs=1e-4) and high == pytest.approx(0.3662, abs=1e-4)
-    # coverage: 2000 binomial experiments at p = 0.9, n = 200 — about 95 % contain p
-    rng = np.random.default_rng(0)
-    hits = [wilson_interval(int(k), 200)[0] <= 0.9 <= wilson_interval(int(k), 200)[1]
-            for k in rng.binomial(200, 0.9, 2000)]
-    assert 0.93 <= np.mean(hits) <= 0.97
+def test_yield_interval_is_clopper_pearson_with_at_least_nominal_coverage():
+    assert yield_interval(0, 10) == pytest.approx((0.0, 1 - 0.025 ** 0.1))  # x = 0 closed form
+    assert yield_interval(8, 8) == pytest.approx((0.025 ** (1 / 8), 1.0))   # x = n: 63.1 %
+    low, high = yield_interval(81, 263)  # the defining tails: P(X >= 81 | low) = 2.5 % = P(X <= 81 | high)
+    assert binom.sf(80, 263, low) == pytest.approx(0.025, rel=1e-6)
+    assert binom.cdf(81, 263, high) == pytest.approx(0.025, rel=1e-6)
+    # exact coverage over every outcome, on a grid of true yields: never below 95 % (Wilson's
+    # interval, scipy's, dips below it near an all-pass sample: why it is not used)
+    for n in (8, 50):
+        k = np.arange(n + 1)
+        ours = np.array([yield_interval(int(x), n) for x in k])
+        wilson = np.array([tuple(binomtest(int(x), n).proportion_ci(0.95, method="wilson"))
+                           for x in k])
+        p_true = np.linspace(0.5, 0.999, 400)
+        pmf = binom.pmf(k[None, :], n, p_true[:, None])
+        cover = lambda ci: (pmf * ((ci[:, 0] <= p_true[:, None])  # noqa: E731
+                                   & (p_true[:, None] <= ci[:, 1]))).sum(axis=1)
+        assert cover(ours).min() >= 0.95 - 1e-9
+        assert cover(wilson).min() < 0.93
+
+
+def test_quantiles_are_stated_only_where_the_sample_supports_them():
+    """n ≥ 10/(1 − q): q99.9 needs 10,000 drives; a stated quantile's order-statistic interval
+    covers the true quantile about 95 % of the time (|N(0, 1)|, whose quantiles are known)."""
+    assert [drives_needed(q) for q in QUANTILES] == [20, 100, 200, 1000, 10_000]
+    table = quantiles(np.arange(999.0))
+    assert table["q99"] == {"value": None, "needs_drives": 1000}
+    assert table["q99.9"] == {"value": None, "needs_drives": 10_000}
+    assert table["q95"]["value"] == pytest.approx(np.quantile(np.arange(999.0), 0.95))
+    rng = np.random.default_rng(7)
+    hits = []
+    for _ in range(400):
+        ci = quantiles(np.abs(rng.normal(size=200)), (0.9,))["q90"]["ci95"]
+        hits.append(ci[0] <= norm.ppf(0.95) <= ci[1])
+    assert 0.93 <= np.mean(hits) <= 0.995
+
+
+def test_small_campaign_states_no_tail_and_yields_carry_their_interval(tmp_path):
+    """8 drives: no quantile is printed or written, every yield (overall, per point) carries its
+    Clopper-Pearson interval, in the text, the --json output and yield.json alike."""
+    base = [sys.executable, "-m", "hil", "yield", str(EXAMPLE), "--drives", "8", "--sobol-n", "0",
+            "--scheduler", "inline"]
+    text = subprocess.run(base + ["--out", str(tmp_path / "a")], capture_output=True, text=True,
+                          timeout=120)
+    assert text.returncode == 0, text.stderr
+    assert "q99.9 not stated (needs >= 10,000 drives)" in text.stdout
+    assert "q50 not stated (needs >= 20 drives)" in text.stdout
+    done = subprocess.run(base + ["--out", str(tmp_path / "b"), "--json"], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    printed = json.loads(done.stdout)
+    written = json.loads((tmp_path / "b" / "yield.json").read_text())
+    for summary in (printed, written):
+        assert summary["ci_method"].startswith("Clopper-Pearson")
+        assert all(q["value"] is None for q in summary["worst_ripple_pct_quantiles"].values())
+        low, high = yield_interval(summary["passed"], 8)
+        assert summary["yield_ci95"] == [low, high]
+        for point in summary["per_point"]:
+            assert point["yield_ci95"][0] <= point["yield"] <= point["yield_ci95"][1]
+            assert all(q["value"] is None for q in point["ripple_pct_quantiles"].values())
+    ci = printed["yield_ci95"]
+    assert f"(95 % CI {100 * ci[0]:.0f} .. {100 * ci[1]:.0f} %)" in text.stdout
+    assert text.stdout.count("95 % CI") == 1 + len(printed["per_point"])
 
 
 def test_yield_ci_contains_known_answer(tmp_path):
@@ -59,6 +112,11 @@ def test_yield_ci_contains_known_answer(tmp_path):
     low, high = summary["yield_ci95"]
     assert low <= truth <= high
     assert high - low < 0.01  # 40 000 drives: the interval is tight, the check is not vacuous
+    # eq 19, one sensor: ripple % = 100·(4/√3)·|offset|/I, a half-normal: known quantiles
+    for label, entry in summary["worst_ripple_pct_quantiles"].items():
+        q = float(label[1:]) / 100
+        true_pct = 100 * 4 / math.sqrt(3) / 20.0 * 0.2 * norm.ppf((1 + q) / 2)
+        assert entry["ci95"][0] <= true_pct <= entry["ci95"][1], label
     assert json.loads((tmp_path / "yield.json").read_text())["passed"] == summary["passed"]
 
 
