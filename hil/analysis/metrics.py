@@ -75,7 +75,7 @@ class RippleResult:
     angle_grid_rad: np.ndarray
     sync_average_nm: np.ndarray
     revolution_matrix_nm: np.ndarray = field(repr=False)
-    uncertainty: UncertaintyBudget = field(repr=False)
+    uncertainty: UncertaintyBudget | None = field(repr=False)  # None: not computed (analyze_torque)
 
     def order_power_share(self, order: int) -> float:
         """Share of the AC power (orders 1..max_order) carried by ``order``: A_k² / Σ A_j²."""
@@ -106,7 +106,7 @@ class RippleResult:
             "named_phase_rad": self.named_phase_rad, "revolutions": self.revolutions,
             "samples_per_rev": self.samples_per_rev, "max_order": self.max_order,
             "direction": self.direction, "top_orders": self.top_orders(top),
-            "uncertainty": self.uncertainty.to_dict(),
+            "uncertainty": None if self.uncertainty is None else self.uncertainty.to_dict(),
         }
         if arrays:
             data.update(orders=self.orders.tolist(), amplitude_nm=self.amplitude_nm.tolist(),
@@ -149,8 +149,14 @@ def spectrum_fields(amplitude: np.ndarray, phase: np.ndarray, per_rev: np.ndarra
 def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAULT_MAX_ORDER,
                    named_order: int | None = None, rated_torque_nm: float | None = None,
                    instruments: InstrumentUncertainty | None = None,
-                   pk_pk_method: str = "band-limited") -> RippleResult:
+                   pk_pk_method: str = "band-limited",
+                   uncertainty_budget: bool = True) -> RippleResult:
     """Analyse torque samples against the electrical rotor angle (wrapped or unwrapped, rad).
+
+    ``uncertainty_budget=False`` skips the bootstrap (type A) and the budget, for callers that
+    need the ripple figures only (Monte Carlo campaigns of the twin): every other field is the
+    same, bit for bit, and ``uncertainty`` is None (such a result cannot be judged by
+    :func:`hil.analysis.decide`).
 
     Raises InputError for non-finite samples, non-increasing time, mismatched lengths, an angle
     that never advances or runs backwards, a record shorter than one electrical revolution, or
@@ -189,10 +195,12 @@ def analyze_torque(time_s, torque_nm, angle_elec_rad, *, max_order: int = DEFAUL
         sync_average = revs.matrix_nm.mean(axis=0)
         pk_pk = float(np.ptp(sync_average))
     pk_pk_pu = pk_pk / abs(mean) if mean != 0 else math.nan
-    scatter = type_a(per_rev_rows, statistic)
-    budget = build_budget(pk_pk_pu=pk_pk_pu, pk_pk_nm=pk_pk, mean_torque_nm=mean,
-                          type_a_result=scatter, revolutions=revs.revolutions,
-                          instruments=instruments)
+    budget = None
+    if uncertainty_budget:
+        scatter = type_a(per_rev_rows, statistic)
+        budget = build_budget(pk_pk_pu=pk_pk_pu, pk_pk_nm=pk_pk, mean_torque_nm=mean,
+                              type_a_result=scatter, revolutions=revs.revolutions,
+                              instruments=instruments)
     return RippleResult(
         mean_torque_nm=mean, pk_pk_nm=pk_pk, pk_pk_pu=pk_pk_pu,
         pk_pk_rated_pu=None if rated_torque_nm is None else pk_pk / rated_torque_nm,

@@ -62,7 +62,7 @@ def twin_ripple_pu(configs: Sequence[DriveConfig], settings: TwinSettings = Twin
                                 rate_hz, settle_s=settings.settle_s, parallel=False)[0]
         analysis = analyze_torque(result["time_s"], result["torque_em_nm"],
                                   pole_pairs * result["rotor_angle_mech_rad"],
-                                  max_order=settings.max_order)
+                                  max_order=settings.max_order, uncertainty_budget=False)
         ripple[i] = analysis.pk_pk_pu
     return ripple
 
