@@ -212,17 +212,6 @@ def _filter_decayed(y0, x0, slope, h, tau_f, decay):
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
-def _put(out, rows, latest, channel, j, every, value):
-    """Sample j of engine channel ``channel`` into its row of ``out`` (if wanted) and, at the
-    last sample (``every``), into ``latest``."""
-    row = rows[channel]
-    if row >= 0:
-        out[row, j] = value
-    if every:
-        latest[channel] = value
-
-
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH, nogil=True)
 def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end_s):
     """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
@@ -248,10 +237,18 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
     need_dq = rows[C_ID] >= 0 or rows[C_IQ] >= 0
     need_filter = rows[C_TORQUE_SHAFT_FILTERED] >= 0
     need_v = rows[C_VA] >= 0 or rows[C_VB] >= 0 or rows[C_VC] >= 0
-    if rows[C_COUNTS] >= 0:
-        counts_out = out[rows[C_COUNTS]].view(np.int64)
+    r_time, r_theta, r_counts, r_speed = rows[C_TIME], rows[C_THETA_M], rows[C_COUNTS], \
+        rows[C_SPEED_RPM]
+    r_isa, r_isb, r_filtered = rows[C_IA_SENSED], rows[C_IB_SENSED], \
+        rows[C_TORQUE_SHAFT_FILTERED]
+    r_ia, r_ib, r_ic, r_em, r_shaft = rows[C_IA], rows[C_IB], rows[C_IC], rows[C_TORQUE_EM], \
+        rows[C_TORQUE_SHAFT]
+    r_iq, r_id = rows[C_IQ], rows[C_ID]
+    if r_counts >= 0:
+        counts_out = out[r_counts].view(np.int64)
     else:
         counts_out = np.zeros(0, np.int64)
+    t_filtered = sa = sb = sc = t_em = t_shaft = i_q = i_d = 0.0
     resistance = params[P_R]
     inductance = params[P_L]
     vdc = params[P_VDC]
@@ -576,24 +573,13 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
                         break
                     every = j == last_j           # the last sample: every channel, to ``latest``
                     theta_m = theta_m0 + omega * tau_s
-                    _put(out, rows, latest, C_TIME, j, every, t_sample)
-                    _put(out, rows, latest, C_THETA_M, j, every, theta_m)
-                    _put(out, rows, latest, C_SPEED_RPM, j, every, omega / RPM)
-                    _put(out, rows, latest, C_IA_SENSED, j, every, state[S_ISENSE_A])
-                    _put(out, rows, latest, C_IB_SENSED, j, every, state[S_ISENSE_B])
-                    if rows[C_COUNTS] >= 0 or every:
-                        counts = encoder_count(theta_m, cpr)
-                        if rows[C_COUNTS] >= 0:
-                            counts_out[j] = np.int64(counts)
-                        if every:
-                            latest[C_COUNTS] = counts
                     if need_filter or every:
                         if first or not need_filter:
                             filter_s = exp_small(-(tau_s - tau) / tau_f)
                         else:
                             filter_s *= filter_step
-                        _put(out, rows, latest, C_TORQUE_SHAFT_FILTERED, j, every,
-                             _filter_decayed(y_a, torque_a, slope, tau_s - tau, tau_f, filter_s))
+                        t_filtered = _filter_decayed(y_a, torque_a, slope, tau_s - tau, tau_f,
+                                                     filter_s)
                     if need_cur or every:
                         if first or not need_cur:
                             decay_s = exp_small(-resistance * (tau_s - tau) / inductance)
@@ -612,14 +598,9 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
                                                                                orders, basis)
                         sa, sb, sc = _currents(mode, clamped, k, x0, u, fs_a, fs_b, fs_c,
                                                decay_s, resistance)
-                        _put(out, rows, latest, C_IA, j, every, sa)
-                        _put(out, rows, latest, C_IB, j, every, sb)
-                        _put(out, rows, latest, C_IC, j, every, sc)
                         if need_torque or every:
                             t_em, t_shaft = _shaft_torque(tau_s, omega, ks_a, ks_b, ks_c, sa,
                                                           sb, sc, n_cogging, cogging)
-                            _put(out, rows, latest, C_TORQUE_EM, j, every, t_em)
-                            _put(out, rows, latest, C_TORQUE_SHAFT, j, every, t_shaft)
                         if need_dq or every:
                             s_d = advance[0, 0]                   # the fundamental (order 1)
                             c_d = advance[0, 1]
@@ -627,10 +608,52 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
                             cos_e = cos_e0 * c_d - sin_e0 * s_d
                             q_a, q_b, q_c = spread(1, sin_e, cos_e)   # sin(θe − x·2π/3)
                             d_a, d_b, d_c = spread(1, cos_e, -sin_e)  # cos(θe − x·2π/3)
-                            _put(out, rows, latest, C_IQ, j, every,
-                                 2.0 / 3.0 * (sa * q_a + sb * q_b + sc * q_c))
-                            _put(out, rows, latest, C_ID, j, every,
-                                 2.0 / 3.0 * (sa * d_a + sb * d_b + sc * d_c))
+                            i_q = 2.0 / 3.0 * (sa * q_a + sb * q_b + sc * q_c)
+                            i_d = 2.0 / 3.0 * (sa * d_a + sb * d_b + sc * d_c)
+                    # stores last (after every load of this sample), to rows held in locals
+                    if r_time >= 0:
+                        out[r_time, j] = t_sample
+                    if r_theta >= 0:
+                        out[r_theta, j] = theta_m
+                    if r_counts >= 0:
+                        counts_out[j] = np.int64(encoder_count(theta_m, cpr))
+                    if r_speed >= 0:
+                        out[r_speed, j] = omega / RPM
+                    if r_isa >= 0:
+                        out[r_isa, j] = state[S_ISENSE_A]
+                    if r_isb >= 0:
+                        out[r_isb, j] = state[S_ISENSE_B]
+                    if r_filtered >= 0:
+                        out[r_filtered, j] = t_filtered
+                    if r_ia >= 0:
+                        out[r_ia, j] = sa
+                    if r_ib >= 0:
+                        out[r_ib, j] = sb
+                    if r_ic >= 0:
+                        out[r_ic, j] = sc
+                    if r_em >= 0:
+                        out[r_em, j] = t_em
+                    if r_shaft >= 0:
+                        out[r_shaft, j] = t_shaft
+                    if r_iq >= 0:
+                        out[r_iq, j] = i_q
+                    if r_id >= 0:
+                        out[r_id, j] = i_d
+                    if every:
+                        latest[C_TIME] = t_sample
+                        latest[C_THETA_M] = theta_m
+                        latest[C_COUNTS] = encoder_count(theta_m, cpr)
+                        latest[C_SPEED_RPM] = omega / RPM
+                        latest[C_IA_SENSED] = state[S_ISENSE_A]
+                        latest[C_IB_SENSED] = state[S_ISENSE_B]
+                        latest[C_TORQUE_SHAFT_FILTERED] = t_filtered
+                        latest[C_IA] = sa
+                        latest[C_IB] = sb
+                        latest[C_IC] = sc
+                        latest[C_TORQUE_EM] = t_em
+                        latest[C_TORQUE_SHAFT] = t_shaft
+                        latest[C_IQ] = i_q
+                        latest[C_ID] = i_d
                     first = False
                     j += 1
 
