@@ -1,5 +1,11 @@
+"""``python -m hil``: the ``hil`` command line (Ctrl-C while it loads: one line, exit 130)."""
+
 import sys
 
-from hil.cli import main
+try:
+    from hil.cli import main
+except KeyboardInterrupt:
+    print("hil: interrupted", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

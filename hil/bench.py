@@ -258,7 +258,7 @@ def _opening(role: str, tried: str, step):
     except BenchOpenError:
         raise
     except InstrumentError as exc:
-        raise BenchOpenError(role, tried, _reason(exc.detail, role, tried)) from exc
+        raise BenchOpenError(role, tried, exc.detail) from exc
     except Exception as exc:  # noqa: BLE001 - e.g. a CAN interface whose library is missing
         raise BenchOpenError(role, tried, f"{type(exc).__name__}: {exc}") from exc
 
@@ -277,26 +277,6 @@ def _tried(role: str, config: BenchConfig) -> str:
     torque = config.torque
     return (f"open serial port {torque.serial_port} at {torque.baudrate} baud "
             f"({torque.dialect} dialect)")
-
-
-def _reason(detail: str, role: str, tried: str) -> str:
-    """The driver's detail, with the operating system's reason when it gave only settings."""
-    if role == "daq" and detail.startswith("cannot open") and "Modbus TCP" in tried:
-        host_port = tried.split("Modbus TCP ", 1)[1].split(" ", 1)[0]
-        host, _, port = host_port.rpartition(":")
-        return f"cannot connect: {tcp_connect_reason(host, int(port))}"
-    return detail
-
-
-def tcp_connect_reason(host: str, port: int, timeout_s: float = 2.0) -> str:
-    """Why a TCP connection to ``host:port`` fails (e.g. "[Errno 111] Connection refused")."""
-    import socket
-
-    try:
-        with socket.create_connection((host, port), timeout=timeout_s):
-            return "the port accepts connections but the Modbus client did not connect"
-    except OSError as exc:
-        return str(exc) or type(exc).__name__
 
 
 def has_addresses(config: BenchConfig) -> bool:

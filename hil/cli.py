@@ -6,18 +6,18 @@ exits 2; an instrument or run failure prints one line and exits 1; Ctrl-C exits 
 output is one JSON object on stdout; with ``--json`` an error is also one JSON object on stdout,
 ``{"error": {"command", "kind" (usage | input | failed | interrupted), "message",
 "exit_status"}}``, beside the one-line message on stderr.
+
+Ctrl-C at any moment once this module is imported — while a command's imports run, while the
+parser is built, during the command — prints one line ``hil COMMAND: interrupted`` and exits 130
+(``hil run`` itself exits 2 once pytest has started: its documented "interrupted" code). The
+module imports nothing heavy at its top (argparse and json are imported when used), so the window
+in which Ctrl-C can still hit before :func:`main` runs is the interpreter's own start-up plus a
+few statements; a traceback printed there is Python's (``init_import_site``), not this program's.
 """
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import json
-import os
 import sys
-
-from hil import __version__
-from hil.errors import HilError, InputError
 
 DESCRIPTION = ("ripple-hil: hardware-in-the-loop bench tests of the torque ripple a PMSM drive's "
                "controller adds, judged against the closed-form predictions of Chen, Namuduri "
@@ -40,20 +40,31 @@ class UsageError(Exception):
         self.prog = prog
 
 
-class OneLineErrorParser(argparse.ArgumentParser):
-    """argparse whose usage errors become :class:`UsageError` (one line, exit 2, no usage dump)."""
+def one_line_error_parser() -> type:
+    """argparse's parser class whose usage errors become :class:`UsageError` (one line, exit 2,
+    no usage dump); made on first use so that importing this module does not import argparse."""
+    import argparse
 
-    def error(self, message: str) -> None:  # noqa: D102 - argparse API
-        raise UsageError(self.prog, message)
+    class OneLineErrorParser(argparse.ArgumentParser):
+        def error(self, message: str) -> None:  # noqa: D102 - argparse API
+            raise UsageError(self.prog, message)
+
+    return OneLineErrorParser
 
 
-def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
-    """The parser; with ``argv`` naming a command, only that command's module is imported (a
-    command's heavy imports — SALib, scipy.stats, dask — never slow another command down)."""
-    parser = OneLineErrorParser(prog="hil", description=DESCRIPTION, epilog=EPILOG)
+def build_parser(argv: list[str] | None = None):
+    """The parser (an ``argparse.ArgumentParser``); with ``argv`` naming a command, only that
+    command's module is imported (a command's heavy imports — SALib, scipy.stats, dask — never
+    slow another command down)."""
+    import importlib
+
+    from hil import __version__
+
+    parser_class = one_line_error_parser()
+    parser = parser_class(prog="hil", description=DESCRIPTION, epilog=EPILOG)
     parser.add_argument("--version", action="version", version=f"ripple-hil {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND",
-                                       parser_class=OneLineErrorParser)
+                                       parser_class=parser_class)
     subparsers.required = True
     for name in _modules_for(argv):
         importlib.import_module(f"hil.commands.{name}").register(subparsers)
@@ -62,11 +73,16 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 
 def _modules_for(argv: list[str] | None) -> list[str]:
     """The command module ``argv``'s first word names, else every module (help, errors)."""
+    named = _command_named(argv)
+    return [name for name in COMMAND_MODULES if COMMAND_NAMES.get(name, name) == named] \
+        or COMMAND_MODULES
+
+
+def _command_named(argv: list[str] | None) -> str | None:
+    """The command name ``argv``'s first word gives, if it is one (None otherwise)."""
     first = next((word for word in argv or () if not word.startswith("-")), None)
-    for name in COMMAND_MODULES:
-        if first == COMMAND_NAMES.get(name, name):
-            return [name]
-    return COMMAND_MODULES
+    names = {COMMAND_NAMES.get(name, name) for name in COMMAND_MODULES}
+    return first if first in names else None
 
 
 def report_error(command: str, kind: str, message: str, status: int, as_json: bool) -> int:
@@ -76,29 +92,38 @@ def report_error(command: str, kind: str, message: str, status: int, as_json: bo
     text = f"{command}: {label}" + (f": {message}" if message else "")
     print(text, file=sys.stderr)
     if as_json:
+        import json
+
         print(json.dumps({"error": {"command": command, "kind": kind, "message": message,
                                     "exit_status": status}}))
     return status
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one ``hil`` command; its exit status (Ctrl-C anywhere in here: one line, 130)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     as_json = "--json" in argv
-    parser = build_parser(argv)
+    command = f"hil {_command_named(argv) or ''}".strip()   # before parsing: the word typed
     try:
-        args = parser.parse_args(argv)
-    except UsageError as exc:
-        return report_error(exc.prog, "usage", str(exc), 2, as_json)
-    command = f"hil {args.command}"
-    try:
-        return int(args.func(args) or 0)
-    except InputError as exc:
-        return report_error(command, "input", str(exc), 2, as_json)
-    except HilError as exc:
-        return report_error(command, "failed", str(exc), 1, as_json)
+        from hil.errors import HilError, InputError
+
+        parser = build_parser(argv)
+        try:
+            args = parser.parse_args(argv)
+        except UsageError as exc:
+            return report_error(exc.prog, "usage", str(exc), 2, as_json)
+        command = f"hil {args.command}"
+        try:
+            return int(args.func(args) or 0)
+        except InputError as exc:
+            return report_error(command, "input", str(exc), 2, as_json)
+        except HilError as exc:
+            return report_error(command, "failed", str(exc), 1, as_json)
     except KeyboardInterrupt:
         return report_error(command, "interrupted", "", 130, as_json)
     except BrokenPipeError:  # output piped into e.g. head, which stopped reading
+        import os
+
         sys.stdout = open(os.devnull, "w")
         return 0
 

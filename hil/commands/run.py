@@ -38,6 +38,12 @@ PLUGIN_OPTIONS = {"operator": "--hil-operator",
                   "customer": "--hil-customer", "authorizer": "--hil-authorizer",
                   "authorizer_function": "--hil-authorizer-function",
                   "item_received": "--hil-item-received", "environment": "--hil-environment"}
+#: Each plugin option → the ``hil run`` flag that fills it in: what messages printed during a
+#: ``hil run`` name (it passes ``--hil-flag-names hil-run``; pytest users see ``--hil-*``).
+RUN_FLAGS = {"--hil-bench": "--bench", "--hil-record": "--record-dir", "--hil-report": "--report",
+             "--hil-seed": "--seed", "--hil-sim-defect": "--sim-defect",
+             "--hil-requirements": "--requirements",
+             **{option: "--" + name.replace("_", "-") for name, option in PLUGIN_OPTIONS.items()}}
 
 
 def register(subparsers) -> None:
@@ -115,6 +121,7 @@ def build_pytest_args(args) -> list[str]:
         load_bench(args.bench)   # a bad bench file is a one-line error here, before pytest starts
     pytest_args = [str(modules[name]) for name in selected]
     pytest_args += ["-q", "-p", "no:cacheprovider", *unrelated_plugins(), "--hil-progress",
+                    "--hil-flag-names", "hil-run",
                     "--hil-seed", str(args.seed), "--hil-record", args.record_dir,
                     "--rootdir", str(modules[selected[0]].parent.parent)]
     for name, option in PLUGIN_OPTIONS.items():
@@ -170,5 +177,7 @@ def run(args) -> int:
     code = pytest.main(pytest_args)
     if code == pytest.ExitCode.NO_TESTS_COLLECTED:
         print("hil run: no test plan point was collected", file=sys.stderr)
+        return 2
+    if code == pytest.ExitCode.USAGE_ERROR:       # pytest printed it (e.g. a bad --item-received)
         return 2
     return int(code)
