@@ -7,9 +7,11 @@ Run: ``.venv/bin/python benchmarks/yield_bench.py [--drives 200000] [--twin-driv
 * closed form: ``closed_form_ripple`` on drives sampled from the shipped example tolerances (two
   operating points), one process, best of 3; then the whole ``run_yield`` of the example with
   ``--full-drives`` on a LocalCluster of 2 workers (cluster start-up included and printed).
-* twin: the example's drives at its first operating point (500 rpm, 20 A: 10 ms settle + 2
-  electrical revolutions = 0.07 simulated s per drive), chunks of 4 drives on a LocalCluster of
-  1 and then 2 workers. Drive-seconds = simulated seconds summed over drives.
+* twin: the example's drives at its first operating point (500 rpm, 20 A, 2 pole pairs: 10 ms
+  settle + 2 electrical revolutions = 0.131 simulated s per drive), chunks of 4 drives on a
+  LocalCluster of 1 and then 2 workers. Drive-seconds = simulated seconds summed over drives.
+  Then, in this process, where a drive's time goes: simulation, the campaign's analysis (ripple
+  figures only) and the full analysis with its uncertainty budget (what campaigns ran before).
 * Dask overhead per task: wall × workers − Σ task compute time (measured on the workers),
   divided by the tasks; and the round trip of an empty task.
 * projection: T(N) = D·t_drive/N + (D/chunk)·overhead/N — a straight-line extrapolation of the
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 import sys
 import tempfile
@@ -31,9 +34,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from hil.analysis import analyze_torque  # noqa: E402
 from hil.campaign import chunk_seed, dask_client, run_campaign  # noqa: E402
-from hil.tolerance.engines import ChunkJob, closed_form_ripple, sample_parameters, yield_chunk  # noqa: E402
-from hil.tolerance.run import YieldOptions, run_yield  # noqa: E402
+from hil.campaign.twin import CHANNELS, TwinSettings  # noqa: E402
+from hil.sim import simulate_batch  # noqa: E402
+from hil.tolerance.engines import (ChunkJob, closed_form_ripple, drive_config,  # noqa: E402
+                                   sample_drives, sample_parameters, yield_chunk)
+from hil.tolerance.spec import PARAMETERS  # noqa: E402
+from hil.tolerance.run import DEFAULT_CHUNK, YieldOptions, run_yield  # noqa: E402
 from hil.tolerance.spec import load_tolerances  # noqa: E402
 
 EXAMPLE = ROOT / "hil" / "examples" / "tolerances.toml"
@@ -46,6 +54,35 @@ def warm(job) -> None:
 
 def empty_task(spec, seed):
     return {"x": np.zeros(1)}
+
+
+def twin_split(spec, drives: int) -> str:
+    """Per drive, in this process (best of 3 passes over ``drives`` drives): simulation, the
+    campaign's analysis (no budget) and the full analysis (with the uncertainty budget), ms."""
+    settings = TwinSettings()
+    op = spec.operating_points[0]
+    params = sample_drives(spec, 0, drives)
+    configs = [drive_config(op, {name: params[name][i] for name in PARAMETERS})
+               for i in range(drives)]
+    best = {"simulation": math.inf, "analysis": math.inf, "analysis with budget": math.inf}
+    for _ in range(3):
+        spent = dict.fromkeys(best, 0.0)
+        for config in configs:
+            pole_pairs = config.motor.parameters.pole_pairs
+            start = time.perf_counter()
+            result = simulate_batch([config], settings.duration_s(op.speed_rpm, pole_pairs),
+                                    settings.samples_per_pwm * config.injection.pwm_frequency_hz,
+                                    settle_s=settings.settle_s, parallel=False,
+                                    channels=CHANNELS)[0]
+            spent["simulation"] += time.perf_counter() - start
+            args = (result["time_s"], result["torque_em_nm"],
+                    pole_pairs * result["rotor_angle_mech_rad"])
+            for label, budget in (("analysis", False), ("analysis with budget", True)):
+                start = time.perf_counter()
+                analyze_torque(*args, max_order=settings.max_order, uncertainty_budget=budget)
+                spent[label] += time.perf_counter() - start
+        best = {k: min(best[k], spent[k] / drives) for k in best}
+    return ", ".join(f"{k} {v * 1e3:.2f} ms" for k, v in best.items())
 
 
 def main() -> None:
@@ -112,8 +149,10 @@ def main() -> None:
             if workers == 1:
                 one_worker = {"t_drive": compute_s / args.twin_drives,
                               "overhead": overhead_ms / 1e3}
+    print(f"twin per drive in this process ({args.twin_drives} drives, best of 3): "
+          + twin_split(twin_spec, args.twin_drives))
     drives = 1_000_000
-    chunk = 16
+    chunk = DEFAULT_CHUNK["twin"]
     cells = []
     for n in (1, 2, 16, 64, 256):
         seconds = (drives * one_worker["t_drive"] + drives / chunk * one_worker["overhead"]) / n

@@ -205,7 +205,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "'inline' (this process); default: a LocalCluster on this machine")
     parser.add_argument("--workers", type=int, help="LocalCluster workers (default: cores)")
     parser.add_argument("--chunk-size", type=int, help="drives per chunk (default 50000 "
-                        "closed-form, 16 twin)")
+                        "closed-form, 64 twin)")
     parser.add_argument("--sobol-n", type=int,
                         help="Sobol' base samples, a power of 2: N·(D+2) evaluations "
                         "(default 1024 closed-form, 32 twin; 0: none)")
