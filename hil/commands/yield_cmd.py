@@ -153,6 +153,10 @@ def format_summary(s: dict) -> list[str]:
             row = table[name]
             lines.append(f"  {i}. {name:<24} S_T {row['ST']:.3f} ± {row['ST_conf']:.3f}   "
                          f"S_1 {row['S1']:.3f} ± {row['S1_conf']:.3f}")
+        if sobol.get("unresolved"):
+            lines.append("  order not resolved by this sample (95 % intervals of S_T overlap): "
+                         + ", ".join(f"{a} ~ {b}" for a, b in sobol["unresolved"])
+                         + " (a larger --sobol-n narrows the intervals)")
     design = s.get("inverse_design")
     if design:
         lines += format_design(design)

@@ -9,6 +9,8 @@ CDF (so normal, uniform and choice distributions are honoured). Two outputs are 
   how much of the pass/fail variance each tolerance explains, i.e. which one drives failures.
 
 The ranking uses S_T of ``failure`` when failures vary across the sample, else of ``ripple``.
+Where the 95 % intervals (SALib's bootstrap, S_T ± ST_conf) of two adjacent ranks overlap, the
+sample does not resolve their order: ``unresolved`` lists those pairs (more base samples would).
 """
 
 from __future__ import annotations
@@ -49,7 +51,18 @@ def sobol_indices(names: list[str], outputs: dict[str, np.ndarray], seed: int) -
                           for i, name in enumerate(names)}
     basis = "failure" if indices.get("failure") else "ripple"
     ranking = sorted(names, key=lambda n: -indices[basis][n]["ST"]) if indices.get(basis) else []
-    return {"indices": indices, "ranked_by": f"ST of {basis}", "ranking": ranking}
+    unresolved = [[a, b] for a, b in zip(ranking, ranking[1:])
+                  if _low(indices[basis][a]) <= _high(indices[basis][b])]
+    return {"indices": indices, "ranked_by": f"ST of {basis}", "ranking": ranking,
+            "unresolved": unresolved}
+
+
+def _low(row: dict) -> float:
+    return row["ST"] - row["ST_conf"]
+
+
+def _high(row: dict) -> float:
+    return row["ST"] + row["ST_conf"]
 
 
 def run_sobol(names: list[str], base_samples: int, seed: int,

@@ -18,6 +18,7 @@ from hil.model.core import PHASE_OFFSETS_RAD, OperatingPoint
 from hil.tolerance.combiner import CombinerSettings, ripple_pu
 from hil.tolerance.design import inverse_design
 from hil.tolerance.run import YieldOptions, run_yield
+from hil.tolerance.sobol import sobol_indices, sobol_sample_unit
 from hil.tolerance.spec import parse_tolerances
 from hil.tolerance.stats import QUANTILES, drives_needed, quantiles, yield_interval
 
@@ -182,6 +183,17 @@ def test_sobol_ranks_the_dominant_tolerance_first(tmp_path):
     doc["parameters"]["dead_time_s"]["half_width"] = 0.1e-6
     sobol = run_yield(parse_tolerances(doc), tmp_path / "b", options)["sobol"]
     assert sobol["ranking"][0] == "ia_offset_a"
+
+
+def test_sobol_order_is_stated_resolved_only_when_the_intervals_separate():
+    """y = x1 + x2 + 0.2·x3: x1 and x2 are equally important (their order is not resolved),
+    both clearly above x3 (resolved)."""
+    names = ["x1", "x2", "x3"]
+    unit = sobol_sample_unit(names, 512, seed=1)
+    y = unit[:, 0] + unit[:, 1] + 0.2 * unit[:, 2]
+    out = sobol_indices(names, {"ripple": y}, seed=1)
+    assert out["ranking"][2] == "x3"
+    assert out["unresolved"] == [out["ranking"][:2]]
 
 
 def test_inverse_design_one_tolerance_has_a_known_answer():
