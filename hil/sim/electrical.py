@@ -151,14 +151,16 @@ def _harmonic_terms(k, s_d, c_d, orders, basis):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
-def evaluate(tau, omega_e, orders, count, basis):
-    """At τ into the period: forced currents i_e (A) and EMF per speed k_x (V·s/rad), a/b/c.
-
-    e_x = ω_m·k_x; the electromagnetic torque is Σ k_x·i_x (= Σ e_x·i_x/ω_m, also at ω = 0).
-    """
+def _sum_harmonics(tau, omega_e, advance, given, orders, count, basis):
+    """Σ over harmonics of ``_harmonic_terms``; each harmonic's angle increment since the period
+    start is ``advance[k]`` if ``given``, else evaluated as orders[k]·ωe·τ."""
     fa = fb = fc = ka = kb = kc = 0.0
     for k in range(count):
-        s_d, c_d = sincos_small(orders[k] * omega_e * tau)
+        if given:
+            s_d = advance[k, 0]
+            c_d = advance[k, 1]
+        else:
+            s_d, c_d = sincos_small(orders[k] * omega_e * tau)
         dfa, dfb, dfc, dka, dkb, dkc = _harmonic_terms(k, s_d, c_d, orders, basis)
         fa += dfa
         fb += dfb
@@ -170,21 +172,20 @@ def evaluate(tau, omega_e, orders, count, basis):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def evaluate(tau, omega_e, orders, count, basis):
+    """At τ into the period: forced currents i_e (A) and EMF per speed k_x (V·s/rad), a/b/c.
+
+    e_x = ω_m·k_x; the electromagnetic torque is Σ k_x·i_x (= Σ e_x·i_x/ω_m, also at ω = 0).
+    """
+    return _sum_harmonics(tau, omega_e, basis, False, orders, count, basis)
+
+
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
 def evaluate_advanced(advance, count, orders, basis):
     """``evaluate`` where each harmonic's angle increment since the period start is given:
     ``advance[k] = (sin, cos)`` of orders[k]·ωe·τ (kept by rotation for equally spaced samples,
     see ``advance_by``)."""
-    fa = fb = fc = ka = kb = kc = 0.0
-    for k in range(count):
-        dfa, dfb, dfc, dka, dkb, dkc = _harmonic_terms(k, advance[k, 0], advance[k, 1], orders,
-                                                       basis)
-        fa += dfa
-        fb += dfb
-        fc += dfc
-        ka += dka
-        kb += dkb
-        kc += dkc
-    return fa, fb, fc, ka, kb, kc
+    return _sum_harmonics(0.0, 0.0, advance, True, orders, count, basis)
 
 
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
