@@ -2,14 +2,14 @@
 on 1 and 2 Dask workers with the Dask overhead per task; a projection of a 10⁶-drive twin campaign.
 
 Run: ``.venv/bin/python benchmarks/yield_bench.py [--drives 200000] [--twin-drives 48]
-[--full-drives 1000000] [--quick]``.
+[--full-drives 1000000] [--twin-chunk 4] [--quick]``.
 
 * closed form: ``closed_form_ripple`` on drives sampled from the shipped example tolerances (two
   operating points), one process, best of 3; then the whole ``run_yield`` of the example with
   ``--full-drives`` on a LocalCluster of 2 workers (cluster start-up included and printed).
 * twin: the example's drives at its first operating point (500 rpm, 20 A, 2 pole pairs: 10 ms
-  settle + 2 electrical revolutions = 0.131 simulated s per drive), chunks of 4 drives on a
-  LocalCluster of 1 and then 2 workers. Drive-seconds = simulated seconds summed over drives.
+  settle + 2 electrical revolutions = 0.131 simulated s per drive), chunks of ``--twin-chunk``
+  drives (4) on a LocalCluster of 1 and then 2 workers. Drive-seconds = simulated seconds summed over drives.
   Then, in this process, where a drive's time goes: simulation, the campaign's analysis (ripple
   figures only) and the full analysis with its uncertainty budget (what campaigns ran before).
 * Dask overhead per task: wall × workers − Σ task compute time (measured on the workers),
@@ -45,7 +45,6 @@ from hil.tolerance.run import DEFAULT_CHUNK, YieldOptions, run_yield  # noqa: E4
 from hil.tolerance.spec import load_tolerances  # noqa: E402
 
 EXAMPLE = ROOT / "hil" / "examples" / "tolerances.toml"
-TWIN_CHUNK = 4
 
 
 def warm(job) -> None:
@@ -90,10 +89,15 @@ def main() -> None:
     parser.add_argument("--drives", type=int, default=200_000)
     parser.add_argument("--full-drives", type=int, default=1_000_000)
     parser.add_argument("--twin-drives", type=int, default=48)
+    parser.add_argument("--twin-chunk", type=int, default=4,
+                        help="twin drives per Dask task (4: many tasks, the overhead shows)")
     parser.add_argument("--quick", action="store_true", help="small sizes (plumbing check)")
     args = parser.parse_args()
     if args.quick:
         args.drives, args.full_drives, args.twin_drives = 20_000, 50_000, 8
+    if not 1 <= args.twin_chunk <= args.twin_drives:
+        parser.error(f"--twin-chunk {args.twin_chunk} must be in 1..{args.twin_drives} "
+                     "(--twin-drives)")
     spec = load_tolerances(EXAMPLE)
     print(f"cores: {os.cpu_count()}, load average: {os.getloadavg()[0]:.2f}")
 
@@ -124,9 +128,10 @@ def main() -> None:
                                     drives=args.twin_drives)
     op = twin_spec.operating_points[0]
     per_drive_s = 0.01 + 1.01 * 2 * 60.0 / (op.speed_rpm * op.motor.pole_pairs)
-    drive_seconds = args.twin_drives * per_drive_s
-    jobs = [ChunkJob(spec=twin_spec, engine="twin", n=TWIN_CHUNK, start=i * TWIN_CHUNK)
-            for i in range(args.twin_drives // TWIN_CHUNK)]
+    jobs = [ChunkJob(spec=twin_spec, engine="twin", n=args.twin_chunk,
+                     start=i * args.twin_chunk) for i in range(args.twin_drives // args.twin_chunk)]
+    twin_drives = len(jobs) * args.twin_chunk  # whole chunks only
+    drive_seconds = twin_drives * per_drive_s
     one_worker = {}
     for workers in (1, 2):
         with tempfile.TemporaryDirectory() as tmp, dask_client(n_workers=workers) as client:
@@ -141,16 +146,16 @@ def main() -> None:
             overhead_ms = max(0.0, result.wall_s * workers - compute_s) / len(jobs) * 1e3
             rate = drive_seconds / result.wall_s
             print(f"twin on {workers} worker(s): {rate:.2f} drive-s per wall s "
-                  f"({args.twin_drives} drives x {per_drive_s:.3f} simulated s in "
-                  f"{result.wall_s:.2f} wall s; compute {compute_s / args.twin_drives * 1e3:.1f} "
+                  f"({twin_drives} drives x {per_drive_s:.3f} simulated s in "
+                  f"{result.wall_s:.2f} wall s; compute {compute_s / twin_drives * 1e3:.1f} "
                   f"ms per drive on a worker)")
             print(f"dask overhead per task, {workers} worker(s): {overhead_ms:.1f} ms "
-                  f"(chunks of {TWIN_CHUNK} drives); empty-task round trip {empty_ms:.1f} ms")
+                  f"(chunks of {args.twin_chunk} drives); empty-task round trip {empty_ms:.1f} ms")
             if workers == 1:
-                one_worker = {"t_drive": compute_s / args.twin_drives,
+                one_worker = {"t_drive": compute_s / twin_drives,
                               "overhead": overhead_ms / 1e3}
-    print(f"twin per drive in this process ({args.twin_drives} drives, best of 3): "
-          + twin_split(twin_spec, args.twin_drives))
+    print(f"twin per drive in this process ({twin_drives} drives, best of 3): "
+          + twin_split(twin_spec, twin_drives))
     drives = 1_000_000
     chunk = DEFAULT_CHUNK["twin"]
     cells = []
