@@ -16,7 +16,8 @@ import numpy as np
 
 from hil.sim import layout as L
 from hil.sim.config import DriveConfig
-from hil.sim.firmware import ANGLE_CACHE_ROWS, A_INDEX, firmware_constants, firmware_step
+from hil.sim.firmware import (ANGLE_CACHE_ROWS, A_INDEX, K_MAX_COMPARE, firmware_constants,
+                              firmware_step)
 from hil.sim.kernel import run_drive
 from hil.sim.packing import new_state, pack_params
 from hil.sim.results import NO_LATEST, NO_ROWS, NO_SAMPLES
@@ -66,7 +67,10 @@ def period_trace(config: DriveConfig, settle_s: float, duration_s: float) -> Per
     period = 1.0 / params[L.P_PWM_FREQ]
     state = new_state()
     run_drive(params, state, 0.0, period, NO_SAMPLES, NO_ROWS, NO_LATEST, settle_s)
-    lsb, adc_half, max_compare = firmware_constants(params)
+    constants = firmware_constants(params)
+    max_compare = float(constants[K_MAX_COMPARE])
+    unlimited = constants.copy()                  # the probe: no pulse-width limit
+    unlimited[K_MAX_COMPARE] = 2.0 * params[L.P_PWM_COUNTS]
     counts_top = params[L.P_PWM_COUNTS]
     cache = np.empty((ANGLE_CACHE_ROWS, 7))
     cache[:, A_INDEX] = -1.0
@@ -83,8 +87,8 @@ def period_trace(config: DriveConfig, settle_s: float, duration_s: float) -> Per
         # the loop's unlimited demand from this period's sample (applies next period)
         probe = state.copy()
         ask = np.array(firmware_step(state[L.S_IA], state[L.S_IB], state[L.S_THETA_M],
-                                     state[L.S_OMEGA_M], params, probe, counts_top,
-                                     2.0 * counts_top, lsb, adc_half, cache))
+                                     state[L.S_OMEGA_M], params, probe, counts_top, unlimited,
+                                     cache))
         run_drive(params, state, 0.0, period, NO_SAMPLES, NO_ROWS, NO_LATEST,
                   state[L.S_TIME] + 0.5 * period)
         integrators[k] = state[L.S_INT_D:L.S_INT_Q + 1] * params[L.P_VDC]

@@ -69,23 +69,41 @@ def quantise_gain(gain: float, bits: int) -> float:
     return math.floor(gain / 2.0 ** exponent / lsb) * lsb * 2.0 ** exponent
 
 
+#: per-run constants of the firmware (``firmware_constants``): word resolution (``word_lsb``),
+#: ADC half range 2^(bits − 1), largest compare value (counts), the current references (per
+#: unit, stored), 2/3 as stored (eq 11), the voltage limit (per unit of V_dc), 1 for SVPWM
+K_LSB, K_ADC_HALF, K_MAX_COMPARE, K_IQ_REF, K_ID_REF, K_TWO_THIRDS, K_LIMIT, K_SVPWM = range(8)
+N_FIRMWARE_CONSTANTS = 8
+
+
 @njit(cache=True, error_model="numpy", fastmath=False)
 def firmware_constants(params):
-    """(word resolution as ``word_lsb``, ADC half range 2^(bits − 1), largest compare value
-    (counts) whose pulse still ends a dead time before the period end) of one run.
+    """The firmware's constants of one run (``K_*`` indices), each computed by the same float64
+    expression the loop used to evaluate every period (so the loop's results are bit-identical).
 
-    Wider pulses are dropped to full-on (see ``_compare``): no dead time, max = counter top.
+    ``K_MAX_COMPARE``: the largest compare value whose pulse still ends a dead time before the
+    period end; wider pulses are dropped to full-on (see ``_compare``): no dead time.
     """
+    constants = np.empty(N_FIRMWARE_CONSTANTS)
     bits = params[P_WORD_BITS]
     lsb = 0.0 if bits == 0.0 else 2.0 ** (1.0 - bits)
-    adc_half = 2.0 ** (params[P_ADC_BITS] - 1.0)
+    constants[K_LSB] = lsb
+    constants[K_ADC_HALF] = 2.0 ** (params[P_ADC_BITS] - 1.0)
     counts_top = params[P_PWM_COUNTS]
     dead = params[P_DEAD_TIME]
     max_compare = counts_top
     if dead > 0.0:
         period = 1.0 / params[P_PWM_FREQ]
         max_compare = float(np.floor(counts_top * (1.0 - 2.0 * dead / period)))
-    return lsb, adc_half, max_compare
+    constants[K_MAX_COMPARE] = max_compare
+    full_scale = params[P_ADC_FS]
+    constants[K_IQ_REF] = qfix(params[P_IQ_CMD] / full_scale, lsb)  # lags the EMF by φ, eq (4)
+    constants[K_ID_REF] = qfix(params[P_ID_CMD] / full_scale, lsb)
+    constants[K_TWO_THIRDS] = qfix(2.0 / 3.0, lsb)
+    svpwm = params[P_MODULATION] == 0.0
+    constants[K_LIMIT] = 1.0 / math.sqrt(3.0) if svpwm else 0.5  # linear range, pu of V_dc
+    constants[K_SVPWM] = 1.0 if svpwm else 0.0
+    return constants
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
@@ -199,15 +217,17 @@ def angle_values(index, table_size, lsb, cache):
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
-def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, max_compare, lsb,
-                  adc_half, angle_cache):
+def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, constants,
+                  angle_cache):
     """Run the current loop once; return the compare values (counts) it computes.
 
     ``omega_m``: the rotor speed, rad/s (an ideal speed estimate; only the decoupling, the EMF
-    feed-forward and the angle compensation use it). ``lsb``: word resolution (``word_lsb``);
-    ``adc_half``: 2^(ADC bits − 1); ``angle_cache``: ``ANGLE_CACHE_ROWS`` × 7, column
-    ``A_INDEX`` set to -1, for one run at one ``lsb``.
+    feed-forward and the angle compensation use it). ``constants``: ``firmware_constants``;
+    ``angle_cache``: ``ANGLE_CACHE_ROWS`` × 7, column ``A_INDEX`` set to -1, for one run at
+    one word length.
     """
+    lsb = constants[K_LSB]
+    adc_half = constants[K_ADC_HALF]
     full_scale = params[P_ADC_FS]
     sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_half)
     sensed_b = adc_read(ib_a, params[P_IB_OFFSET], params[P_IB_GAIN], full_scale, adc_half)
@@ -221,17 +241,15 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, max_c
     index = _modulo(np.floor(firmware_angle_fraction(theta_m, params) * table_size), table_size)
     s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, lsb, angle_cache)
 
-    two_thirds = qfix(2.0 / 3.0, lsb)                             # eq (11)
+    two_thirds = constants[K_TWO_THIRDS]                          # eq (11)
     i_q = qfix(two_thirds * (qfix(i_a * s_a, lsb) + qfix(i_b * s_b, lsb)
                              + qfix(i_c * s_c, lsb)), lsb)
     i_d = qfix(two_thirds * (qfix(i_a * c_a, lsb) + qfix(i_b * c_b, lsb)
                              + qfix(i_c * c_c, lsb)), lsb)
 
-    i_q_ref = qfix(params[P_IQ_CMD] / full_scale, lsb)            # current lags EMF by φ, eq (4)
-    i_d_ref = qfix(params[P_ID_CMD] / full_scale, lsb)
-
-    svpwm = params[P_MODULATION] == 0.0
-    limit = 1.0 / math.sqrt(3.0) if svpwm else 0.5      # linear range, per unit of V_dc
+    i_q_ref = constants[K_IQ_REF]
+    i_d_ref = constants[K_ID_REF]
+    limit = constants[K_LIMIT]
     kp = params[P_KP_PU]
     ki_ts = params[P_KI_TS_PU]
     # feed-forward of the motor's dq equations in this frame (q along the EMF, e_a = E·sin θe):
@@ -261,8 +279,9 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, max_c
     v_b = qfix(qfix(v_q * s_b, lsb) + qfix(v_d * c_b, lsb), lsb)
     v_c = qfix(qfix(v_q * s_c, lsb) + qfix(v_d * c_c, lsb), lsb)
     zero_sequence = 0.0
-    if svpwm:
+    if constants[K_SVPWM] != 0.0:
         zero_sequence = -0.5 * (max(v_a, v_b, v_c) + min(v_a, v_b, v_c))
+    max_compare = constants[K_MAX_COMPARE]
     return (_compare(v_a + zero_sequence, counts_top, max_compare),
             _compare(v_b + zero_sequence, counts_top, max_compare),
             _compare(v_c + zero_sequence, counts_top, max_compare))

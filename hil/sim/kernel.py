@@ -45,7 +45,7 @@ from hil.sim.electrical import (B_ECOS, B_ESIN, B_GAIN, BASIS_COLUMNS, FAST_MATH
                                 harmonic_table, impedance_angles, period_basis, sincos_small,
                                 spread)
 from hil.sim.firmware import (ANGLE_CACHE_ROWS, A_INDEX, adc_read, encoder_count,
-                              firmware_constants, firmware_step)
+                              K_ADC_HALF, firmware_constants, firmware_step)
 from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC, C_ID, C_IQ,
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
                             C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_FS,
@@ -258,7 +258,8 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
     counts_top = params[P_PWM_COUNTS]
     dead = params[P_DEAD_TIME]
     # a pulse must end a dead time before the period does; wider ones become full-on (no edge)
-    lsb, adc_half, max_compare = firmware_constants(params)
+    constants = firmware_constants(params)
+    adc_half = constants[K_ADC_HALF]
     enabled = params[P_ENABLED] != 0.0
     tau_f = params[P_TR_TAU]
     cpr = params[P_ENC_CPR]
@@ -331,7 +332,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
         if enabled:
             if not mid_sampling:
                 ca, cb, cc = firmware_step(cur[0], cur[1], theta_m0, omega, params, state,
-                                           counts_top, max_compare, lsb, adc_half, angle_cache)
+                                           counts_top, constants, angle_cache)
                 state[S_CMP_A] = ca
                 state[S_CMP_B] = cb
                 state[S_CMP_C] = cc
@@ -722,7 +723,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
                     latest[C_VA + x] = v_mean
         if enabled and mid_sampling:                  # sampled at the peak, applied at the
             ca, cb, cc = firmware_step(peak_a, peak_b, theta_m0 + omega * half_period, omega,
-                                       params, state, counts_top, max_compare, lsb, adc_half,
+                                       params, state, counts_top, constants,
                                        angle_cache)  # next valley (0.5) or the one after (1.5)
             if params[P_LOOP_DELAY] > 1.0:
                 for x in range(3):

@@ -30,8 +30,9 @@ if {precompile}:
     from hil.sim.layout import N_PARAMS, N_STATE
     firmware.qfix(0.3, 2.0 ** -9)
     firmware.adc_read(1.0, 0.0, 0.0, 100.0, 2048.0)
-    firmware.firmware_step(1.0, -0.5, 0.1, 50.0, np.zeros(N_PARAMS) + 1.0, np.zeros(N_STATE),
-                           2000.0, 2000.0, 2.0 ** -9, 2048.0,
+    params = np.zeros(N_PARAMS) + 1.0
+    firmware.firmware_step(1.0, -0.5, 0.1, 50.0, params, np.zeros(N_STATE), 2000.0,
+                           firmware.firmware_constants(params),
                            np.full((firmware.ANGLE_CACHE_ROWS, 7), -1.0))
     kernel.dyno_speed(np.zeros(N_PARAMS), np.zeros(N_STATE), 0.0, 5e-5)
     from hil.sim import electrical
