@@ -133,6 +133,19 @@ class Bench:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def location(self) -> dict:
+        """Where the instruments are, for the record: ``kind`` is "simulated-in-process" (started
+        by :meth:`open` in this process), "simulated-separate-process" (a simulated bench file
+        with addresses, e.g. written by ``hil sim-bench``) or "real"; ``addresses`` says what
+        each driver connected to."""
+        if self.simulated is not None:
+            kind = "simulated-in-process"
+        else:
+            kind = "simulated-separate-process" if self.config.simulated else "real"
+        return {"kind": kind,
+                "addresses": {role: _address(role, self.config)
+                              for role in ("drive", "daq", "torque")}}
+
     def identities(self) -> list[dict]:
         """Each instrument's identity as it answered when the bench was opened (for the record's
         instrument table); queried again if the bench was built without :meth:`open`."""
@@ -265,17 +278,22 @@ def _opening(role: str, tried: str, step):
 
 def _tried(role: str, config: BenchConfig) -> str:
     """What connecting ``role`` tries, in the bench file's words."""
+    return ("open " if role == "torque" else "connect ") + _address(role, config)
+
+
+def _address(role: str, config: BenchConfig) -> str:
+    """Where the bench file puts ``role``: bus and node, host and port, or serial port."""
     if role == "drive":
         drive = config.drive
-        return (f"connect CANopen node {drive.node_id} on {drive.interface} channel "
-                f"{drive.channel!r} at {drive.bitrate} bit/s")
+        return (f"CANopen node {drive.node_id} on {drive.interface} channel {drive.channel!r} "
+                f"at {drive.bitrate} bit/s")
     if role == "daq":
         daq = config.daq
         if daq.transport == "rtu":
-            return f"connect Modbus RTU on {daq.serial_port} at {daq.baudrate or 115200} baud"
-        return f"connect Modbus TCP {daq.host}:{daq.port} unit {daq.unit_id}"
+            return f"Modbus RTU on {daq.serial_port} at {daq.baudrate or 115200} baud"
+        return f"Modbus TCP {daq.host}:{daq.port} unit {daq.unit_id}"
     torque = config.torque
-    return (f"open serial port {torque.serial_port} at {torque.baudrate} baud "
+    return (f"serial port {torque.serial_port} at {torque.baudrate} baud "
             f"({torque.dialect} dialect)")
 
 

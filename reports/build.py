@@ -25,6 +25,7 @@ from hil.errors import InputError
 from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_record
 from ripple_hil_reports import figures, revisions
 from ripple_hil_reports.angle_view import angle_view
+from ripple_hil_reports.bench_kind import bench_text
 from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
                              VOIDED, ReportContent,
                              SourceSection, fmt, fmt_pct, report_content, status_text)
@@ -179,8 +180,7 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
          f"{lab.get('operator')} (bench file; none given on the command line)"
          if lab.get("operator") else "not given"),
         ("Environment", environment_text(record, lab)),
-        ("Bench", f"{'simulated' if record['bench'].get('simulated') else 'real'} bench, file "
-                  f"{record['bench'].get('path')}"),
+        ("Bench", bench_text(record)),
         ("Run", f"{status_text(record.get('status'))}; exit status "
                 f"{fmt(run.get('exit_status'))}; tests: "
                 + (", ".join(f"{n} {o}" for o, n in _outcome_counts(record).items() if n)
