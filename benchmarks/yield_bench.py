@@ -9,7 +9,8 @@ Run: ``.venv/bin/python benchmarks/yield_bench.py [--drives 200000] [--twin-driv
   ``--full-drives`` on a LocalCluster of 2 workers (cluster start-up included and printed).
 * twin: the example's drives at its first operating point (500 rpm, 20 A, 2 pole pairs: 10 ms
   settle + 2 electrical revolutions = 0.131 simulated s per drive), chunks of ``--twin-chunk``
-  drives (4) on a LocalCluster of 1 and then 2 workers. Drive-seconds = simulated seconds summed over drives.
+  drives (4) on a LocalCluster of 1 and then 2 workers. Drive-seconds = simulated seconds
+  summed over drives.
   Then, in this process, where a drive's time goes: simulation, the campaign's analysis (ripple
   figures only) and the full analysis with its uncertainty budget (what campaigns ran before).
 * Dask overhead per task: wall × workers − Σ task compute time (measured on the workers),
@@ -34,10 +35,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from hil.analysis import analyze_torque  # noqa: E402
 from hil.campaign import chunk_seed, dask_client, run_campaign  # noqa: E402
-from hil.campaign.twin import CHANNELS, TwinSettings  # noqa: E402
-from hil.sim import simulate_batch  # noqa: E402
+from hil.campaign.twin import TwinSettings, analyze_drive, simulate_drive  # noqa: E402
 from hil.tolerance.engines import (ChunkJob, closed_form_ripple, drive_config,  # noqa: E402
                                    sample_drives, sample_parameters, yield_chunk)
 from hil.tolerance.spec import PARAMETERS  # noqa: E402
@@ -67,18 +66,12 @@ def twin_split(spec, drives: int) -> str:
     for _ in range(3):
         spent = dict.fromkeys(best, 0.0)
         for config in configs:
-            pole_pairs = config.motor.parameters.pole_pairs
             start = time.perf_counter()
-            result = simulate_batch([config], settings.duration_s(op.speed_rpm, pole_pairs),
-                                    settings.samples_per_pwm * config.injection.pwm_frequency_hz,
-                                    settle_s=settings.settle_s, parallel=False,
-                                    channels=CHANNELS)[0]
+            result = simulate_drive(config, settings)
             spent["simulation"] += time.perf_counter() - start
-            args = (result["time_s"], result["torque_em_nm"],
-                    pole_pairs * result["rotor_angle_mech_rad"])
             for label, budget in (("analysis", False), ("analysis with budget", True)):
                 start = time.perf_counter()
-                analyze_torque(*args, max_order=settings.max_order, uncertainty_budget=budget)
+                analyze_drive(result, config, settings, uncertainty_budget=budget)
                 spent[label] += time.perf_counter() - start
         best = {k: min(best[k], spent[k] / drives) for k in best}
     return ", ".join(f"{k} {v * 1e3:.2f} ms" for k, v in best.items())

@@ -22,10 +22,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from hil.analysis import analyze_torque
+from hil.analysis import RippleResult, analyze_torque
 from hil.campaign.engine import run_campaign
 from hil.errors import InputError
-from hil.sim import DriveConfig, simulate_batch
+from hil.sim import DriveConfig, SimResult, simulate_batch
 
 
 #: The only channels a campaign drive needs (the twin computes no others).
@@ -57,21 +57,29 @@ class TwinSettings:
         return 1.01 * self.revolutions * 60.0 / (abs(speed_rpm) * pole_pairs)
 
 
+def simulate_drive(config: DriveConfig, settings: TwinSettings) -> SimResult:
+    """One drive's ``CHANNELS``, ``settings.samples_per_pwm`` samples per PWM period over
+    ``revolutions`` electrical revolutions after ``settle_s``, on this core."""
+    pole_pairs = config.motor.parameters.pole_pairs
+    rate_hz = settings.samples_per_pwm * config.injection.pwm_frequency_hz
+    return simulate_batch([config], settings.duration_s(config.speed_rpm, pole_pairs), rate_hz,
+                          settle_s=settings.settle_s, parallel=False, channels=CHANNELS)[0]
+
+
+def analyze_drive(result: SimResult, config: DriveConfig, settings: TwinSettings, *,
+                  uncertainty_budget: bool = False) -> RippleResult:
+    """The air-gap torque of ``simulate_drive`` against the electrical angle, orders
+    1..``max_order``; without the uncertainty budget unless asked (module docstring)."""
+    return analyze_torque(result["time_s"], result["torque_em_nm"],
+                          config.motor.parameters.pole_pairs * result["rotor_angle_mech_rad"],
+                          max_order=settings.max_order, uncertainty_budget=uncertainty_budget)
+
+
 def twin_ripple_pu(configs: Sequence[DriveConfig], settings: TwinSettings = TwinSettings()
                    ) -> np.ndarray:
     """Pk-pk air-gap torque ripple per unit of the mean torque of each drive (module docstring)."""
-    ripple = np.empty(len(configs))
-    for i, config in enumerate(configs):
-        pole_pairs = config.motor.parameters.pole_pairs
-        rate_hz = settings.samples_per_pwm * config.injection.pwm_frequency_hz
-        result = simulate_batch([config], settings.duration_s(config.speed_rpm, pole_pairs),
-                                rate_hz, settle_s=settings.settle_s, parallel=False,
-                                channels=CHANNELS)[0]
-        analysis = analyze_torque(result["time_s"], result["torque_em_nm"],
-                                  pole_pairs * result["rotor_angle_mech_rad"],
-                                  max_order=settings.max_order, uncertainty_budget=False)
-        ripple[i] = analysis.pk_pk_pu
-    return ripple
+    return np.array([analyze_drive(simulate_drive(config, settings), config, settings).pk_pk_pu
+                     for config in configs], dtype=float)
 
 
 def configured(base: DriveConfig, point: dict[str, Any]) -> DriveConfig:

@@ -1,7 +1,8 @@
 """``hil yield TOLERANCES.toml``: Monte Carlo yield of a ripple requirement over tolerances.
 
 Prints the yield with its 95 % confidence interval (Clopper–Pearson), the ripple quantiles the
-sample supports (hil/tolerance/stats.py states the rule) and the Sobol' ranking of the tolerances; writes ``yield.json``, ``histogram.png``/``.svg`` and the resumable campaign
+sample supports (hil/tolerance/stats.py states the rule) and the Sobol' ranking of the
+tolerances; writes ``yield.json``, ``histogram.png``/``.svg`` and the resumable campaign
 chunks to ``--out``. ``--target-yield 99`` adds the inverse design: the loosest tolerances
 (cost ∝ 1/tolerance) that reach 99 % (hil/tolerance/design.py states the algorithm).
 """

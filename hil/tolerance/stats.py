@@ -8,8 +8,9 @@
   ``TAIL_DRIVES`` = k drives are expected beyond it, n ≥ k / min(q, 1 − q) (``QUANTILE_RULE``);
   otherwise it is "not stated" with the drives it needs (q99.9 needs 10,000). A stated
   quantile carries its distribution-free 95 % interval from order statistics (David &
-  Nagaraja, Order Statistics, 3rd ed. 2003): [x₍ₗ₎, x₍ᵤ₎] with l, u from the Binomial(n, q) quantiles,
-  coverage ≥ 95 % for any continuous distribution (k = 10 keeps both ends inside the sample).
+  Nagaraja, Order Statistics, 3rd ed. 2003): [x₍ₗ₎, x₍ᵤ₎] with l, u from the Binomial(n, q)
+  quantiles, coverage ≥ 95 % for any continuous distribution (k = 10 keeps both ends inside
+  the sample).
 """
 
 from __future__ import annotations

@@ -44,7 +44,8 @@ def offset_pass_probability(sigma_a, limit_pct=3.0, current_a=20.0):
 def test_yield_interval_is_clopper_pearson_with_at_least_nominal_coverage():
     assert yield_interval(0, 10) == pytest.approx((0.0, 1 - 0.025 ** 0.1))  # x = 0 closed form
     assert yield_interval(8, 8) == pytest.approx((0.025 ** (1 / 8), 1.0))   # x = n: 63.1 %
-    low, high = yield_interval(81, 263)  # the defining tails: P(X >= 81 | low) = 2.5 % = P(X <= 81 | high)
+    # the defining tails: P(X >= 81 | low) = 2.5 % = P(X <= 81 | high)
+    low, high = yield_interval(81, 263)
     assert binom.sf(80, 263, low) == pytest.approx(0.025, rel=1e-6)
     assert binom.cdf(81, 263, high) == pytest.approx(0.025, rel=1e-6)
     # exact coverage over every outcome, on a grid of true yields: never below 95 % (Wilson's
