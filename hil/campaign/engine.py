@@ -122,8 +122,10 @@ def _local_cluster(workers: int, LocalCluster: Any) -> Any:
     trim threshold also disables glibc's dynamic mmap threshold (mallopt(3)), leaving it at
     128 KiB, so every large numpy array of a chunk is a fresh mmap with its page faults: a twin
     chunk ran 1.3x slower on such a worker than in this process (2.4x while the analysis still
-    computed its uncertainty budget). A value in the environment is still inherited; an
-    external cluster (``--scheduler``) keeps its own setting."""
+    computed its uncertainty budget). A value in the environment is still inherited. An
+    external cluster (``--scheduler``) keeps its own setting: start its ``dask worker`` with a
+    dask config file (e.g. in ``$DASK_CONFIG``) holding ``distributed: nanny:
+    pre-spawn-environ: MALLOC_TRIM_THRESHOLD_: null`` for the same speed."""
     import dask
 
     with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
