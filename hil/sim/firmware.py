@@ -43,11 +43,19 @@ SIN_120 = math.sqrt(3.0) / 2.0
 def qfix(x, lsb):
     """Truncate ``x`` (per unit) to a saturating signed fraction of resolution ``lsb``
     (2^(1-n) for an n-bit word, see ``word_lsb``); lsb 0 = floating point, unchanged."""
+    return _qfix(x, (lsb, 1.0 / lsb if lsb != 0.0 else 0.0))
+
+
+@njit(cache=True, error_model="numpy", fastmath=False)
+def _qfix(x, word):
+    """``qfix`` given word = (lsb, 1/lsb) (the firmware's per-run ``K_LSB``, ``K_SCALE``: no
+    division per truncation; the same bits, since 1/lsb is an exact power of two)."""
+    lsb, scale = word
     if lsb == 0.0:
         return x
     # exact: lsb is a power of two. np.floor stays in float64 (one rounding instruction);
     # math.floor would go through int64 and back, the same value at twice the latency
-    y = np.floor(x * (1.0 / lsb)) * lsb
+    y = np.floor(x * scale) * lsb
     if y > 1.0 - lsb:
         return 1.0 - lsb
     if y < -1.0:
@@ -71,9 +79,12 @@ def quantise_gain(gain: float, bits: int) -> float:
 
 #: per-run constants of the firmware (``firmware_constants``): word resolution (``word_lsb``),
 #: ADC half range 2^(bits − 1), largest compare value (counts), the current references (per
-#: unit, stored), 2/3 as stored (eq 11), the voltage limit (per unit of V_dc), 1 for SVPWM
-K_LSB, K_ADC_HALF, K_MAX_COMPARE, K_IQ_REF, K_ID_REF, K_TWO_THIRDS, K_LIMIT, K_SVPWM = range(8)
-N_FIRMWARE_CONSTANTS = 8
+#: unit, stored), 2/3 as stored (eq 11), the voltage limit (per unit of V_dc), 1 for SVPWM;
+#: reciprocals (exact powers of two, or only used where ``_modulo_by`` corrects the quotient):
+#: 1/lsb, 1/encoder counts per rev, 1/decimation, 1/sine-table size
+K_LSB, K_ADC_HALF, K_MAX_COMPARE, K_IQ_REF, K_ID_REF, K_TWO_THIRDS, K_LIMIT, K_SVPWM, K_SCALE, \
+    K_INV_CPR, K_INV_DECIMATION, K_INV_TABLE = range(12)
+N_FIRMWARE_CONSTANTS = 12
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
@@ -103,6 +114,10 @@ def firmware_constants(params):
     svpwm = params[P_MODULATION] == 0.0
     constants[K_LIMIT] = 1.0 / math.sqrt(3.0) if svpwm else 0.5  # linear range, pu of V_dc
     constants[K_SVPWM] = 1.0 if svpwm else 0.0
+    constants[K_SCALE] = 1.0 / lsb if lsb != 0.0 else 0.0
+    constants[K_INV_CPR] = 1.0 / params[P_ENC_CPR]
+    constants[K_INV_DECIMATION] = 1.0 / params[P_ENC_DECIM]
+    constants[K_INV_TABLE] = 1.0 / params[P_TABLE_SIZE]
     return constants
 
 
@@ -132,7 +147,15 @@ def adc_read(current_a, offset_a, gain_error_pu, full_scale_a, half):
 def _modulo(value, modulus):
     """``value % modulus`` (Python sign convention) for integer-valued floats, |value| < 2^53 and
     modulus > 0: exact, and cheaper than the library fmod."""
-    remainder = value - np.floor(value / modulus) * modulus
+    return _modulo_by(value, modulus, 1.0 / modulus)
+
+
+@njit(cache=True, error_model="numpy", fastmath=False)
+def _modulo_by(value, modulus, inverse):
+    """``_modulo`` given inverse ≈ 1/modulus (no division). The same exact result: the quotient
+    floor(value·inverse) is off by at most one, so value − quotient·modulus (exact for
+    integer-valued floats below 2^53) is off by at most one modulus, which the steps correct."""
+    remainder = value - np.floor(value * inverse) * modulus
     if remainder < 0.0:
         remainder += modulus
     elif remainder >= modulus:
@@ -141,31 +164,32 @@ def _modulo(value, modulus):
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
-def firmware_angle_fraction(theta_m, params):
+def firmware_angle_fraction(theta_m, params, constants):
     """The firmware's electrical angle as a fraction of a revolution (θ_d of eq 4).
 
-    Encoder: counts truncated to a multiple of the decimation factor; Hall: start of the 60°
-    electrical sector. Count 0 is aligned with θe = 0.
+    Encoder: counts truncated to a multiple of the decimation factor (counts − counts mod
+    decimation: floor(counts/decimation)·decimation exactly, below 2^52 counts); Hall: start of
+    the 60° electrical sector. Count 0 is aligned with θe = 0.
     """
     pole_pairs = params[P_POLE_PAIRS]
     if params[P_HALL] != 0.0:
         sector = np.floor(pole_pairs * theta_m / (math.pi / 3.0))
-        return _modulo(sector, 6.0) / 6.0
+        return _modulo_by(sector, 6.0, 1.0 / 6.0) / 6.0
     cpr = params[P_ENC_CPR]
     counts = encoder_count(theta_m, cpr)
     decimation = params[P_ENC_DECIM]
-    used = np.floor(counts / decimation) * decimation
-    return _modulo(used * pole_pairs, cpr) / cpr
+    used = counts - _modulo_by(counts, decimation, constants[K_INV_DECIMATION])
+    return _modulo_by(used * pole_pairs, cpr, constants[K_INV_CPR]) / cpr
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
-def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb, feedforward):
+def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, word, feedforward):
     """One PI step plus ``feedforward`` with conditional integration (anti-windup: the
     integrator holds while the total output is saturated and the error pushes further);
     returns (output, integrator)."""
-    error = qfix(reference - measured, lsb)
-    proportional = qfix(kp * error, lsb)
-    candidate = qfix(integrator + qfix(ki_ts * error, lsb), lsb)
+    error = _qfix(reference - measured, word)
+    proportional = _qfix(kp * error, word)
+    candidate = _qfix(integrator + _qfix(ki_ts * error, word), word)
     if candidate > limit:
         candidate = limit
     elif candidate < -limit:
@@ -178,7 +202,7 @@ def _pi_axis(reference, measured, integrator, kp, ki_ts, limit, lsb, feedforward
         unsaturated = proportional + candidate
         if feedforward != 0.0:
             unsaturated += feedforward
-    output = qfix(unsaturated, lsb)
+    output = _qfix(unsaturated, word)
     if output > limit:
         output = limit
     elif output < -limit:
@@ -192,7 +216,7 @@ A_INDEX, A_SIN_A, A_COS_A, A_SIN_B, A_SIN_C, A_COS_B, A_COS_C = range(7)
 
 
 @njit(cache=True, error_model="numpy", fastmath=False)
-def angle_values(index, table_size, lsb, cache):
+def angle_values(index, table_size, word, cache):
     """The sine-table entries of ``index`` and the other phases' values derived from them.
 
     Remembered in ``cache`` (row = index modulo its size; column 0 holds the index or -1), so
@@ -201,16 +225,16 @@ def angle_values(index, table_size, lsb, cache):
     row = int(index) & (cache.shape[0] - 1)
     if cache[row, A_INDEX] != index:
         angle = TWO_PI * index / table_size
-        s_a = qfix(math.sin(angle), lsb)                          # table entries
-        c_a = qfix(math.cos(angle), lsb)
-        half = qfix(0.5, lsb)                                     # other phases by identities
-        root3_2 = qfix(SIN_120, lsb)
+        s_a = _qfix(math.sin(angle), word)                        # table entries
+        c_a = _qfix(math.cos(angle), word)
+        half = _qfix(0.5, word)                                   # other phases by identities
+        root3_2 = _qfix(SIN_120, word)
         cache[row, A_SIN_A] = s_a
         cache[row, A_COS_A] = c_a
-        cache[row, A_SIN_B] = qfix(-qfix(half * s_a, lsb) - qfix(root3_2 * c_a, lsb), lsb)
-        cache[row, A_SIN_C] = qfix(-qfix(half * s_a, lsb) + qfix(root3_2 * c_a, lsb), lsb)
-        cache[row, A_COS_B] = qfix(-qfix(half * c_a, lsb) + qfix(root3_2 * s_a, lsb), lsb)
-        cache[row, A_COS_C] = qfix(-qfix(half * c_a, lsb) - qfix(root3_2 * s_a, lsb), lsb)
+        cache[row, A_SIN_B] = _qfix(-_qfix(half * s_a, word) - _qfix(root3_2 * c_a, word), word)
+        cache[row, A_SIN_C] = _qfix(-_qfix(half * s_a, word) + _qfix(root3_2 * c_a, word), word)
+        cache[row, A_COS_B] = _qfix(-_qfix(half * c_a, word) + _qfix(root3_2 * s_a, word), word)
+        cache[row, A_COS_C] = _qfix(-_qfix(half * c_a, word) - _qfix(root3_2 * s_a, word), word)
         cache[row, A_INDEX] = index
     return (cache[row, A_SIN_A], cache[row, A_COS_A], cache[row, A_SIN_B], cache[row, A_SIN_C],
             cache[row, A_COS_B], cache[row, A_COS_C])
@@ -226,26 +250,27 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, const
     ``angle_cache``: ``ANGLE_CACHE_ROWS`` × 7, column ``A_INDEX`` set to -1, for one run at
     one word length.
     """
-    lsb = constants[K_LSB]
+    word = (constants[K_LSB], constants[K_SCALE])          # resolution and its reciprocal
     adc_half = constants[K_ADC_HALF]
     full_scale = params[P_ADC_FS]
     sensed_a = adc_read(ia_a, params[P_IA_OFFSET], params[P_IA_GAIN], full_scale, adc_half)
     sensed_b = adc_read(ib_a, params[P_IB_OFFSET], params[P_IB_GAIN], full_scale, adc_half)
     state[S_ISENSE_A] = sensed_a * full_scale
     state[S_ISENSE_B] = sensed_b * full_scale
-    i_a = qfix(sensed_a, lsb)
-    i_b = qfix(sensed_b, lsb)
-    i_c = qfix(-i_a - i_b, lsb)                                   # eq (17)
+    i_a = _qfix(sensed_a, word)
+    i_b = _qfix(sensed_b, word)
+    i_c = _qfix(-i_a - i_b, word)                                 # eq (17)
 
     table_size = params[P_TABLE_SIZE]
-    index = _modulo(np.floor(firmware_angle_fraction(theta_m, params) * table_size), table_size)
-    s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, lsb, angle_cache)
+    index = _modulo_by(np.floor(firmware_angle_fraction(theta_m, params, constants)
+                                 * table_size), table_size, constants[K_INV_TABLE])
+    s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, word, angle_cache)
 
     two_thirds = constants[K_TWO_THIRDS]                          # eq (11)
-    i_q = qfix(two_thirds * (qfix(i_a * s_a, lsb) + qfix(i_b * s_b, lsb)
-                             + qfix(i_c * s_c, lsb)), lsb)
-    i_d = qfix(two_thirds * (qfix(i_a * c_a, lsb) + qfix(i_b * c_b, lsb)
-                             + qfix(i_c * c_c, lsb)), lsb)
+    i_q = _qfix(two_thirds * (_qfix(i_a * s_a, word) + _qfix(i_b * s_b, word)
+                              + _qfix(i_c * s_c, word)), word)
+    i_d = _qfix(two_thirds * (_qfix(i_a * c_a, word) + _qfix(i_b * c_b, word)
+                              + _qfix(i_c * c_c, word)), word)
 
     i_q_ref = constants[K_IQ_REF]
     i_d_ref = constants[K_ID_REF]
@@ -257,27 +282,27 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, const
     ff_d = 0.0
     ff_q = 0.0
     if params[P_DECOUPLE_PU] != 0.0:
-        w_l = qfix(omega_m * params[P_DECOUPLE_PU], lsb)          # ωe·L, per unit
-        ff_d = qfix(w_l * i_q, lsb)
-        ff_q = qfix(-(w_l * i_d), lsb)
+        w_l = _qfix(omega_m * params[P_DECOUPLE_PU], word)        # ωe·L, per unit
+        ff_d = _qfix(w_l * i_q, word)
+        ff_q = _qfix(-(w_l * i_d), word)
     if params[P_EMF_FF_PU] != 0.0:
-        ff_q = qfix(ff_q + qfix(omega_m * params[P_EMF_FF_PU], lsb), lsb)   # + E, per unit
-    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, lsb, ff_d)
-    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, lsb, ff_q)
+        ff_q = _qfix(ff_q + _qfix(omega_m * params[P_EMF_FF_PU], word), word)   # + E, per unit
+    v_d, state[S_INT_D] = _pi_axis(i_d_ref, i_d, state[S_INT_D], kp, ki_ts, limit, word, ff_d)
+    v_q, state[S_INT_Q] = _pi_axis(i_q_ref, i_q, state[S_INT_Q], kp, ki_ts, limit, word, ff_q)
     magnitude = math.sqrt(v_d * v_d + v_q * v_q)
     if magnitude > limit:
-        v_d = qfix(v_d * limit / magnitude, lsb)
-        v_q = qfix(v_q * limit / magnitude, lsb)
+        v_d = _qfix(v_d * limit / magnitude, word)
+        v_q = _qfix(v_q * limit / magnitude, word)
 
     if params[P_ANGLE_ADVANCE] != 0.0:      # rotate the output by the angle turned meanwhile
         shift = np.floor(omega_m * params[P_POLE_PAIRS] * params[P_ANGLE_ADVANCE] / TWO_PI
                            * table_size + 0.5)
-        s_a, c_a, s_b, s_c, c_b, c_c = angle_values(_modulo(index + shift, table_size),
-                                                    table_size, lsb, angle_cache)
+        shifted = _modulo_by(index + shift, table_size, constants[K_INV_TABLE])
+        s_a, c_a, s_b, s_c, c_b, c_c = angle_values(shifted, table_size, word, angle_cache)
 
-    v_a = qfix(qfix(v_q * s_a, lsb) + qfix(v_d * c_a, lsb), lsb)   # inverse Park
-    v_b = qfix(qfix(v_q * s_b, lsb) + qfix(v_d * c_b, lsb), lsb)
-    v_c = qfix(qfix(v_q * s_c, lsb) + qfix(v_d * c_c, lsb), lsb)
+    v_a = _qfix(_qfix(v_q * s_a, word) + _qfix(v_d * c_a, word), word)  # inverse Park
+    v_b = _qfix(_qfix(v_q * s_b, word) + _qfix(v_d * c_b, word), word)
+    v_c = _qfix(_qfix(v_q * s_c, word) + _qfix(v_d * c_c, word), word)
     zero_sequence = 0.0
     if constants[K_SVPWM] != 0.0:
         zero_sequence = -0.5 * (max(v_a, v_b, v_c) + min(v_a, v_b, v_c))
