@@ -1,8 +1,9 @@
 """What a run may state (design.md §7): four statements kept apart, and the overall one.
 
-1. **requirements conformity** — the user's own limits: PASS, FAIL naming the requirement ids,
-   NOT STATED (run incomplete, bench self-check failed, a value inside the guard band) or
-   "no requirements given";
+1. **requirements conformity** — the user's own limits, each under its own decision rule: PASS,
+   FAIL naming every requirement its rule did not accept (with the ILAC-G8 zone when the value
+   was within U of the limit), NOT STATED (run incomplete, bench self-check failed or not
+   completed, requirements given but applied to no point) or "no requirements given";
 2. **model validation** — measured vs the paper's (or a derived) prediction, per source;
 3. **bench self-check** — PASS, FAILED (naming the checks), "not completed" (it did not run to
    its end, e.g. the bench was lost) or "not run";
@@ -14,6 +15,20 @@ verify) > NOT STATED (the run did not finish every selected test, the self-check
 not complete, requirements were given but judged no point, or nothing at all was judged) > FAIL
 (a failed or errored test, a requirement not met) > CONDITIONAL PASS > PASS. Never PASS with a
 failed or errored test, an incomplete run or a broken hash.
+
+A requirement's statement is the binary statement of its decision rule: under guarded
+acceptance (the default, guard band w = U; ILAC-G8:09/2019 §4.2.2, "binary statement with guard
+band") only a value inside the limit by at least U is a Pass; a value inside the limit by less
+than U — the zone the non-binary statement of §4.2.3 calls "conditional pass" — is a Fail
+("rejection based on guard band"), and statement 1 says FAIL,
+naming the requirement "inside the guard band: within the limit by less than U, not accepted by
+the guarded rule". The overall is then FAIL too, as is the pytest outcome of the point's test
+(``PointOutcome.passed`` requires every requirement accepted) and ``hil run``'s exit status: one
+word everywhere. It is neither CONDITIONAL PASS (the user chose the rule that does not accept
+it) nor NOT STATED (kept for runs that could state nothing: incomplete, voided, nothing judged).
+Under the simple rule the same value is accepted: PASS. A value beyond the limit by less than U
+("conditional fail") is accepted by neither rule: FAIL. CONDITIONAL PASS overall comes only from
+model-validation verdicts inside their guard band.
 """
 
 from __future__ import annotations
@@ -109,6 +124,28 @@ def self_check_statement(record: dict) -> tuple[str, list[str], str]:
                                    for t in self_check_tests) + ")", [], ""
 
 
+#: A requirement its rule did not accept, by ILAC-G8 zone, when the value was within U of the
+#: limit (a plain "fail" needs no words).
+ZONE_TEXT = {
+    "conditional pass": "inside the guard band: within the limit by less than U, not accepted "
+                        "by the guarded rule",
+    "conditional fail": "beyond the limit by less than U",
+}
+
+
+def rejected_requirements(verdicts: list[dict]) -> dict[str, str]:
+    """Requirement id → the worst ILAC-G8 zone among its verdicts that its rule did not accept."""
+    rejected: dict[str, str] = {}
+    for verdict in verdicts:
+        if accepted(verdict):
+            continue
+        zone = verdict.get("decision") if verdict.get("decision") in DECISIONS else "fail"
+        previous = rejected.get(verdict["id"])
+        if previous is None or DECISIONS.index(zone) > DECISIONS.index(previous):
+            rejected[verdict["id"]] = zone
+    return rejected
+
+
 def overall_statement(record: dict, integrity_problems: list[str] | None) -> Statement:
     """The four statements of a record and the overall one (``integrity_problems`` None: the
     hashes were not checked, e.g. the summary printed as the run ends)."""
@@ -119,9 +156,8 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
     self_check, failed_checks, voided = self_check_statement(record)
 
     verdicts = [r for t in tests for r in t.get("requirements") or []]
-    failed_req = sorted({r["id"] for r in verdicts
-                         if not accepted(r) and r.get("decision") in ("fail", "conditional fail")})
-    guard = sorted({r["id"] for r in verdicts if not accepted(r)} - set(failed_req))
+    rejected = rejected_requirements(verdicts)
+    failed_req = sorted(rejected)
     demonstration = sorted({r["id"] for r in verdicts if r.get("demonstration")})
     listed = (record.get("requirements") or {}).get("lines") or []
     unjudged_requirements = bool(listed) and not verdicts
@@ -130,12 +166,12 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
     elif voided:
         requirements = f"{NOT_STATED} ({voided})"
     elif failed_req:
-        requirements = f"{FAIL}: {', '.join(failed_req)}" + ("" if complete else
-                                                              f" (run {status})")
+        requirements = f"{FAIL}: " + ", ".join(
+            req_id + (f" ({ZONE_TEXT[rejected[req_id]]})" if rejected[req_id] in ZONE_TEXT
+                      else "") for req_id in failed_req) + ("" if complete else
+                                                             f" (run {status})")
     elif not complete:
         requirements = f"{NOT_STATED} (run {status})"
-    elif guard:
-        requirements = f"{NOT_STATED}: inside the guard band: {', '.join(guard)}"
     elif not verdicts:
         requirements = f"{NOT_STATED}: no measured point was judged against a requirement"
     else:
@@ -176,8 +212,9 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
         overall, reason = FAIL, failing
     elif not tests:
         overall, reason = NOT_STATED, "no test was recorded"
-    elif guard or any(d != "pass" for d in model.values()):
-        overall, reason = CONDITIONAL_PASS, "a value lies inside the guard band"
+    elif any(d != "pass" for d in model.values()):
+        overall, reason = CONDITIONAL_PASS, "model verdict(s) inside the guard band: " + \
+            ", ".join(sorted(source for source, d in model.items() if d != "pass"))
     else:
         overall, reason = PASS, ""
     return Statement(overall=overall, reason=reason, requirements=requirements,
