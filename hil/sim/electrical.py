@@ -150,10 +150,12 @@ def _harmonic_terms(k, s_d, c_d, orders, basis):
     return gain * fa, gain * fb, gain * fc, emf * xa, emf * xb, emf * xc
 
 
-@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH, inline="always")
 def _sum_harmonics(tau, omega_e, advance, given, orders, count, basis):
     """Σ over harmonics of ``_harmonic_terms``; each harmonic's angle increment since the period
-    start is ``advance[k]`` if ``given``, else evaluated as orders[k]·ωe·τ."""
+    start is ``advance[k]`` if ``given``, else evaluated as orders[k]·ωe·τ. Inlined into its two
+    callers, so ``given`` is a constant there (a runtime test per harmonic cost ~10 % of the
+    loop)."""
     fa = fb = fc = ka = kb = kc = 0.0
     for k in range(count):
         if given:
