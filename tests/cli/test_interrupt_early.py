@@ -33,7 +33,8 @@ def interrupted_after(module: str, tmp_path: Path) -> tuple[int, str]:
             "--no-report", "--record-dir", str(tmp_path / "records")]
     process = subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True,
-                               env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                               env={**os.environ, "PYTHONUNBUFFERED": "1"},
+                               preexec_fn=default_sigint)
     seen = []
     try:
         for line in process.stderr:
@@ -49,6 +50,12 @@ def interrupted_after(module: str, tmp_path: Path) -> tuple[int, str]:
             process.kill()
             process.wait()
     return process.returncode, "".join(seen) + rest
+
+
+def default_sigint() -> None:
+    """In the child: SIGINT's default action, even if this test runs with SIGINT ignored (a
+    background job of a non-interactive shell); Python then installs its Ctrl-C handler."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def own_lines(stderr: str) -> list[str]:
