@@ -321,6 +321,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
         t_period = state[S_TIME]
         omega = dyno_speed(params, state, t_period, period)
         omega_e = pole_pairs * omega
+        speed_rpm = omega / RPM
         theta_m0 = state[S_THETA_M]
         theta_e0 = pole_pairs * theta_m0
         for x in range(3):
@@ -619,7 +620,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
                     if r_counts >= 0:
                         counts_out[j] = np.int64(encoder_count(theta_m, cpr))
                     if r_speed >= 0:
-                        out[r_speed, j] = omega / RPM
+                        out[r_speed, j] = speed_rpm
                     if r_isa >= 0:
                         out[r_isa, j] = state[S_ISENSE_A]
                     if r_isb >= 0:
@@ -644,7 +645,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
                         latest[C_TIME] = t_sample
                         latest[C_THETA_M] = theta_m
                         latest[C_COUNTS] = encoder_count(theta_m, cpr)
-                        latest[C_SPEED_RPM] = omega / RPM
+                        latest[C_SPEED_RPM] = speed_rpm
                         latest[C_IA_SENSED] = state[S_ISENSE_A]
                         latest[C_IB_SENSED] = state[S_ISENSE_B]
                         latest[C_TORQUE_SHAFT_FILTERED] = t_filtered
