@@ -6,9 +6,13 @@ ids are the same as those of ``pytest testplans`` run from the project folder (s
 Third-party pytest plugins other than ripple-hil's and pytest-timeout are not loaded (e.g.
 hypothesis's costs ~1 s of start-up).
 
+Messages name this command's flags (``--operator``), not the plugin's (``--hil-operator``):
+see :data:`RUN_FLAGS`.
+
 Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
-input; 5 nothing collected; 6 the bench could not be opened (nothing was run); 7 the bench was
-lost mid-run (the remaining tests are recorded as not run).
+input (a usage error, or a selection that collects no point); 6 the bench could not be opened
+(nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not run);
+130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
 """
 
 from __future__ import annotations
