@@ -13,7 +13,11 @@ process (on a shared machine the CPU figure is the one other load does not infla
 average is printed before and after). The Table I drive is also timed at a 1 MHz output rate,
 where writing the samples, not the PWM periods, dominates; and, at 20 kHz and at 1 MHz, with
 only the three channels a ripple plan needs (``time_s``, ``rotor_angle_mech_rad``,
-``torque_nm``: the engine computes nothing else per sample, issue 17 item 4).
+``torque_nm``: the engine computes nothing else per sample, issue 17 item 4). ``--parts``
+also prints the compiled loop alone (no samples, ns per PWM period) and, in isolation (a compiled
+loop of calls, ns per call, min of the repeats), the parts it is made of: the firmware step, the
+per-period EMF basis, the forced response/EMF at one instant (once per sub-segment boundary)
+and one small-argument exponential.
 """
 
 from __future__ import annotations
@@ -24,8 +28,17 @@ import statistics
 import time
 
 import numba
+import numpy as np
+from numba import njit
 
 from hil.sim import DriveConfig, Injection, MotorModel, simulate, simulate_batch
+from hil.sim.electrical import (BASIS_COLUMNS, FAST_MATH, MAX_HARMONICS, evaluate, exp_small,
+                                harmonic_table, impedance_angles, period_basis)
+from hil.sim.firmware import ANGLE_CACHE_ROWS, A_INDEX, firmware_constants, firmware_step
+from hil.sim.kernel import run_drive
+from hil.sim.layout import N_CHANNELS, P_PWM_COUNTS, P_PWM_FREQ
+from hil.sim.packing import new_state, pack_params
+from hil.sim.results import NO_ROWS
 
 
 #: what a ripple plan's analysis reads (the torque against the rotor angle, and the time base)
@@ -55,11 +68,98 @@ def median_of(repeats: int, call, clock=time.perf_counter) -> float:
     return statistics.median(times)
 
 
+@njit(cache=True, fastmath=False)
+def _firmware_calls(params, state, theta_m, ia_a, ib_a):
+    constants = firmware_constants(params)
+    cache = np.empty((ANGLE_CACHE_ROWS, 7))
+    cache[:, A_INDEX] = -1.0
+    total = 0.0
+    for i in range(theta_m.size):
+        total += firmware_step(ia_a[i], ib_a[i], theta_m[i], 104.7, params, state,
+                               params[P_PWM_COUNTS], constants, cache)[0]
+    return total
+
+
+@njit(cache=True, fastmath=FAST_MATH)
+def _harmonics(params, omega_m):
+    orders, amplitudes, phases = np.zeros(MAX_HARMONICS), np.zeros(MAX_HARMONICS), \
+        np.zeros(MAX_HARMONICS)
+    count = harmonic_table(params, orders, amplitudes, phases)
+    lag = np.zeros((MAX_HARMONICS, 3))
+    impedance_angles(params, omega_m, orders, amplitudes, count, lag)
+    return orders, amplitudes, phases, count, lag
+
+
+@njit(cache=True, fastmath=FAST_MATH)
+def _basis_calls(params, theta_e):
+    orders, amplitudes, phases, count, lag = _harmonics(params, 104.7)
+    basis = np.zeros((MAX_HARMONICS, BASIS_COLUMNS))
+    total = 0.0
+    for i in range(theta_e.size):
+        period_basis(params, theta_e[i], orders, amplitudes, phases, count, lag, basis)
+        total += basis[0, 1]
+    return total
+
+
+@njit(cache=True, fastmath=FAST_MATH)
+def _evaluate_calls(params, tau):
+    orders, amplitudes, phases, count, lag = _harmonics(params, 104.7)
+    basis = np.zeros((MAX_HARMONICS, BASIS_COLUMNS))
+    period_basis(params, 0.3, orders, amplitudes, phases, count, lag, basis)
+    total = 0.0
+    for i in range(tau.size):
+        fa, _, _, _, kb, _ = evaluate(tau[i], 4 * 104.7, orders, count, basis)
+        total += fa + kb
+    return total
+
+
+@njit(cache=True, fastmath=FAST_MATH)
+def _exp_calls(x):
+    total = 0.0
+    for i in range(x.size):
+        total += exp_small(x[i])
+    return total
+
+
+def print_parts(repeats: int) -> None:
+    """The compiled loop alone and its parts in isolation (see the module docstring)."""
+    for imperfect, label in ((False, "Table I motor"), (True, "+ EMF harmonics, cogging")):
+        params = pack_params(full_drive(imperfect_motor=imperfect))
+        seconds = 0.5
+        periods = seconds * params[P_PWM_FREQ]
+
+        def loop():
+            run_drive(params, new_state(), 0.0, 1.0, np.zeros((0, 0)), NO_ROWS,
+                      np.zeros(N_CHANNELS), seconds)
+        loop()
+        best = min(median_of(1, loop, time.process_time) for _ in range(repeats))
+        print(f"parts, {label}: compiled loop without samples {best / periods * 1e9:.0f} ns "
+              f"per PWM period ({best / seconds:.4f} CPU s per simulated s)")
+        n = 200_000
+        rng = np.random.default_rng(0)
+        theta = np.cumsum(np.full(n, 104.7 / 20e3))
+        angle = 4 * theta
+        calls = {
+            "firmware_step": lambda: _firmware_calls(params, new_state(), theta,
+                                                     20 * np.sin(angle),
+                                                     20 * np.sin(angle - 2.0944)),
+            "period_basis": lambda: _basis_calls(params, angle),
+            "evaluate (one instant)": lambda: _evaluate_calls(params, rng.uniform(0, 5e-5, n)),
+            "exp_small": lambda: _exp_calls(rng.uniform(-0.3, 0.0, n)),
+        }
+        for name, call in calls.items():
+            call()
+            best = min(median_of(1, call, time.process_time) for _ in range(repeats))
+            print(f"parts, {label}: {name:<24} {best / n * 1e9:.1f} ns per call (isolated)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=1.0, help="simulated seconds per run")
     parser.add_argument("--daq-rate-hz", type=float, default=20_000.0)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--parts", action="store_true",
+                        help="also time the compiled loop alone and its parts in isolation")
     args = parser.parse_args()
 
     start = time.perf_counter()
@@ -96,6 +196,8 @@ def main() -> None:
     print(f"batch of 16, all cores: {wall / args.seconds:.4f} wall s per simulated s of the "
           f"batch, {wall / args.seconds / 16:.4f} per drive-second "
           f"({16 * args.seconds / wall:.0f}x real time per drive)")
+    if args.parts:
+        print_parts(max(args.repeats, 5))
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
