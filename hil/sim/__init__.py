@@ -10,9 +10,9 @@ from hil.sim.config import (DriveConfig, DynoModel, FirmwareModel, InverterModel
 from hil.sim.defects import DriveDefects
 from hil.sim.engine import simulate, simulate_batch
 from hil.sim.injection import Injection, KnobRange
-from hil.sim.results import SimResult
+from hil.sim.results import STANDARD_CHANNELS, SimResult
 from hil.sim.twin import DriveTwin
 
 __all__ = ["DriveConfig", "DriveDefects", "DriveTwin", "DynoModel", "FirmwareModel", "Injection",
-           "InverterModel", "KnobRange", "MotorModel", "SensorModel", "SimResult",
-           "TransducerModel", "simulate", "simulate_batch"]
+           "InverterModel", "KnobRange", "MotorModel", "STANDARD_CHANNELS", "SensorModel",
+           "SimResult", "TransducerModel", "simulate", "simulate_batch"]
