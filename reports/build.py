@@ -31,6 +31,7 @@ from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, R
                              SourceSection, fmt, fmt_pct, report_content, status_text)
 from ripple_hil_reports.document import ReportPDF
 from ripple_hil_reports.revisions import Revision
+from ripple_hil_reports.statement import accepted
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
@@ -255,6 +256,15 @@ def _selection_text(selection: dict) -> str:
 
 # ---------------------------------------------------------------------- statements in detail
 
+def _requirement_decision(verdict: dict) -> str:
+    """The ILAC-G8 zone, and for a value within U of the limit whether its rule accepted it
+    (the guarded rule does not accept a conditional pass; statement 1 then says FAIL)."""
+    zone = str(verdict.get("decision", ""))
+    if zone not in ("conditional pass", "conditional fail"):
+        return zone.upper()
+    return f"{zone.upper()}: {'accepted' if accepted(verdict) else 'not accepted'}"
+
+
 def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
     record = content.record
     pdf.add_page()
@@ -266,8 +276,7 @@ def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
                  [[r.get("id"), f"{r.get('name')} {r.get('limit_text') or _limit(r)}",
                    t.get("test_id", "").split("::")[-1],
                    f"{fmt(r.get('measured'))} ± {fmt(r.get('expanded_uncertainty'), 2)} "
-                   f"{r.get('unit') or ''}", r.get("rule"),
-                   str(r.get("decision", "")).upper()
+                   f"{r.get('unit') or ''}", r.get("rule"), _requirement_decision(r)
                    + (" (demonstration)" if r.get("demonstration") else "")]
                   for t, r in requirements], widths=(16, 0, 38, 30, 15, 26))
     else:

@@ -37,7 +37,7 @@ rule = "{rule}"
 
 def run_baseline(tmp_path: Path, name: str, limit: float, rule: str = "guarded"):
     """``hil run --source baseline`` with REQ-G1 at ``limit`` %: (REQ-G1's verdict, the record,
-    page 1's text with whitespace folded, stdout)."""
+    the report's pages as text with whitespace folded, the finished process)."""
     spec = tmp_path / f"{name}.toml"
     spec.write_text(REQUIREMENT.format(limit=limit, rule=rule))
     records = tmp_path / name
@@ -47,15 +47,17 @@ def run_baseline(tmp_path: Path, name: str, limit: float, rule: str = "guarded")
     (folder,) = [path for path in records.iterdir() if path.is_dir()]
     record = load_record(folder)
     (verdict,) = [r for t in record["tests"] for r in t.get("requirements") or []]
-    page = PdfReader(folder / "report.pdf").pages[0].extract_text().replace("\u200b", "")
-    return verdict, record, re.sub(r"\s+", " ", page), done
+    pages = [re.sub(r"\s+", " ", page.extract_text().replace("\u200b", ""))
+             for page in PdfReader(folder / "report.pdf").pages]
+    return verdict, record, pages, done
 
 
 def test_a_requirement_inside_the_guard_band_is_a_fail_of_the_guarded_rule_everywhere(tmp_path):
     probe, _, _, done = run_baseline(tmp_path, "probe", 100.0)
     assert done.returncode == 0 and probe["decision"] == "pass", done.stdout[-2000:]
     limit = probe["measured"] + 0.5 * probe["expanded_uncertainty"]
-    verdict, record, page, done = run_baseline(tmp_path, "guarded", limit)
+    verdict, record, pages, done = run_baseline(tmp_path, "guarded", limit)
+    page = pages[0]
     assert verdict["measured"] == probe["measured"]            # the seeded bench repeats
     assert verdict["decision"] == "conditional pass" and not verdict["accepted"]
 
@@ -68,6 +70,9 @@ def test_a_requirement_inside_the_guard_band_is_a_fail_of_the_guarded_rule_every
     assert f"1. Requirements conformity {FAIL}: {zone}" in page
     assert f"Overall: {FAIL} (" in page and "requirement(s) not met: REQ-G1" in page
     assert NOT_STATED not in page and CONDITIONAL_PASS not in page
+    # the requirements table names the zone and that the rule did not accept it
+    table = next(text for text in pages[1:] if "REQ-G1" in text)
+    assert "CONDITIONALPASS:notaccepted" in re.sub(r"\s+", "", table)
     assert "not accepted: REQ-G1" in done.stdout and f"overall: {FAIL}" in done.stdout
     assert done.returncode == 1      # the plan's test failed on the rejected requirement
     (baseline,) = [t for t in record["tests"] if t["source"] == "baseline"]
