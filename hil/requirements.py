@@ -264,6 +264,8 @@ def judge(req: Requirement, result, *, torque_accuracy_nm: float | None = None) 
             "applies_to": req.applies_to_text(), "origin": req.origin,
             "statement": (f"{req.id} {req.name} {req.limit_text()}: measured {value:.3g} ± "
                           f"{expanded:.2g} {req.unit} → {zone.upper()}"
+                          + ("" if accepted or zone == "fail" else
+                             f", not accepted by the {req.rule} rule")
                           + (" (demonstration)" if req.demonstration else ""))}
 
 

@@ -97,3 +97,19 @@ def test_a_defect_on_a_real_bench_names_sim_defect(tmp_path):
                                "--hil-record", str(tmp_path / "records")], tmp_path)
     assert code == 4, text
     assert "--hil-sim-defect: test-only defects need a simulated bench" in text
+
+
+def test_a_bad_requirements_file_is_named_where_the_user_named_it(tmp_path):
+    bad = tmp_path / "bad-req.toml"
+    bad.write_text('[[requirement]]\nid = "REQ-1"\nquantity = "pk_pk_pct"\n')   # no limit
+    code, text = run(HIL_RUN + ["--requirements", str(bad)], tmp_path)
+    assert code == 2 and f"{bad}: requirement 'REQ-1'" in text and "--hil-" not in text, text
+    code, text = run(PYTEST + ["--hil-requirements", str(bad)], tmp_path)
+    assert code != 0 and "--hil-requirements: " in text, text
+    table = tomllib.loads(example_bench_path("sim-bench").read_text())
+    table["requirements"] = {"file": str(bad)}
+    bench = tmp_path / "with-req.toml"
+    bench.write_text(tomli_w.dumps(table))
+    code, text = run(HIL_RUN + ["--bench", str(bench)], tmp_path)
+    assert code == 2 and "the bench file's [requirements] file: " in text, text
+    assert "--hil-requirements" not in text and "--requirements:" not in text, text

@@ -110,6 +110,11 @@ def test_pk_pk_verdicts_in_each_ilac_g8_zone():
     cond = {"max": measured + 0.5 * expanded}
     assert judge(line(limit=cond, rule="simple"), result)["accepted"]
     assert not judge(line(limit=cond), result)["accepted"]
+    # the record's line says when a conditional zone was not accepted, and by which rule
+    assert judge(line(limit=cond), result)["statement"].endswith(
+        "CONDITIONAL PASS, not accepted by the guarded rule")
+    assert judge(line(limit=cond, rule="simple"), result)["statement"].endswith(
+        "CONDITIONAL PASS")
 
 
 def test_order_amplitude_rms_and_mean_torque_are_measured_quantities():

@@ -82,3 +82,18 @@ def test_the_summary_fits_80_columns_and_states_the_run():
     assert lines[1].split()[-1] == "+0.30" and lines[2].split()[-1] == "-0.20"
     assert "pytest outcomes: 1 passed, 1 failed, 1 not run" in lines
     assert lines[-1].startswith("status: partial-selection; overall: NOT STATED")
+
+
+def test_summary_lists_only_requirements_their_rule_did_not_accept():
+    """A conditional pass under the simple rule is accepted (statement 1 says PASS): the summary
+    must not call it "not accepted"; under the guarded rule the same zone is not accepted."""
+    def entry(test_id, rule):
+        return {"test_id": test_id, "source": "dc_offset", "outcome": "passed",
+                "verdict": verdict(0.01, 0.0, 0.013),
+                "requirements": [{"id": f"REQ-{test_id}", "decision": "conditional pass",
+                                  "rule": rule, "accepted": rule == "simple"}]}
+    lines = summary_lines({"status": "complete", "tests": [entry("S", "simple")]})
+    assert "requirements: 1 verdicts, all pass" in lines
+    lines = summary_lines({"status": "complete", "tests": [entry("S", "simple"),
+                                                           entry("G", "guarded")]})
+    assert "requirements: 2 verdicts, not accepted: REQ-G" in lines
