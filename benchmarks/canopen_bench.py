@@ -19,10 +19,10 @@ import argparse
 import time
 import uuid
 
-from drivers.canopen_transport import CanBusSettings
-from drivers.cia402 import Cia402Drive
-from drivers.simulated.can_remote_server import RemoteSimulatedDrive
-from drivers.simulated.drive_node import SimulatedDrive
+from ripple_hil_drivers.canopen_transport import CanBusSettings
+from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.simulated.can_remote_server import RemoteSimulatedDrive
+from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
 from hil.sim import DriveTwin
 
 

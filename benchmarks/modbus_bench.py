@@ -29,9 +29,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from drivers.modbus_daq import (LEGACY_TRANSFER, ModbusDaq, ModbusRtuSettings,
+from ripple_hil_drivers.modbus_daq import (LEGACY_TRANSFER, ModbusDaq, ModbusRtuSettings,
                                 ModbusTcpSettings, TransferOptions)
-from drivers.simulated.modbus_daq_server import SimulatedDaq
+from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
 from operating_twin import operating_twin  # benchmarks/, run as a script
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))     # testplans/

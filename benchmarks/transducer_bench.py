@@ -11,9 +11,9 @@ from __future__ import annotations
 import argparse
 import time
 
-from drivers.simulated.transducer_pty import SimulatedTransducer
-from drivers.torque_transducer import SerialSettings, TorqueTransducer
-from drivers.transducer_dialects import LINE_SETTINGS
+from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
+from ripple_hil_drivers.torque_transducer import SerialSettings, TorqueTransducer
+from ripple_hil_drivers.transducer_dialects import LINE_SETTINGS
 from operating_twin import operating_twin  # benchmarks/, run as a script
 
 

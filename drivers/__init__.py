@@ -1,4 +1,4 @@
 """Instrument drivers (CANopen CiA 402 drive, Modbus DAQ, serial torque transducer).
 
-``drivers.simulated`` holds their protocol-level twins, backed by ``hil.sim.DriveTwin``.
+``ripple_hil_drivers.simulated`` holds their protocol-level twins, backed by ``hil.sim.DriveTwin``.
 """

@@ -1,6 +1,6 @@
 """The CiA 402 power state machine: statusword decoding, controlword commands, device transitions.
 
-Shared by the master-side driver (``drivers.cia402``) and the simulated drive node. State names
+Shared by the master-side driver (``ripple_hil_drivers.cia402``) and the simulated drive node. State names
 are canopen's (``canopen.profiles.p402.State402``), e.g. "OPERATION ENABLED".
 """
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import can
 from can.broadcastmanager import ThreadBasedCyclicSendTask
 
-from drivers.errors import transport_reason
+from ripple_hil_drivers.errors import transport_reason
 from hil.errors import InputError
 
 logger = logging.getLogger(__name__)

@@ -1,11 +1,11 @@
 """Master-side driver of the CiA 402 PMSM drive over CANopen (``canopen`` + ``python-can``).
 
-Everything about the drive's dictionary comes from the shipped EDS (``drivers.canopen_eds``).
+Everything about the drive's dictionary comes from the shipped EDS (``ripple_hil_drivers.canopen_eds``).
 The driver does its own CiA 402 state handling on a ``canopen.RemoteNode`` instead of using
 ``canopen.BaseNode402``, whose 2.4.x version asserts the NMT state with a substring test in
 ``setup_pdos()``, swallows errors in the ``op_mode`` setter and has a ``reset_from_fault()`` that
 never produces the rising edge of the fault-reset bit. Here every step has a timeout and raises a
-typed error (``drivers.errors``) naming the instrument and what it was doing. A lost bus (the CAN
+typed error (``ripple_hil_drivers.errors``) naming the instrument and what it was doing. A lost bus (the CAN
 interface, or the TCP link of a remote bus, gone: a send fails or the receive thread sees an error)
 makes every later failure ``TransportLost`` with the operating system's reason, raised from the
 original error, not a timeout.
@@ -36,12 +36,12 @@ import canopen
 from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
-from drivers import canopen_402 as sm
-from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
+from ripple_hil_drivers import canopen_402 as sm
+from ripple_hil_drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  ScaledObject, current_command_object, injection_objects,
                                  load_dictionary)
-from drivers.canopen_transport import NOTIFIER_CYCLE_S, BusLossWatch, CanBusSettings, open_bus
-from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
+from ripple_hil_drivers.canopen_transport import NOTIFIER_CYCLE_S, BusLossWatch, CanBusSettings, open_bus
+from ripple_hil_drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
                             InstrumentTimeout, ProtocolError, TransportLost, transport_reason)
 from hil.errors import InputError
 

@@ -1,7 +1,7 @@
 """The DAQ register map (``drivers/data/daq_registers.toml``) and its word codecs.
 
-The map is data, not code: the driver (``drivers.modbus_daq``) and the simulated DAQ
-(``drivers.simulated.modbus_daq_server``) both load it, so they cannot drift apart. 32-bit values
+The map is data, not code: the driver (``ripple_hil_drivers.modbus_daq``) and the simulated DAQ
+(``ripple_hil_drivers.simulated.modbus_daq_server``) both load it, so they cannot drift apart. 32-bit values
 and strings are sent high word first; a sample frame in the capture buffer holds the words of the
 enabled channels in map order. Engineering value = raw * scale + offset, so ``scale`` is the DAQ's
 LSB in SI units (the analysis needs it for its uncertainty budget).

@@ -3,7 +3,7 @@
 The DAQ captures the phase currents, the encoder counter, the transducer's analog torque and the
 dc-bus voltage synchronously, and drives the dyno's speed reference from an analog output. Its
 registers are described by a data file (``drivers/data/daq_registers.toml``, see
-``drivers.daq_register_map``). A capture: configure (sample rate, samples, channel mask, settle
+``ripple_hil_drivers.daq_register_map``). A capture: configure (sample rate, samples, channel mask, settle
 time, capture format) -> arm -> trigger -> poll the state until "done" -> read the buffer out in
 125-register windows -> check its integrity -> convert to engineering units -> disarm. The result
 is a ``hil.capture.Capture`` with ``time_s`` (from the trigger, by the sample clock's ticks), the
@@ -16,7 +16,7 @@ data travelled (mode, requests, round trips).
 
 Transfer (issue 17, :class:`TransferOptions`): only the channels asked for; the buffer read with
 auto-increment when the map offers it (one request per 125 words instead of a page write plus a
-read), up to ``in_flight`` reads outstanding over TCP (``drivers.modbus_pipeline``), the packed
+read), up to ``in_flight`` reads outstanding over TCP (``ripple_hil_drivers.modbus_pipeline``), the packed
 capture format (the encoder counter's low word) when the counter cannot move half its 16-bit
 range between samples. ``LEGACY_TRANSFER`` is the old way (paged, one at a time, full format).
 A readout that loses an answer or the connection is read again once (the DAQ keeps its buffer
@@ -46,11 +46,11 @@ import numpy as np
 from pymodbus import FramerType, ModbusException
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 
-from drivers import modbus_pipeline
-from drivers.modbus_link import SerialClient, TcpClient, connect_reason
-from drivers.daq_register_map import Channel, RegisterMap, load_register_map
-from drivers.serial_line import PARITIES, STOPBITS, line_for_port
-from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
+from ripple_hil_drivers import modbus_pipeline
+from ripple_hil_drivers.modbus_link import SerialClient, TcpClient, connect_reason
+from ripple_hil_drivers.daq_register_map import Channel, RegisterMap, load_register_map
+from ripple_hil_drivers.serial_line import PARITIES, STOPBITS, line_for_port
+from ripple_hil_drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
                             ProtocolError, TransportLost, transport_reason)
 from hil.capture import Capture
 from hil.errors import InputError

@@ -14,7 +14,7 @@ import socket
 
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
-from drivers.errors import transport_reason
+from ripple_hil_drivers.errors import transport_reason
 
 
 class TcpClient(ModbusTcpClient):

@@ -32,9 +32,9 @@ from dataclasses import dataclass
 
 import serial
 
-from drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, ProtocolError,
+from ripple_hil_drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, ProtocolError,
                             TransportLost, transport_reason)
-from drivers.transducer_dialects import (TORQUE_UNIT_NM, DeviceReportedError, DialectError,
+from ripple_hil_drivers.transducer_dialects import (TORQUE_UNIT_NM, DeviceReportedError, DialectError,
                                          Reading, make_dialect)
 from hil.errors import InputError
 

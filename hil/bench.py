@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.errors import InstrumentError, LimitError
+from ripple_hil_drivers.errors import InstrumentError, LimitError
 from hil.capture import Capture
 from hil.config import BenchConfig
 from hil.errors import HilError
@@ -304,8 +304,8 @@ def has_addresses(config: BenchConfig) -> bool:
 
 
 def _make_drive(config: BenchConfig):
-    from drivers.canopen_transport import CanBusSettings
-    from drivers.cia402 import Cia402Drive
+    from ripple_hil_drivers.canopen_transport import CanBusSettings
+    from ripple_hil_drivers.cia402 import Cia402Drive
 
     drive = config.drive
     return Cia402Drive(CanBusSettings(interface=drive.interface, channel=drive.channel,
@@ -316,7 +316,7 @@ def _make_drive(config: BenchConfig):
 
 
 def _make_daq(config: BenchConfig):
-    from drivers.modbus_daq import (ModbusDaq, ModbusRtuSettings, ModbusTcpSettings,
+    from ripple_hil_drivers.modbus_daq import (ModbusDaq, ModbusRtuSettings, ModbusTcpSettings,
                                     TransferOptions)
 
     daq = config.daq
@@ -332,7 +332,7 @@ def _make_daq(config: BenchConfig):
 
 
 def _make_torque(config: BenchConfig):
-    from drivers.torque_transducer import SerialSettings, TorqueTransducer
+    from ripple_hil_drivers.torque_transducer import SerialSettings, TorqueTransducer
 
     torque = config.torque
     return TorqueTransducer(SerialSettings(port=torque.serial_port, baudrate=torque.baudrate),

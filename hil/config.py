@@ -186,18 +186,18 @@ class TorqueConfig:
     timestamped: bool = _key(False, "bool")
 
     def dialect_options(self) -> dict:
-        """The options of the dialect family (``drivers.transducer_dialects``) this file states."""
+        """The options of the dialect family (``ripple_hil_drivers.transducer_dialects``) this file states."""
         if self.dialect == "magtrol":
             return {"channel": self.channel}
         return {"timestamped": self.timestamped}
 
     def __post_init__(self) -> None:
         if self.baudrate is None:
-            from drivers.transducer_dialects import LINE_SETTINGS
+            from ripple_hil_drivers.transducer_dialects import LINE_SETTINGS
             object.__setattr__(self, "baudrate", LINE_SETTINGS[self.dialect].default_baudrate)
 
     def _check(self, path: str, ctx: "_Context") -> None:
-        from drivers.transducer_dialects import LINE_SETTINGS
+        from ripple_hil_drivers.transducer_dialects import LINE_SETTINGS
         if self.channel is not None and self.dialect != "magtrol":
             ctx.fail(f"{path}.channel is a Magtrol DSP7000 setting, not one of the "
                      f"{self.dialect} dialect")

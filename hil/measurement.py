@@ -264,7 +264,7 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
                                         channels=plan.capture_channels())
         except Exception as exc:
             # a capture that failed its integrity check carries the data as received
-            # (drivers.modbus_daq.CaptureIntegrityError): record it, then fail the point
+            # (ripple_hil_drivers.modbus_daq.CaptureIntegrityError): record it, then fail the point
             if getattr(exc, "capture", None) is None:
                 raise
             capture, failure = exc.capture, exc

@@ -56,7 +56,7 @@ def check_point(plan, config: BenchConfig, requirements=()) -> list[str]:
 
 
 def _capture_problems(plan, config: BenchConfig) -> list[str]:
-    from drivers.daq_register_map import load_register_map
+    from ripple_hil_drivers.daq_register_map import load_register_map
 
     device = load_register_map(config.daq.register_map).device
     pole_pairs = config.motor.pole_pairs
@@ -77,7 +77,7 @@ def _capture_problems(plan, config: BenchConfig) -> list[str]:
 
 
 def _injection_problems(plan, config: BenchConfig) -> list[str]:
-    from drivers.canopen_eds import injection_objects
+    from ripple_hil_drivers.canopen_eds import injection_objects
 
     knobs = injection_objects(config.drive.eds)
     problems = []
@@ -131,7 +131,7 @@ def check_plans(points: dict, config: BenchConfig, requirements=()) -> list[str]
 
 
 def requirement_knob_problems(requirements, config: BenchConfig) -> list[str]:
-    from drivers.canopen_eds import injection_objects
+    from ripple_hil_drivers.canopen_eds import injection_objects
 
     knobs = injection_objects(config.drive.eds)
     return [f"requirement {req.id}: injection knob {knob!r} is not a knob of the drive's EDS "

@@ -84,8 +84,8 @@ class SimulatedBench:
         self.torque = None
 
     def start(self) -> BenchConfig:
-        from drivers.simulated.modbus_daq_server import SimulatedDaq
-        from drivers.simulated.transducer_pty import SimulatedTransducer
+        from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
+        from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
 
         try:
             drive_table = self._start_drive()
@@ -106,13 +106,13 @@ class SimulatedBench:
         node_id = self.config.drive.node_id
         bitrate = self.config.drive.bitrate
         if self.cross_process:
-            from drivers.simulated.can_remote_server import RemoteSimulatedDrive
+            from ripple_hil_drivers.simulated.can_remote_server import RemoteSimulatedDrive
 
             self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate).start()
             self._started.append(self.drive)
             return self.drive.bench_table()
-        from drivers.canopen_transport import CanBusSettings
-        from drivers.simulated.drive_node import SimulatedDrive
+        from ripple_hil_drivers.canopen_transport import CanBusSettings
+        from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
 
         channel = f"ripple-hil-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)

@@ -9,7 +9,7 @@
   answers them.
 * NMT "reset node" / "reset communication" send the boot-up message and return to
   PRE-OPERATIONAL (canopen stays in INITIALISING and sends nothing).
-* PDOs are handled by ``drivers.simulated.can_pdo`` (canopen's LocalNode neither applies RPDOs
+* PDOs are handled by ``ripple_hil_drivers.simulated.can_pdo`` (canopen's LocalNode neither applies RPDOs
   nor sends TPDOs, and ignores a master's remap).
 """
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import os
 import uuid
 
-from drivers.canopen_transport import BusServer, CanBusSettings
-from drivers.simulated.drive_node import SimulatedDrive
+from ripple_hil_drivers.canopen_transport import BusServer, CanBusSettings
+from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
 
 
 class RemoteSimulatedDrive:

@@ -39,14 +39,14 @@ import time
 import canopen
 from canopen.sdo import SdoAbortedError
 
-from drivers import canopen_402 as sm
-from drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
+from ripple_hil_drivers import canopen_402 as sm
+from ripple_hil_drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
                                  current_command_object, injection_objects, load_dictionary)
-from drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
-from drivers.simulated.can_heartbeat import (CONSUMER_HEARTBEAT_INDEX, HeartbeatConsumer,
+from ripple_hil_drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
+from ripple_hil_drivers.simulated.can_heartbeat import (CONSUMER_HEARTBEAT_INDEX, HeartbeatConsumer,
                                              check_consumer_write, consumer_entries)
-from drivers.simulated.can_node import ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode
-from drivers.simulated.can_pdo import (COB_ID_SYNC_INDEX, PdoEngine, is_pdo_config_index,
+from ripple_hil_drivers.simulated.can_node import ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode
+from ripple_hil_drivers.simulated.can_pdo import (COB_ID_SYNC_INDEX, PdoEngine, is_pdo_config_index,
                                       validate_mapping_entry)
 from hil.motor import TABLE_I
 

@@ -52,8 +52,8 @@ from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
 from pymodbus.transaction import TransactionManager
 
-from drivers.daq_register_map import RegisterMap, load_register_map
-from drivers.serial_line import PARITIES, STOPBITS, bits_per_char, line_for_port
+from ripple_hil_drivers.daq_register_map import RegisterMap, load_register_map
+from ripple_hil_drivers.serial_line import PARITIES, STOPBITS, bits_per_char, line_for_port
 
 log = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 ``os.openpty`` in raw mode; the simulator holds the master end, the driver opens ``sim.port``.
 It answers the Magtrol or the Himmelstein messages as their manuals print them
-(``drivers.transducer_dialects`` lists the sources). Readings come from the twin: every data
+(``ripple_hil_drivers.transducer_dialects`` lists the sources). Readings come from the twin: every data
 request (Magtrol ``OD`` / ``OD1`` / ``OD2``, Himmelstein ``DC``, ``XC``, ``YC``) advances the twin
 by ``1 / sample_rate_hz`` under its lock (asking it for ``torque_nm`` only) and reads its
 latest torque (``status()["torque_nm"]``) and speed, so n readings cover n sample periods of
@@ -40,7 +40,7 @@ import time
 import tty
 from abc import ABC, abstractmethod
 
-from drivers.transducer_dialects import (HIMMELSTEIN_FILTER_CUTOFF_HZ, HIMMELSTEIN_TICK_HZ,
+from ripple_hil_drivers.transducer_dialects import (HIMMELSTEIN_FILTER_CUTOFF_HZ, HIMMELSTEIN_TICK_HZ,
                                          LBF_IN_NM, MAGTROL_UNIT_CODES, TORQUE_UNIT_NM,
                                          float_to_hex, hex_to_float)
 

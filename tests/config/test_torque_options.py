@@ -2,7 +2,7 @@
 
 import pytest
 
-from drivers.transducer_dialects import make_dialect
+from ripple_hil_drivers.transducer_dialects import make_dialect
 from hil.config import BenchConfig, example_bench_path, load_bench
 from hil.errors import InputError
 

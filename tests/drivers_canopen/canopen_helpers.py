@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from drivers.errors import HeartbeatLost
+from ripple_hil_drivers.errors import HeartbeatLost
 
 # A non-default value for every knob, each exactly representable in the EDS encoding.
 NON_DEFAULT = {

@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from drivers.canopen_transport import CanBusSettings
+from ripple_hil_drivers.canopen_transport import CanBusSettings
 
 from hil.sim import DriveTwin  # integration tests use the real digital twin
 
@@ -31,7 +31,7 @@ def bus_settings() -> CanBusSettings:
 
 @pytest.fixture
 def sim_drive(twin, bus_settings):
-    from drivers.simulated.drive_node import SimulatedDrive
+    from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
     sim = SimulatedDrive(twin, bus_settings, node_id=5, serial_number=0x1234)
     sim.start()
     yield sim
@@ -40,7 +40,7 @@ def sim_drive(twin, bus_settings):
 
 @pytest.fixture
 def drive(sim_drive, bus_settings):
-    from drivers.cia402 import Cia402Drive
+    from ripple_hil_drivers.cia402 import Cia402Drive
     drv = Cia402Drive(bus_settings, node_id=5, sdo_timeout_s=0.5, heartbeat_timeout_s=0.5)
     drv.connect()
     yield drv

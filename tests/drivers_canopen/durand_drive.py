@@ -4,7 +4,7 @@ durand (PyPI) implements the responder side of CiA 301: NMT slave, SDO server (e
 segmented, block), PDOs, EMCY producer, heartbeat producer. This module gives a durand
 ``MinimalNode`` the drive's dictionary, read from the shipped EDS with ``configparser`` (not
 python-canopen's importer), and a thin CiA 402 layer written from the standard's table
-(``cia402_table``), so ``drivers.cia402.Cia402Drive`` meets a device it did not grow up with:
+(``cia402_table``), so ``ripple_hil_drivers.cia402.Cia402Drive`` meets a device it did not grow up with:
 
 * 0x1000, 0x1008, 0x100A, 0x1018 and every EDS object durand does not create itself hold the
   EDS values; durand's own communication objects (0x1001, 0x1005, 0x1014, 0x1017, PDO records)
@@ -33,7 +33,7 @@ from durand.scheduler import SyncScheduler, get_scheduler
 
 import cia402_table as cia402
 
-from drivers.canopen_eds import DEFAULT_EDS_PATH
+from ripple_hil_drivers.canopen_eds import DEFAULT_EDS_PATH
 
 RESTORE_SIGNATURE = 0x64616F6C          # "load" (CiA 301 0x1011 convention)
 ACCESS = {"ro": "ro", "wo": "wo", "rw": "rw", "rwr": "rw", "rww": "rw", "const": "const"}

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from drivers.canopen_eds import DEFAULT_EDS_PATH
+from ripple_hil_drivers.canopen_eds import DEFAULT_EDS_PATH
 
 
 def shipped_text() -> str:

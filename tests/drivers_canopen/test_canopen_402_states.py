@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from drivers import canopen_402 as sm
+from ripple_hil_drivers import canopen_402 as sm
 
 ALL_STATES = [sm.NOT_READY, sm.SWITCH_ON_DISABLED, sm.READY_TO_SWITCH_ON, sm.SWITCHED_ON,
               sm.OPERATION_ENABLED, sm.QUICK_STOP_ACTIVE, sm.FAULT_REACTION_ACTIVE, sm.FAULT]

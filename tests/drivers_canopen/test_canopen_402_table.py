@@ -1,7 +1,7 @@
 """Every CiA 402 device-control command in every state, on the simulated drive over the bus.
 
 The expected table (``cia402_table``) is written out from the CiA 402-2 command table,
-independently of ``drivers.canopen_402.device_transition``. Each case brings the drive to
+independently of ``ripple_hil_drivers.canopen_402.device_transition``. Each case brings the drive to
 its start state with controlword writes, sends the command by SDO (applied before the SDO answer)
 and reads the statusword back by SDO.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from drivers import canopen_402 as sm
+from ripple_hil_drivers import canopen_402 as sm
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 

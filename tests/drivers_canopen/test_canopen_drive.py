@@ -14,8 +14,8 @@ import time
 import can
 import pytest
 
-from drivers.cia402 import Cia402Drive
-from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentTimeout,
+from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentTimeout,
                             LimitError)
 from hil.errors import InputError
 from hil.motor import TABLE_I
@@ -258,7 +258,7 @@ def test_nan_current_command_is_refused(drive):
 
 def test_a_drive_without_the_optional_identity_objects_connects(twin, bus_settings, tmp_path):
     """CiA 301: 0x1008 / 0x100A are optional; 0x1018 is the identity the driver needs."""
-    from drivers.simulated.drive_node import SimulatedDrive
+    from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
     from eds_text import drop_objects, shipped_text, write
     lean = write(drop_objects(shipped_text(), [0x1008, 0x100A]), tmp_path / "lean.eds")
     with SimulatedDrive(twin, bus_settings, node_id=5, eds_path=lean, serial_number=7), \

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.canopen_eds import (DEFAULT_EDS_PATH, COUNTS_PER_SI_UNIT, current_command_object,
+from ripple_hil_drivers.canopen_eds import (DEFAULT_EDS_PATH, COUNTS_PER_SI_UNIT, current_command_object,
                                  injection_objects, load_dictionary, parse_scaled_name)
 from cia306 import check_eds
 from eds_text import drop_objects, get_key, set_key, shipped_text, write
@@ -124,7 +124,7 @@ def test_eds_file_is_shipped_as_package_data():
 
 
 def test_object_table_is_rendered_from_the_eds():
-    from drivers.canopen_eds import object_table_markdown
+    from ripple_hil_drivers.canopen_eds import object_table_markdown
     table = object_table_markdown()
     assert "| 0x200A | `dead_time_s` | ns | 0..1e-05 | 0.0 |" in table
     assert "0x64616F6C" in table

@@ -6,8 +6,8 @@ import pytest
 from canopen import LocalNode
 from canopen.sdo import SdoAbortedError
 
-from drivers.canopen_eds import load_dictionary
-from drivers.simulated.can_node import DriveLocalNode
+from ripple_hil_drivers.canopen_eds import load_dictionary
+from ripple_hil_drivers.simulated.can_node import DriveLocalNode
 
 
 def make_node(validate=None, after=None):

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import pytest
 
-from drivers.canopen_transport import CanBusSettings
-from drivers.cia402 import Cia402Drive
-from drivers.errors import TransportLost
+from ripple_hil_drivers.canopen_transport import CanBusSettings
+from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.errors import TransportLost
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SERVER = textwrap.dedent("""
     import json, sys
     from hil.sim import DriveTwin
-    from drivers.simulated.can_remote_server import serve_simulated_drive
+    from ripple_hil_drivers.simulated.can_remote_server import serve_simulated_drive
     server = serve_simulated_drive(DriveTwin(seed=0), node_id=5)
     print(json.dumps(server.bench_table()), flush=True)
     sys.stdin.read()

@@ -15,11 +15,11 @@ import can
 import canopen
 import pytest
 
-from drivers import canopen_402 as sm
-from drivers.canopen_eds import injection_objects, load_dictionary
-from drivers.cia402 import Cia402Drive
-from drivers.errors import DeviceFault, InjectionRangeError
-from drivers.simulated.can_heartbeat import ConsumerEntry
+from ripple_hil_drivers import canopen_402 as sm
+from ripple_hil_drivers.canopen_eds import injection_objects, load_dictionary
+from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.errors import DeviceFault, InjectionRangeError
+from ripple_hil_drivers.simulated.can_heartbeat import ConsumerEntry
 from hil.errors import InputError
 from canopen_helpers import eventually as wait_until
 

@@ -11,9 +11,9 @@ import time
 import can
 import pytest
 
-from drivers.canopen_transport import open_bus
-from drivers.cia402 import Cia402Drive
-from drivers.simulated.can_remote_server import serve_simulated_drive
+from ripple_hil_drivers.canopen_transport import open_bus
+from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.simulated.can_remote_server import serve_simulated_drive
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
@@ -70,7 +70,7 @@ def _recv_id(bus, can_id, timeout=1.0):
 SERVER_SCRIPT = textwrap.dedent("""
     import json, sys
     from hil.sim import DriveTwin
-    from drivers.simulated.can_remote_server import serve_simulated_drive
+    from ripple_hil_drivers.simulated.can_remote_server import serve_simulated_drive
     twin = DriveTwin(seed=0)
     server = serve_simulated_drive(twin, node_id=7)
     print(json.dumps(server.bench_table()), flush=True)
@@ -88,7 +88,7 @@ def test_second_process_uses_only_bench_file_settings():
                             stdout=subprocess.PIPE, text=True)
     try:
         table = json.loads(proc.stdout.readline())
-        from drivers.canopen_transport import CanBusSettings
+        from ripple_hil_drivers.canopen_transport import CanBusSettings
         settings = CanBusSettings(interface=table["interface"], channel=table["channel"],
                                   bitrate=table["bitrate"])
         with Cia402Drive(settings, node_id=table["node_id"]) as drive:
@@ -120,8 +120,8 @@ def _vcan0_available() -> bool:
 
 @pytest.mark.skipif(not _vcan0_available(), reason="no socketcan vcan0 on this machine")
 def test_socketcan_vcan0_when_the_kernel_has_it(twin):
-    from drivers.canopen_transport import CanBusSettings
-    from drivers.simulated.drive_node import SimulatedDrive
+    from ripple_hil_drivers.canopen_transport import CanBusSettings
+    from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
     settings = CanBusSettings(interface="socketcan", channel="vcan0")
     with SimulatedDrive(twin, settings, node_id=5), Cia402Drive(settings, node_id=5) as drive:
         drive.enable()

@@ -13,9 +13,9 @@ import time
 
 import pytest
 
-from drivers.canopen_eds import injection_objects
-from drivers.cia402 import Cia402Drive
-from drivers.errors import DeviceFault, InjectionRangeError
+from ripple_hil_drivers.canopen_eds import injection_objects
+from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.errors import DeviceFault, InjectionRangeError
 from canopen_helpers import POLL_SLACK_S, NON_DEFAULT, eventually, poll_until_heartbeat_lost
 from durand_drive import DurandDrive
 

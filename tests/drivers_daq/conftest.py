@@ -18,14 +18,14 @@ def twin():
 
 @pytest.fixture
 def daq_server(twin):
-    from drivers.simulated.modbus_daq_server import SimulatedDaq
+    from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
     with SimulatedDaq(twin) as server:
         yield server
 
 
 @pytest.fixture
 def daq(daq_server):
-    from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
+    from ripple_hil_drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
     with ModbusDaq(ModbusTcpSettings(*daq_server.address), timeout_s=1.0) as client:
         yield client
 

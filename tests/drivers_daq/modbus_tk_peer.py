@@ -2,7 +2,7 @@
 
 modbus-tk does the framing (MBAP over TCP, RTU with CRC and t3.5 timing over a pty), decodes
 every request, checks its quantities and block addresses and builds every answer; the DAQ's
-behaviour (``drivers.simulated.modbus_daq_server.DaqDevice``, backed by the twin) is reached
+behaviour (``ripple_hil_drivers.simulated.modbus_daq_server.DaqDevice``, backed by the twin) is reached
 through modbus-tk's per-function hooks, which run before modbus-tk serves a request from its own
 register blocks: a read hook copies the device's words into the block, a write hook hands the
 decoded values to the device, and a refusal becomes modbus-tk's ``ModbusError`` (its exception
@@ -19,8 +19,8 @@ import serial
 from modbus_tk import defines, hooks, modbus_rtu, modbus_tcp
 from modbus_tk.exceptions import ModbusError
 
-from drivers.serial_line import line_for_port
-from drivers.simulated.modbus_daq_server import DaqDevice, PtyBridge, Refusal
+from ripple_hil_drivers.serial_line import line_for_port
+from ripple_hil_drivers.simulated.modbus_daq_server import DaqDevice, PtyBridge, Refusal
 
 _DEVICES: dict[int, DaqDevice] = {}         # id(modbus-tk slave) -> device
 _BLOCK_TYPES = {"input": defines.ANALOG_INPUTS, "holding": defines.HOLDING_REGISTERS}

@@ -11,7 +11,7 @@ import struct
 import pytest
 from pyModbusTCP.client import ModbusClient
 
-from drivers.daq_register_map import load_register_map
+from ripple_hil_drivers.daq_register_map import load_register_map
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 

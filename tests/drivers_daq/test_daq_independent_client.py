@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pyModbusTCP.client import ModbusClient
 
-from drivers.daq_register_map import load_register_map
+from ripple_hil_drivers.daq_register_map import load_register_map
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 

@@ -14,10 +14,10 @@ import pytest
 from daq_twin import CURRENT_A, SPEED_RPM
 from modbus_tk_peer import modbus_tk_rtu, modbus_tk_tcp
 
-from drivers.daq_register_map import load_register_map
-from drivers.modbus_daq import (LEGACY_TRANSFER, IllegalAddress, IllegalValue, ModbusDaq,
+from ripple_hil_drivers.daq_register_map import load_register_map
+from ripple_hil_drivers.modbus_daq import (LEGACY_TRANSFER, IllegalAddress, IllegalValue, ModbusDaq,
                                 ModbusRtuSettings, ModbusTcpSettings)
-from drivers.simulated.modbus_daq_server import DaqDevice
+from ripple_hil_drivers.simulated.modbus_daq_server import DaqDevice
 from hil.motor import TABLE_I
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(90),

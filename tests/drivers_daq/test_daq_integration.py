@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from daq_twin import CURRENT_A, SPEED_RPM, make_twin
 
-from drivers.daq_register_map import DEFAULT_MAP_PATH, load_register_map
-from drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout
-from drivers.modbus_daq import (DeviceBusy, DeviceFailure, IllegalValue, ModbusDaq,
+from ripple_hil_drivers.daq_register_map import DEFAULT_MAP_PATH, load_register_map
+from ripple_hil_drivers.errors import DeviceFault, InstrumentError, InstrumentTimeout
+from ripple_hil_drivers.modbus_daq import (DeviceBusy, DeviceFailure, IllegalValue, ModbusDaq,
                                 ModbusRtuSettings, ModbusTcpSettings)
-from drivers.simulated.modbus_daq_server import SimulatedDaq
+from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
 from hil.errors import InputError
 from hil.motor import TABLE_I
 

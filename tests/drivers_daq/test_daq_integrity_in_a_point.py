@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drivers.modbus_daq import CaptureIntegrityError
+from ripple_hil_drivers.modbus_daq import CaptureIntegrityError
 from hil.capture import Capture
 from hil.measurement import PointPlan, measure_point
 from hil.sim.defects import DriveDefects

@@ -9,9 +9,9 @@ import tomllib
 import pytest
 from daq_twin import make_twin
 
-from drivers.modbus_daq import ModbusDaq, ModbusRtuSettings
-from drivers.serial_line import bits_per_char, line_for_port, pty_accepts_parity
-from drivers.simulated.modbus_daq_server import SimulatedDaq
+from ripple_hil_drivers.modbus_daq import ModbusDaq, ModbusRtuSettings
+from ripple_hil_drivers.serial_line import bits_per_char, line_for_port, pty_accepts_parity
+from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
 from hil.config import BenchConfig, example_bench_path
 from hil.errors import InputError
 

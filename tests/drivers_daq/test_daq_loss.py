@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from drivers import modbus_pipeline
-from drivers.errors import TransportLost
-from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
+from ripple_hil_drivers import modbus_pipeline
+from ripple_hil_drivers.errors import TransportLost
+from ripple_hil_drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
@@ -29,7 +29,7 @@ SERVER = textwrap.dedent(f"""
     import sys
     sys.path.insert(0, {str(Path(__file__).parent)!r})
     from daq_twin import make_twin
-    from drivers.simulated.modbus_daq_server import SimulatedDaq
+    from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
     server = SimulatedDaq(make_twin()).start()
     print(server.address[1], flush=True)
     sys.stdin.read()
@@ -94,7 +94,7 @@ def test_killed_mid_pipelined_buffer_read(server, monkeypatch, caplog):
     daq = ModbusDaq(ModbusTcpSettings("127.0.0.1", server.port), timeout_s=1.0,
                     instrument_name="daq-a").connect()
     try:
-        with caplog.at_level(logging.WARNING, logger="drivers.modbus_daq"), \
+        with caplog.at_level(logging.WARNING, logger="ripple_hil_drivers.modbus_daq"), \
                 pytest.raises(TransportLost) as caught:
             daq.capture(0.2, 20000.0)
     finally:

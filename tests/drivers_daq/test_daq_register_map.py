@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.daq_register_map import DEFAULT_MAP_PATH, load_register_map
-from drivers.modbus_daq import unwrap_counter
+from ripple_hil_drivers.daq_register_map import DEFAULT_MAP_PATH, load_register_map
+from ripple_hil_drivers.modbus_daq import unwrap_counter
 from hil.errors import InputError
 
 MAP = load_register_map()

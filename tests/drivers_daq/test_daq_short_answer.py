@@ -2,8 +2,8 @@
 
 import pytest
 
-from drivers.errors import ProtocolError
-from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
+from ripple_hil_drivers.errors import ProtocolError
+from ripple_hil_drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
 
 
 class ShortAnswer:

@@ -11,10 +11,10 @@ from daq_twin import SPEED_RPM
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.daq_register_map import load_register_map
-from drivers.modbus_daq import (LEGACY_TRANSFER, CaptureIntegrityError, DeviceFailure, ModbusDaq,
+from ripple_hil_drivers.daq_register_map import load_register_map
+from ripple_hil_drivers.modbus_daq import (LEGACY_TRANSFER, CaptureIntegrityError, DeviceFailure, ModbusDaq,
                                 ModbusTcpSettings, TransferOptions)
-from drivers.simulated.modbus_daq_server import SimulatedDaq, stored_ticks
+from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq, stored_ticks
 from hil.errors import InputError
 from hil.sim import DriveTwin
 from hil.sim.defects import DriveDefects

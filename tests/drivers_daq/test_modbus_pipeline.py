@@ -1,4 +1,4 @@
-"""Pipelined Modbus TCP reads (``drivers.modbus_pipeline``) against the simulated DAQ."""
+"""Pipelined Modbus TCP reads (``ripple_hil_drivers.modbus_pipeline``) against the simulated DAQ."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import socket
 
 import pytest
 
-from drivers.daq_register_map import load_register_map
-from drivers.modbus_daq import IllegalAddress
-from drivers.modbus_pipeline import ExceptionAnswer, read_input_registers_pipelined
+from ripple_hil_drivers.daq_register_map import load_register_map
+from ripple_hil_drivers.modbus_daq import IllegalAddress
+from ripple_hil_drivers.modbus_pipeline import ExceptionAnswer, read_input_registers_pipelined
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 

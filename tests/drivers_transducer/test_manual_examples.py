@@ -1,7 +1,7 @@
 """The vendors' published example answers, fed byte for byte to the driver over a real pty.
 
 Every answer string below is quoted from (or, where the manual prints only a format, built
-exactly to) the public manual named beside it; see ``drivers.transducer_dialects`` for the
+exactly to) the public manual named beside it; see ``ripple_hil_drivers.transducer_dialects`` for the
 sources. The scripted pty answers with these fixed bytes, so these tests do not depend on the
 project's own simulator (which is checked against the same formats in
 ``test_transducer_integration.py``).
@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import pytest
 
-from drivers.errors import DeviceFault, InstrumentTimeout
-from drivers.torque_transducer import SerialSettings, TorqueTransducer
-from drivers.transducer_dialects import LBF_IN_NM, TORQUE_UNIT_NM, float_to_hex
+from ripple_hil_drivers.errors import DeviceFault, InstrumentTimeout
+from ripple_hil_drivers.torque_transducer import SerialSettings, TorqueTransducer
+from ripple_hil_drivers.transducer_dialects import LBF_IN_NM, TORQUE_UNIT_NM, float_to_hex
 from hil.errors import InputError
 from scripted_pty import ScriptedInstrument
 

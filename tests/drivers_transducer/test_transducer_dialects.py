@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from drivers.transducer_dialects import (LBF_IN_NM, TORQUE_UNIT_NM, DeviceReportedError,
+from ripple_hil_drivers.transducer_dialects import (LBF_IN_NM, TORQUE_UNIT_NM, DeviceReportedError,
                                          DialectError, HimmelsteinDialect, MagtrolDialect,
                                          float_to_hex, hex_to_float, hex_to_int16)
 from hil.errors import InputError

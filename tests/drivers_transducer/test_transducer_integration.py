@@ -8,9 +8,9 @@ import time
 import numpy as np
 import pytest
 
-from drivers.errors import DeviceFault, InstrumentTimeout, ProtocolError
-from drivers.simulated.transducer_pty import SimulatedTransducer
-from drivers.torque_transducer import SerialSettings, TorqueTransducer
+from ripple_hil_drivers.errors import DeviceFault, InstrumentTimeout, ProtocolError
+from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
+from ripple_hil_drivers.torque_transducer import SerialSettings, TorqueTransducer
 from hil.errors import InputError
 from hil.motor import TABLE_I
 
@@ -171,14 +171,14 @@ def test_pacing_to_the_baud_rate_costs_line_time(twin):
 
 
 def test_opening_a_missing_port_names_the_instrument(tmp_path):
-    from drivers.errors import InstrumentError
+    from ripple_hil_drivers.errors import InstrumentError
     with pytest.raises(InstrumentError, match="^torque: connect"):
         TorqueTransducer(SerialSettings(str(tmp_path / "no-such-tty"))).connect()
 
 
 def test_transducer_and_daq_share_one_simulated_run(twin):
-    from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
-    from drivers.simulated.modbus_daq_server import SimulatedDaq
+    from ripple_hil_drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
+    from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
     with SimulatedDaq(twin) as daq_server, \
             ModbusDaq(ModbusTcpSettings(*daq_server.address)) as daq, \
             SimulatedTransducer(twin, dialect="himmelstein", sample_rate_hz=RATE_HZ) as sim, \

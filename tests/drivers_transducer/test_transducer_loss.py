@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from drivers.errors import TransportLost
-from drivers.torque_transducer import SerialSettings, TorqueTransducer
+from ripple_hil_drivers.errors import TransportLost
+from ripple_hil_drivers.torque_transducer import SerialSettings, TorqueTransducer
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
@@ -27,7 +27,7 @@ SERVER = textwrap.dedent(f"""
     import sys
     sys.path.insert(0, {str(ROOT / "tests" / "drivers_daq")!r})
     from daq_twin import make_twin
-    from drivers.simulated.transducer_pty import SimulatedTransducer
+    from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
     sim = SimulatedTransducer(make_twin()).start()
     print(sim.port, flush=True)
     sys.stdin.read()

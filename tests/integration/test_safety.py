@@ -9,7 +9,7 @@ import signal
 
 import pytest
 
-from drivers.errors import DeviceFault, HeartbeatLost, InstrumentTimeout, LimitError
+from ripple_hil_drivers.errors import DeviceFault, HeartbeatLost, InstrumentTimeout, LimitError
 from hil.measurement import PointPlan, measure_point
 
 INJECTION = {"ia_offset_a": 0.4, "dead_time_s": 1e-6, "word_length_bits": 12}

@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.cia402 import Cia402Drive
 from hil.bench import Bench, BenchOpenError
 from hil.config import default_sim_bench
 from hil.simbench import SimulatedBench

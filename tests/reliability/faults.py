@@ -7,7 +7,7 @@ import importlib.util
 import shutil
 from pathlib import Path
 
-from drivers.errors import InstrumentError
+from ripple_hil_drivers.errors import InstrumentError
 from hil.measurement import PointPlan
 from hil.record import verify_captures
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import tomli_w
 
-from drivers.errors import InjectionRangeError
+from ripple_hil_drivers.errors import InjectionRangeError
 from ripple_hil_fixtures.session import CalibrationGateError, HilSession
 from hil.cli import main as hil_main
 from hil.config import example_bench_path, load_bench

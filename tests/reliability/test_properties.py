@@ -14,8 +14,8 @@ import tomli_w
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from drivers.torque_transducer import SerialSettings, TorqueTransducer
-from drivers.transducer_dialects import (LBF_IN_NM, DeviceReportedError, DialectError,
+from ripple_hil_drivers.torque_transducer import SerialSettings, TorqueTransducer
+from ripple_hil_drivers.transducer_dialects import (LBF_IN_NM, DeviceReportedError, DialectError,
                                          HimmelsteinDialect, MagtrolDialect, float_to_hex,
                                          hex_to_float, hex_to_int16)
 from hil.config import BenchConfig, example_bench_path, load_bench

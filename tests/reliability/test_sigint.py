@@ -19,10 +19,10 @@ import time
 import canopen
 import pytest
 
-from drivers import canopen_402 as sm
-from drivers.canopen_eds import injection_objects, load_dictionary
-from drivers.canopen_transport import CanBusSettings, open_bus
-from drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
+from ripple_hil_drivers import canopen_402 as sm
+from ripple_hil_drivers.canopen_eds import injection_objects, load_dictionary
+from ripple_hil_drivers.canopen_transport import CanBusSettings, open_bus
+from ripple_hil_drivers.modbus_daq import ModbusDaq, ModbusTcpSettings
 from hil.config import load_bench
 from hil.record import load_record, verify_captures
 

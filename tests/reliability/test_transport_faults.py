@@ -17,9 +17,9 @@ import time
 
 import pytest
 
-from drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
+from ripple_hil_drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
                             InstrumentTimeout, ProtocolError)
-from drivers.modbus_daq import DeviceFailure
+from ripple_hil_drivers.modbus_daq import DeviceFailure
 from hil.bench import Bench
 from hil.config import default_sim_bench
 from hil.measurement import measure_point
