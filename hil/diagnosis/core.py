@@ -23,10 +23,11 @@ import numpy as np
 from scipy import stats
 
 from hil.capture import Capture
+from hil.diagnosis import dwell
 from hil.diagnosis import encoder as enc
 from hil.diagnosis import parameters as P
 from hil.diagnosis import signatures as sig
-from hil.diagnosis.fit import LinearProblem, fit, identifiability
+from hil.diagnosis.fit import LinearProblem, SystematicTerm, fit, identifiability
 from hil.diagnosis.orders import OrderSpectrum, spectrum_from_capture
 from hil.diagnosis.result import Diagnosis, ParameterEstimate
 from hil.errors import InputError
@@ -42,6 +43,9 @@ UNEXPLAINED_QUANTILE = 0.999
 #: A free order is listed as motor-side residual when its amplitude exceeds this many σ.
 RESIDUAL_Z = 5.0
 EXPANSION_K = 2.0
+#: Standard deviation of a dwell's leg-voltage error per unit of its bound ε: the dwell current
+#: (−T·offset) has a sign, and the leg's dead-time error is set by it (eqs 32-37): ±ε, two-point.
+DWELL_SD_PER_BOUND = 1.0
 ENCODER_HIDES_DEAD_TIME = (
     "dead time not stated: with a count line in band the current reference is a staircase "
     "that dwells at zero for a whole count at each zero crossing, and the average-voltage model "
@@ -49,8 +53,8 @@ ENCODER_HIDES_DEAD_TIME = (
     "(on the twin it reads 25 % low at 10° and 65 % low at 20° electrical per count); it is "
     "fitted as a nuisance term (model uncertainty 100 %) so that the order-6/12 torque does not "
     "bias the other estimates. The dwell also breaks the dead-time distortion's half-wave "
-    "symmetry: an order-1 torque that the offsets absorb (twin: 1.6 mA at 2 µs, 20° per count), "
-    "not in their uncertainty")
+    "symmetry: an order-1 torque that the offsets absorb; it is bounded, not modelled (see the "
+    "dwell note)")
 
 
 def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
@@ -123,6 +127,10 @@ def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
     currents = _current_signatures(model_spectra, params, setup) if use_currents else None
     problem = _problem(model_spectra, params, signatures, fit_orders, currents, setup)
     result = fit(problem)
+    if dead_time and encoder.get("detected"):
+        problem.systematic = _dwell_terms(model_spectra, params, problem, result, encoder,
+                                          setup, max_mech, notes)
+        result = fit(problem)
 
     estimates = _estimates(params, result, nuisance)
     aliases = [] if use_currents else _alias_probe(model_spectra, params, signatures, fit_orders,
@@ -234,6 +242,71 @@ def _encoder_angle_uncertainty(signatures, params, encoder, notes):
             row[j] = (orders, {m: math.hypot(_rel_at(rel, m), u) for m in orders})
         out.append(row)
     return out
+
+
+def _dwell_terms(spectra, params, problem, result, encoder, setup, max_mech,
+                 notes) -> list[SystematicTerm]:
+    """The six dwells of a coarse encoder's command at zero, each an unknown leg-voltage error
+    within ±ε (rectangular), as bounded terms of the fit (module :mod:`.dwell`); the bound's
+    inputs are written into ``encoder['offset_dwell_bound']`` and the notes."""
+    if setup.dead_time_bound_s is not None:
+        bound_s, origin = setup.dead_time_bound_s, "the drive's stated dead-time bound"
+    else:
+        j = [param.name for param in params].index("dead_time_us")
+        estimate = float(result.estimate[j])
+        u = float(np.sqrt(result.covariance[j, j]))
+        if not (math.isfinite(estimate) and math.isfinite(u)):
+            notes.append("dwell term: the nuisance dead time is not determined and no "
+                         "dead_time_bound_s is stated: the offsets' uncertainty lacks the "
+                         "dwell term (state the drive's dead-time bound)")
+            encoder["offset_dwell_bound"] = {"applied": False}
+            return []
+        factor = 1.0 + EXPANSION_K * P.NUISANCE_REL_UNCERTAINTY
+        bound_s = max(estimate, 0.0) * factor * 1e-6
+        origin = (f"the nuisance dead time {estimate:.3g} µs × {factor:g} (its 100 % model "
+                  "uncertainty at k = 2; the average model reads low with a coarse encoder: "
+                  "state the drive's dead-time bound, DriveSetup.dead_time_bound_s)")
+    width = math.radians(encoder["resolution_elec_deg"])
+    eps = dwell.leg_loss_v(bound_s, setup.pwm_frequency_hz, setup.motor.dc_bus_v)
+    terms = []
+    for leg in "abc":
+        for dwell_index in (0, 1):
+            for direction in (1.0, -1.0):
+                per_point = []
+                for spectrum in spectra:
+                    if math.copysign(1.0, spectrum.speed_rpm) != direction:
+                        per_point.append(({}, 0j))
+                        continue
+                    op = sig.operating_point(spectrum.speed_rpm, spectrum.current_a,
+                                             spectrum.current_angle_rad, setup)
+                    start = dwell.dwell_starts_rad(op, leg, width)[dwell_index]
+                    torque, current_dc = dwell.dwell_pulse_orders(op, setup, leg, start, width)
+                    orders = sig.to_mech(torque, spectrum.pole_pairs, max_mech)
+                    per_point.append(({m: c * sig.transducer_response(m, spectrum.speed_rpm,
+                                                                      setup)
+                                       for m, c in orders.items()}, current_dc))
+                rows = [per_point[s][1] if m == 0 else per_point[s][0].get(m, 0j)
+                        for s, m in problem.rows]
+                if not np.any(rows):
+                    continue
+                terms.append(SystematicTerm(
+                    name=f"dwell_{leg}{dwell_index}_{'fwd' if direction > 0 else 'rev'}",
+                    rows=np.array(rows), standard_uncertainty=eps * DWELL_SD_PER_BOUND,
+                    common=True))
+    encoder["offset_dwell_bound"] = {
+        "applied": True, "dead_time_bound_us": bound_s * 1e6, "dead_time_bound_from": origin,
+        "leg_error_bound_v": eps,
+        "dwell_width_elec_deg": encoder["resolution_elec_deg"],
+        "kind": "stated bound (not a model): each leg's dwell voltage error ±ε, standard "
+                "uncertainty ε, common to all points"}
+    notes.append(
+        "offsets (and k_a − k_b) given a further uncertainty — a stated bound, not a model: for "
+        f"the count ({encoder['resolution_elec_deg']:.3g}° electrical) after each zero crossing "
+        "the current command is zero and the dead-time voltage of that leg lies anywhere in "
+        f"±ε = ±T_d·f_pwm·V_dc (T_d ≤ {bound_s * 1e6:.3g} µs from {origin}); per leg ±ε "
+        "(standard uncertainty ε, the same at every point) propagated through the loop and the "
+        "fit (hil.diagnosis.dwell)")
+    return terms
 
 
 def _rel_at(rel, mech_order: int) -> float:

@@ -10,6 +10,8 @@ differs from point to point) propagated through that estimator, scaled by the Bi
 when that exceeds 1 (the data disagree with the model more than the stated uncertainties allow),
 plus the other half propagated as an error *common to all points* (a source's model wrong the
 same way at every point, which averaging points does not reduce): :func:`_systematic_covariance`.
+Terms known only by a bound (:class:`SystematicTerm`, e.g. a coarse encoder's dwells,
+hil.diagnosis.dwell) widen the covariance the same way, without entering the weights.
 
 Identifiability: columns of the weighted Jacobian are scaled to unit norm; a singular value below
 :data:`WEAK_SINGULAR_VALUE` of the largest marks a parameter combination these observations cannot
@@ -49,6 +51,22 @@ class LinearProblem:
     jacobian: np.ndarray
     model_rel: np.ndarray
     rows: list[tuple[int, int]] = field(default_factory=list)   # (spectrum index, mech order)
+    #: Terms not fitted but bounded: their torque only widens the covariance (SystematicTerm).
+    systematic: list["SystematicTerm"] = field(default_factory=list)
+
+
+@dataclass
+class SystematicTerm:
+    """An unmodelled contribution known only by a bound: its torque per unit (complex, per
+    observation row) and the standard uncertainty of that unit, propagated through the
+    estimator as an error common to all points (``common``) or, like the sources' model
+    uncertainty, half common and half independent from point to point
+    (:data:`COMMON_SHARE_COMPLEMENT`); it changes neither the weights nor the estimates."""
+
+    name: str
+    rows: np.ndarray
+    standard_uncertainty: float
+    common: bool = True
 
 
 @dataclass
@@ -156,6 +174,27 @@ def _systematic_covariance(problem: LinearProblem, p: np.ndarray, operator: np.n
     return cov
 
 
+def _bounded_covariance(problem: LinearProblem, operator: np.ndarray,
+                        sigma_total: np.ndarray) -> np.ndarray:
+    """Covariance of the estimates from the problem's :class:`SystematicTerm` s."""
+    size = len(problem.names)
+    cov = np.zeros((size, size))
+    weights = np.concatenate([sigma_total, sigma_total])
+    points = np.array([row[0] for row in problem.rows]) if problem.rows else None
+    for term in problem.systematic:
+        def shift(rows):
+            return operator @ (np.concatenate([rows.real, rows.imag]) / weights)
+        variance = term.standard_uncertainty ** 2
+        share = 0.0 if term.common else COMMON_SHARE_COMPLEMENT
+        common = shift(term.rows)
+        cov += (1.0 - share) * variance * np.outer(common, common)
+        if share and points is not None:
+            for point in np.unique(points):
+                alone = shift(np.where(points == point, term.rows, 0j))
+                cov += share * variance * np.outer(alone, alone)
+    return cov
+
+
 def fit(problem: LinearProblem) -> FitResult:
     """Solve ``problem`` (module docstring)."""
     sigma_total = problem.sigma.copy()
@@ -187,6 +226,7 @@ def fit(problem: LinearProblem) -> FitResult:
         cov = cov * birge
     cov = cov + (1.0 - COMMON_SHARE_COMPLEMENT) * _systematic_covariance(problem, full, operator,
                                                                          sigma_total)
+    cov = cov + _bounded_covariance(problem, operator, sigma_total)
     estimate = np.where(keep, x, np.nan)
     cov[~keep, :] = np.nan
     cov[:, ~keep] = np.nan

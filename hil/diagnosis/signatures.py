@@ -59,6 +59,10 @@ class DriveSetup:
     #: when given, the captures' current dc is fitted too (it separates a sensor offset from a
     #: torque fixed in the rotor angle); None: the currents are not used.
     current_channel_u_a: float | None = None
+    #: Upper bound (s) of the inverter's effective dead time, when the drive's documentation
+    #: states it; with a coarse encoder it sizes the offsets' dwell term (hil.diagnosis.dwell).
+    #: None: the fitted nuisance dead time + 2 standard uncertainties is used.
+    dead_time_bound_s: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("current_loop_bandwidth_hz", "transducer_bandwidth_hz"):
@@ -72,6 +76,9 @@ class DriveSetup:
                 math.isfinite(self.current_channel_u_a) and self.current_channel_u_a >= 0):
             raise InputError(f"current_channel_u_a={self.current_channel_u_a!r} must be >= 0 A "
                              "or None")
+        if self.dead_time_bound_s is not None and not (0 <= self.dead_time_bound_s < 1e-4):
+            raise InputError(f"dead_time_bound_s={self.dead_time_bound_s!r} must be in "
+                             "[0, 1e-4) s or None")
         if not 2000 <= self.pwm_frequency_hz <= 50_000:
             raise InputError(f"pwm_frequency_hz={self.pwm_frequency_hz!r} must be in "
                              "[2000, 50000] Hz")

@@ -73,3 +73,25 @@ def test_a_stated_model_uncertainty_is_common_to_all_points():
     result = fit(problem)
     assert result.standard_uncertainty()[0] >= 0.5 * 0.1 * 2.0 * 0.99
     assert result.standard_uncertainty()[0] < 0.2
+
+
+def test_a_bounded_term_widens_the_covariance_by_its_propagated_variance_only():
+    """A SystematicTerm acting exactly like parameter 0's signature with standard uncertainty u
+    adds u² to var(p0) (common to all rows: the estimator passes it on whole) and leaves the
+    estimates and the weights alone; one acting like neither parameter adds nothing."""
+    from hil.diagnosis.fit import SystematicTerm
+    rng = np.random.default_rng(5)
+    jacobian = rng.normal(size=(24, 2)) + 1j * rng.normal(size=(24, 2))
+    problem = _problem(jacobian, np.array([0.4, -0.7]), 0.02, rng)
+    plain = fit(problem)
+    problem.rows = [(i // 3, i % 3 + 1) for i in range(24)]
+    problem.systematic = [SystematicTerm("like_p0", jacobian[:, 0].copy(), 0.05)]
+    widened = fit(problem)
+    assert np.allclose(widened.estimate, plain.estimate)
+    added = widened.covariance - plain.covariance
+    assert added[0, 0] == pytest.approx(0.05 ** 2, rel=1e-9)
+    assert abs(added[1, 1]) < 1e-12 and abs(added[0, 1]) < 1e-12
+    split = SystematicTerm("like_p0_half_independent", jacobian[:, 0].copy(), 0.05, common=False)
+    problem.systematic = [split]
+    partial = fit(problem).covariance - plain.covariance
+    assert 0 < partial[0, 0] < added[0, 0]
