@@ -44,6 +44,10 @@ def register(subparsers) -> None:
                         help="standard uncertainty of the DAQ current channels' dc; when given, "
                              "the captures' phase-current dc is fitted too (separates a sensor "
                              "offset from a torque fixed in the rotor angle)")
+    parser.add_argument("--dead-time-bound-s", type=float, default=None, metavar="S",
+                        help="upper bound of the inverter's effective dead time (drive data); "
+                             "with a coarse encoder it sizes the offsets' dwell term (default: "
+                             "the fitted nuisance dead time × 3, which reads low)")
     parser.add_argument("--max-mech-order", type=int, default=128, metavar="M",
                         help="highest mechanical order analysed (default 128)")
     parser.set_defaults(func=run)
@@ -91,7 +95,8 @@ def run(args) -> int:
         _bench_dict(args, records), current_loop_bandwidth_hz=args.loop_bandwidth_hz,
         current_loop_delay_s=args.loop_delay_s,
         transducer_bandwidth_hz=args.transducer_bandwidth_hz,
-        pwm_frequency_hz=args.pwm_frequency_hz, current_channel_u_a=args.current_channel_u_a)
+        pwm_frequency_hz=args.pwm_frequency_hz, current_channel_u_a=args.current_channel_u_a,
+        dead_time_bound_s=args.dead_time_bound_s)
     spectra = spectra_from_captures(pairs, max_mech_order=args.max_mech_order)
     result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
     result.notes.extend(check_setup_known(setup))

@@ -56,6 +56,9 @@ def test_hil_diagnose_on_the_recorded_captures(diagnosis_run, capsys):
     assert sorted({p["current_a"] for p in data["operating_points"]}) == [10.0, 20.0]
     assert data["setup"]["current_loop_bandwidth_hz"] == 1600.0
     assert data["setup"]["transducer_bandwidth_hz"] == 1000.0
+    assert data["setup"]["dead_time_bound_s"] is None
+    assert main(["diagnose", *captures, "--json", "--dead-time-bound-s", "3e-6"]) == 0
+    assert json.loads(capsys.readouterr().out)["setup"]["dead_time_bound_s"] == 3e-6
     assert main(["diagnose", *captures]) == 0
     text = capsys.readouterr().out
     assert "current-sensor dc offset" in text and "sensor a offset correction" in text
