@@ -7,7 +7,17 @@ eq 28 and the closed-loop bound are one-sided (a drive ignoring the injection me
 plan judges against the derived duty-quantisation model of hil.model.pwm_resolution (two-sided,
 its own stated range; simple acceptance — see conditions.DERIVED_RANGE_SIMPLE_RULE) and checks
 that the ripple scales with the counter as the model says; the bound and eq 28 are recorded.
+
+Neither catches a drive that applies the counter scaled (1.5× or 0.7× the commanded counts):
+the pk-pk of a ripple that is not synchronous with the rotor has U ≈ its value, the derived
+model is known only within [⅓, 3]×, and a constant factor keeps the scaling. The noise check
+does: the RMS of the torque left after the synchronous average (hil.analysis.nonsync, relative
+U of a few %) at each counter, the bench's own floor (a reference point at the drive's default
+counter, no verdict) removed in quadrature, against the quantised-loop noise model of
+hil.model.pwm_noise (its own range from the model's spread against the simulated drive).
 """
+
+import math
 
 import pytest
 
@@ -15,6 +25,13 @@ from ripple_hil_testplans import conditions as c
 from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_resolution")
+
+#: The drive's default counter (the EDS default of pwm_period_counts): the reference point whose
+#: non-synchronous RMS is the bench's own floor (its modelled quantisation noise, ~1/16 of the
+#: 128-count point's, is taken out of it first).
+NOISE_REFERENCE_COUNTS = 2000
+#: Analysed orders of the points (the synchronous average the noise statistic removes).
+MAX_ORDER = 48
 
 
 def plan(config, injection):
@@ -30,6 +47,16 @@ def plan(config, injection):
                                "for comparison only")
 
 
+def test_pwm_resolution_noise_reference(measure, bench):
+    """The bench's own non-synchronous floor: the drive's default counter, no model verdict."""
+    outcome = measure(c.point(bench.config.operating_point, "pwm_resolution",
+                              {"pwm_period_counts": NOISE_REFERENCE_COUNTS}, None,
+                              revolutions=c.PWM_RESOLUTION_REVOLUTIONS, max_order=MAX_ORDER,
+                              expectation="reference for the noise check: the bench's own "
+                                          "non-synchronous floor (no model verdict)"))
+    assert outcome.passed, outcome.summary()
+
+
 @pytest.mark.parametrize("injection", c.PWM_RESOLUTION_SWEEP, ids=c.sweep_id)
 def test_pwm_resolution(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
@@ -41,3 +68,72 @@ def test_pwm_resolution_sensitivity(record):
     result = check_sensitivity(record, "pwm_resolution", c.DERIVED_RANGE_SLOPE_TOL,
                                mode="scaling")
     assert result["accepted"], result["statement"]
+
+
+def test_pwm_resolution_noise(record, bench):
+    """Each counter's non-synchronous torque RMS, floor removed, lies in the quantised-loop
+    noise model's range (ILAC-G8 guarded: U of the measurement as the guard band)."""
+    from hil.analysis import classify
+    from hil.analysis.nonsync import nonsynchronous_rms_of_capture
+    from hil.capture import Capture
+    from hil.model import OperatingPoint
+    from hil.model.pwm_noise import predict_noise
+
+    config = bench.config
+    entries = {t["injection"].get("pwm_period_counts"): t for t in record.tests
+               if t.get("source") == "pwm_resolution" and t.get("capture")
+               and t.get("outcome") in ("passed", "failed")}
+    if NOISE_REFERENCE_COUNTS not in entries or len(entries) < 2:
+        pytest.skip("pwm_resolution noise: the reference point and at least one counter must "
+                    f"have been measured (got counters {sorted(entries)})")
+    if config.torque.bandwidth_hz is None:
+        pytest.skip("pwm_resolution noise: the bench file's [torque] bandwidth_hz is needed by "
+                    "the noise model")
+    loop = c.current_loop(config)
+    pole_pairs = config.motor.pole_pairs
+
+    def measured_and_model(entry):
+        capture = Capture.load(record.path / entry["capture"]["file"])
+        stat = nonsynchronous_rms_of_capture(capture, pole_pairs=pole_pairs,
+                                             max_order=MAX_ORDER)
+        point = entry["operating_point"]
+        op = OperatingPoint(speed_rpm=point["speed_rpm"], current_a=point["current_a"],
+                            current_angle_rad=point["current_angle_rad"], motor=config.motor)
+        model = predict_noise(op, entry["injection"]["pwm_period_counts"],
+                              pwm_frequency_hz=entry["injection"].get(
+                                  "pwm_frequency_hz", 20_000.0),
+                              transducer_bandwidth_hz=config.torque.bandwidth_hz,
+                              revolutions=stat.revolutions, max_order=MAX_ORDER, **loop)
+        base = op.mean_torque_nm
+        return stat.rms_nm / base, stat.rms_u_nm / base, model
+
+    ref_pu, ref_u, ref_model = measured_and_model(entries.pop(NOISE_REFERENCE_COUNTS))
+    floor_pu = math.sqrt(max(ref_pu ** 2 - ref_model.rms_pu ** 2, 0.0))
+    rows, accepted = [], True
+    for counts in sorted(entries):
+        raw_pu, raw_u, model = measured_and_model(entries[counts])
+        value = math.sqrt(max(raw_pu ** 2 - floor_pu ** 2, 0.0))
+        # U (k = 2) of sqrt(raw² − floor²): both standard uncertainties propagated
+        expanded = 2.0 * math.hypot(raw_pu * raw_u, ref_pu * ref_u) / max(value, 1e-12)
+        low, high = model.expected_range_pu
+        decision = classify(value, expanded, low, high)
+        accepted &= decision == "pass"
+        rows.append({"pwm_period_counts": counts, "measured_rms_pu": value,
+                     "expanded_uncertainty_pu": expanded, "raw_rms_pu": raw_pu,
+                     "predicted_rms_pu": model.rms_pu, "limits_pu": [low, high],
+                     "ratio": value / model.rms_pu, "decision": decision,
+                     "white_noise_rms_pu": model.white_noise_rms_pu,
+                     "assumptions": list(model.assumptions)})
+    statement = "; ".join(
+        f"C={r['pwm_period_counts']}: {100 * r['measured_rms_pu']:.3f} % ± "
+        f"{100 * r['expanded_uncertainty_pu']:.3f} vs {100 * r['predicted_rms_pu']:.3f} % "
+        f"[{100 * r['limits_pu'][0]:.3f}, {100 * r['limits_pu'][1]:.3f}] → {r['decision']}"
+        for r in rows)
+    record.set_section("pwm_resolution_noise", {
+        "statistic": "hil.analysis.nonsync: RMS of the torque less its synchronous average "
+                     f"(orders 0..{MAX_ORDER}), per unit of K_t·I·cos φ",
+        "floor_rms_pu": floor_pu, "reference_rms_pu": ref_pu,
+        "reference_model_rms_pu": ref_model.rms_pu,
+        "reference_counts": NOISE_REFERENCE_COUNTS, "points": rows,
+        "accepted": accepted, "statement": statement})
+    assert accepted, f"pwm_resolution noise: {statement} (floor {100 * floor_pu:.3f} %)"
