@@ -1,6 +1,8 @@
 """Study: coverage of the ripple diagnosis on random simulated production drives (issue 15).
 
-Run: ``.venv/bin/python studies/diagnosis_coverage.py [--drives 50] [--seed 0]``.
+Run: ``.venv/bin/python studies/diagnosis_coverage.py [--drives 50] [--seed 0]``;
+``--dwell-sd-per-bound 0`` (or 0.577 for rectangular) reruns it with the coarse-encoder dwell term
+removed (or sized otherwise) for the comparison in hil/diagnosis/README.md.
 
 Each drive gets random hidden faults (sensor offsets ±0.3 A, gain errors ±2 %, dead time 0-3 µs,
 an encoder decimation from {1, 75, 100, 150, 200}, one cogging term of 0-20 mN·m at a random
@@ -82,7 +84,13 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--drives", type=int, default=50)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--dwell-sd-per-bound", type=float, default=None,
+                        help="standard uncertainty of a dwell's leg-voltage error per unit of "
+                             "its bound ε (default: hil.diagnosis.core.DWELL_SD_PER_BOUND)")
     args = parser.parse_args(argv)
+    if args.dwell_sd_per_bound is not None:
+        from hil.diagnosis import core
+        core.DWELL_SD_PER_BOUND = args.dwell_sd_per_bound
     rng = np.random.default_rng(args.seed)
     started = time.perf_counter()
     cases = [run_drive(rng, args.seed * 100_000 + i) for i in range(args.drives)]
@@ -108,6 +116,13 @@ def main(argv=None) -> int:
             print(f"{row['name']:22s} {row['checked']:8d} {row['covered']:8d} "
                   f"{100 * share:8.1f}% {ratio:13.2f} {row['not_identifiable']:13d}")
     print("(a normal estimate with a correctly stated U at k = 2 has mean |err|/U ≈ 0.40)")
+    dwell = [(c.diagnosis.encoder["offset_dwell_bound"], c.faults.dead_time_s * 1e6)
+             for c in cases if c.diagnosis.encoder.get("offset_dwell_bound", {}).get("applied")]
+    if dwell:
+        short = sum(bound["dead_time_bound_us"] < hidden for bound, hidden in dwell)
+        print(f"dwell term (coarse encoder) on {len(dwell)} drives; its dead-time bound below "
+              f"the hidden dead time on {short} of them (bound/hidden median "
+              f"{np.median([b['dead_time_bound_us'] / max(h, 1e-9) for b, h in dwell]):.2f})")
     misses = [(i, c) for i, case in enumerate(cases) for c in case.checks
               if c.get("identifiable") and not c.get("covered")]
     for i, check in misses[:12]:
