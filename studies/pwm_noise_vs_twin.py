@@ -65,8 +65,8 @@ def main() -> int:
           "cells: twin % / model % (ratio; white-noise ratio)")
     for speed in args.speeds:
         for current in args.currents:
-            op = OperatingPoint(speed_rpm=speed, current_a=current)
             try:
+                op = OperatingPoint(speed_rpm=speed, current_a=current)
                 ref_model = predict_noise(op, REFERENCE_COUNTS, revolutions=args.revolutions,
                                           max_order=MAX_ORDER, **LOOP).rms_pu
             except InputError as exc:

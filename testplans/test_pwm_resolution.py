@@ -47,16 +47,6 @@ def plan(config, injection):
                                "for comparison only")
 
 
-def test_pwm_resolution_noise_reference(measure, bench):
-    """The bench's own non-synchronous floor: the drive's default counter, no model verdict."""
-    outcome = measure(c.point(bench.config.operating_point, "pwm_resolution",
-                              {"pwm_period_counts": NOISE_REFERENCE_COUNTS}, None,
-                              revolutions=c.PWM_RESOLUTION_REVOLUTIONS, max_order=MAX_ORDER,
-                              expectation="reference for the noise check: the bench's own "
-                                          "non-synchronous floor (no model verdict)"))
-    assert outcome.passed, outcome.summary()
-
-
 @pytest.mark.parametrize("injection", c.PWM_RESOLUTION_SWEEP, ids=c.sweep_id)
 def test_pwm_resolution(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
@@ -68,6 +58,17 @@ def test_pwm_resolution_sensitivity(record):
     result = check_sensitivity(record, "pwm_resolution", c.DERIVED_RANGE_SLOPE_TOL,
                                mode="scaling")
     assert result["accepted"], result["statement"]
+
+
+def test_pwm_resolution_noise_reference(measure, bench):
+    """The bench's own non-synchronous floor: the drive's default counter, no model verdict
+    (after the sweep, so that the sweep's points run as they did before the noise check)."""
+    outcome = measure(c.point(bench.config.operating_point, "pwm_resolution",
+                              {"pwm_period_counts": NOISE_REFERENCE_COUNTS}, None,
+                              revolutions=c.PWM_RESOLUTION_REVOLUTIONS, max_order=MAX_ORDER,
+                              expectation="reference for the noise check: the bench's own "
+                                          "non-synchronous floor (no model verdict)"))
+    assert outcome.passed, outcome.summary()
 
 
 def test_pwm_resolution_noise(record, bench):

@@ -23,6 +23,9 @@ CASES = [
      {"word_length", "pwm_resolution"}),
     ({"injection_scale": 1.5}, ["dc_offset", "gain_mismatch", "dead_time"],
      {"dc_offset", "gain_mismatch", "dead_time"}),
+    # a PWM counter applied scaled: the non-synchronous noise check of the plan catches it
+    ({"injection_scale": 1.5}, ["pwm_resolution"], {"pwm_resolution"}),
+    ({"injection_scale": 0.7}, ["pwm_resolution"], {"pwm_resolution"}),
     ({"hidden_ia_offset_a": 0.3}, ["baseline", "dc_offset"], {"baseline", "dc_offset"}),
     ({"word_length_offset_bits": -2}, ["word_length"], {"word_length"}),
     ({"transducer_scale": 1.05}, ["self_check"], {"self_check"}),
@@ -49,7 +52,8 @@ def test_a_defective_drive_fails_the_plans_that_exist_to_catch_it(case, tmp_path
 def test_the_same_plans_pass_on_the_drive_without_defects(tmp_path):
     """The control: without a defect the plans the cases run pass (so a case's failure is the
     defect's doing)."""
-    sources = ["self_check", "baseline", "dc_offset", "gain_mismatch", "dead_time"]
+    sources = ["self_check", "baseline", "dc_offset", "gain_mismatch", "dead_time",
+               "pwm_resolution"]
     run = run_plans(sources, {}, tmp_path)
     assert failed_sources(run) == set(), run["output"]
     assert run["returncode"] == 0, run["output"]
