@@ -13,16 +13,20 @@ no longer cancel (the half-wave symmetry is lost), so the error has a dc and eve
 an order-1 torque (and order 2, 3) that the sensor offsets would absorb.
 
 No closed form for the dwell value is derived here (it needs the ripple at the switching instants
-and the clamp). It is *bounded*: the current of leg x sits in both its dwells at the same level
-(−T·o_x; +T·(o_a + o_b) for the computed phase c), so both dwells carry the same unknown error
-a_x ∈ [−ε, ε]; a current held on one side of zero puts it at one of the bounds (eqs 32-37: the
-leg voltage is set by the current's direction), so a_x is taken as ±ε (two-point, standard
-uncertainty ε), the same at every operating point (the offset is). Its torque goes through the
-same loop and torque map as every other signature (:func:`dwell_pair_orders`) and is propagated
-through the estimator as a systematic term (:class:`hil.diagnosis.fit.SystematicTerm`), one per
-leg. ε needs the dead time, which a coarse encoder hides: the drive's stated upper bound
-(``DriveSetup.dead_time_bound_s``) when given, else the nuisance estimate × (1 + 2 × its 100 %
-model uncertainty), stated as weaker (the average model reads low with a coarse encoder).
+and the clamp). It is *bounded*: each dwell (3 legs × 2 crossings) carries an unknown error
+a ∈ [−ε, ε]; the dwell current (−T·o_x; +T·(o_a + o_b) for the computed phase c) has a sign,
+which sets the leg voltage (eqs 32-37), so a is taken at a bound, ±ε (two-point, standard
+uncertainty ε). The current enters a dwell from the other side when the rotation reverses, so
+each direction has its own 6 unknowns, each the same at every operating point of that direction
+(the offset and ε are). Each dwell's torque goes through the same loop and torque map as every
+other signature (:func:`dwell_pulse_orders`) and is propagated through the estimator as a
+systematic term (:class:`hil.diagnosis.fit.SystematicTerm`; assembled in
+``hil.diagnosis.core._dwell_terms``). ε needs the dead time, which a coarse encoder hides: the
+drive's stated upper bound (``DriveSetup.dead_time_bound_s``) when given, else the nuisance
+estimate × (1 + 2 × its 100 % model uncertainty), stated as weaker (the average model reads low
+with a coarse encoder). On the twin the bound covers the offsets' errors with mean |err|/U ≈ 0.2
+(conservative); its voltage-through-the-loop picture does not reproduce the speed dependence of
+the observed dc shifts (README, "Proof on the twin").
 """
 
 from __future__ import annotations
