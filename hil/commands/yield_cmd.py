@@ -23,6 +23,7 @@ from hil.tolerance.engines import ENGINES
 from hil.tolerance.run import YieldOptions, run_yield
 from hil.requirements import load_requirements
 from hil.tolerance.spec import DRIVES_RANGE, load_tolerances, yield_requirement
+from hil.tolerance.stats import format_yield
 
 
 def _weights(items: list[str] | None) -> dict[str, float]:
@@ -105,16 +106,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pct(value: float, drives: int) -> str:
-    """A fraction in % with the decimals its sample resolves (1/drives): none for 8 drives,
-    two for 2,000, at most three."""
-    decimals = min(3, max(0, math.ceil(math.log10(drives)) - 2))
-    return f"{100 * value:.{decimals}f}"
-
-
 def _yield(value: float, ci: list[float], drives: int) -> str:
-    return (f"yield {_pct(value, drives)} % (95 % CI {_pct(ci[0], drives)} .. "
-            f"{_pct(ci[1], drives)} %)")
+    return f"yield {format_yield(value, ci, drives)}"
 
 
 def _quantile(label: str, entry: dict, interval: bool = True) -> str:

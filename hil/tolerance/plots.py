@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from hil.tolerance.spec import ToleranceSpec
-from hil.tolerance.stats import CI_NAME
+from hil.tolerance.stats import CI_NAME, format_yield
 
 
 def plot_histogram(ripple_pu: np.ndarray, spec: ToleranceSpec, folder: Path,
@@ -26,9 +26,8 @@ def plot_histogram(ripple_pu: np.ndarray, spec: ToleranceSpec, folder: Path,
     ax.set_xlabel("pk-pk torque ripple, % of the mean torque (worst judged operating point)")
     ax.set_ylabel("drives")
     low, high = summary["yield_ci95"]
-    ax.set_title(f"{worst.size:,} drives: yield {100 * summary['yield']:.2f} % "
-                 f"(95 % CI {100 * low:.2f} .. {100 * high:.2f} %, {CI_NAME})",
-                 fontsize=10)
+    text = format_yield(summary["yield"], (low, high), worst.size)
+    ax.set_title(f"{worst.size:,} drives: yield {text[:-1]}, {CI_NAME})", fontsize=10)
     ax.legend()
     fig.tight_layout()
     paths = {}

@@ -91,6 +91,32 @@ def order_statistic_interval(ordered: np.ndarray, probability: float,
     return [float(ordered[low - 1]), float(ordered[high - 1])]
 
 
+def percent_decimals(drives: int) -> int:
+    """Decimals of a percentage that ``drives`` resolve (1/drives): none for 8 drives, two for
+    2,000, at most three."""
+    return min(3, max(0, math.ceil(math.log10(drives)) - 2))
+
+
+def format_percent(value: float, drives: int, rounding=round) -> str:
+    """A fraction in % at ``percent_decimals``: to nearest, where a fraction strictly between
+    0 and 1 is never printed as 0 or 100; or by ``rounding`` (math.floor for a lower
+    confidence bound, math.ceil for an upper one, so that a printed interval contains the
+    computed one)."""
+    decimals = percent_decimals(drives)
+    scaled = round(100 * value * 10 ** decimals, 9)      # 62.99999... is 63 before a floor
+    steps = rounding(scaled)
+    if rounding is round and 0.0 < value < 1.0:
+        steps = min(max(steps, 1), 100 * 10 ** decimals - 1)
+    return f"{steps / 10 ** decimals:.{decimals}f}"
+
+
+def format_yield(value: float, ci, drives: int) -> str:
+    """``87 % (95 % CI 47 .. 100 %)``: the yield to nearest, its interval rounded outwards."""
+    low = format_percent(ci[0], drives, math.floor)
+    high = format_percent(ci[1], drives, math.ceil)
+    return f"{format_percent(value, drives)} % (95 % CI {low} .. {high} %)"
+
+
 def histogram(values: np.ndarray, bins: int = 80) -> dict[str, list]:
     counts, edges = np.histogram(values, bins=bins)
     return {"counts": counts.tolist(), "edges": edges.tolist()}

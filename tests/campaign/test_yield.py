@@ -99,8 +99,8 @@ def test_small_campaign_states_no_tail_and_yields_carry_their_interval(tmp_path)
         for point in summary["per_point"]:
             assert point["yield_ci95"][0] <= point["yield"] <= point["yield_ci95"][1]
             assert all(q["value"] is None for q in point["ripple_pct_quantiles"].values())
-    ci = printed["yield_ci95"]
-    assert f"(95 % CI {100 * ci[0]:.0f} .. {100 * ci[1]:.0f} %)" in text
+    ci = printed["yield_ci95"]           # rounded outwards: the printed interval contains it
+    assert f"(95 % CI {math.floor(100 * ci[0]):.0f} .. {math.ceil(100 * ci[1]):.0f} %)" in text
     assert text.count("95 % CI") == 1 + len(printed["per_point"])
 
 
@@ -255,3 +255,20 @@ def test_coarse_encoder_combined_with_offset_matches_direct_torque_sum():
     # within a tenth of what the offset adds to the Hall ripple (a product of the two waveforms
     # would miss it by 40 %: the offset × staircase term is as large as the offset's own ripple)
     assert abs(combined - direct) < 0.1 * (direct - hall_alone)
+
+
+@pytest.mark.parametrize("passed, drives, printed", [
+    (1, 1, "yield 100 % (95 % CI 2 .. 100 %)"),            # 2.50 %: never printed as 3
+    (8, 9, "yield 89 % (95 % CI 51 .. 100 %)"),            # 51.75 % .. 99.72 %
+    (0, 30, "yield 0 % (95 % CI 0 .. 12 %)"),              # upper 11.57 %
+    (1999, 2000, "yield 99.95 % (95 % CI 99.72 .. 100.00 %)"),
+    (999_999, 1_000_000, "yield 99.999 % (95 % CI 99.999 .. 100.000 %)"),   # not 100.000 %
+    (1, 1_000_000, "yield 0.001 % (95 % CI 0.000 .. 0.001 %)"),              # not 0.000 %
+])
+def test_printed_yield_interval_is_rounded_outwards(passed, drives, printed):
+    """A confidence bound is never printed tighter than computed: the lower one rounds down,
+    the upper one up (the yield itself to nearest, but never to 0 or 100 % unless exact)."""
+    from hil.commands.yield_cmd import _yield
+
+    low, high = yield_interval(passed, drives)
+    assert _yield(passed / drives, [low, high], drives) == printed
