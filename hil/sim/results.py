@@ -49,7 +49,11 @@ def select_channels(channels) -> tuple[tuple[str, ...], np.ndarray]:
         if isinstance(channels, str):
             raise ValueError(f"channels must be an iterable of channel names, not the string "
                              f"{channels!r}")
-        asked = set(channels)
+        try:
+            asked = set(channels)
+        except TypeError:
+            raise ValueError(f"channels must be None or an iterable of channel names, not "
+                             f"{channels!r}") from None
         unknown = sorted(asked.difference(STANDARD_CHANNELS), key=str)
         if unknown:
             raise ValueError(f"unknown channel {unknown[0]!r}; valid channels: "

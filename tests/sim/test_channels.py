@@ -124,3 +124,6 @@ def test_unknown_channel_is_refused_by_name(run):
         run(("time_s", "torque_Nm"))
     with pytest.raises(ValueError, match="not the string 'torque_nm'"):
         run("torque_nm")
+    with pytest.raises(ValueError, match="channels must be None or an iterable of channel "
+                                         "names, not 5"):
+        run(5)
