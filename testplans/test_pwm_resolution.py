@@ -27,7 +27,7 @@ from ripple_hil_testplans.sensitivity import check_sensitivity
 pytestmark = pytest.mark.ripple_source("pwm_resolution")
 
 #: The drive's default counter (the EDS default of pwm_period_counts): the reference point whose
-#: non-synchronous RMS is the bench's own floor (its modelled quantisation noise, ~1/16 of the
+#: non-synchronous RMS is the bench's own floor (its modelled quantisation noise, ~1/19 of the
 #: 128-count point's, is taken out of it first).
 NOISE_REFERENCE_COUNTS = 2000
 #: Analysed orders of the points (the synchronous average the noise statistic removes).

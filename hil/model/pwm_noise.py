@@ -28,7 +28,8 @@ Two evaluations of the duty error n_k (the space vector of the three legs' trunc
   the simulated drive lies at 1.05-2.0× it (median 1.5; the loop moves the references by a
   fraction of a count per period, so the error runs in stretches of one sign and sits near the
   ends of the count more often than a uniform error would: in the quantised loop at 500 rpm,
-  20 A its variance is ~1.4× (V_dc/C)²/12 and its spectrum leans to low frequencies, which the transducer passes).
+  20 A its variance is ~1.4× (V_dc/C)²/12 and its spectrum leans to low frequencies, which the
+  transducer passes).
 * ``quantised_loop_torque_pu`` (the expectation): the same loop with the truncation itself in
   it. Each period the steady-state leg references (the phasor V∠δ of eq 27's circuit, SVPWM
   min-max or sine) plus the loop's command deviation are truncated to whole counts, floor((½ +
@@ -174,7 +175,8 @@ def quantised_loop_torque_pu(op: OperatingPoint, counts: float, a: np.ndarray, b
 
 @njit(cache=True)
 def _quantised_loop(a, b, steady, offsets, counts, vdc, step_rad, settle, kept, svpwm):
-    """The quantised loop's y (q axis) per trial and kept period; offsets per unit of V_dc."""
+    """The quantised loop's y (q axis) per trial and kept period; offsets per unit of V_dc.
+    State indices as ``_I, _Y, _MID, _INT, _U`` (the command is state[4], y is state[1])."""
     trials = offsets.shape[0]
     legs_unit = np.exp(1j * np.array([0.0, 2.0 * np.pi / 3.0, -2.0 * np.pi / 3.0]))
     out = np.empty((trials, kept))
@@ -243,7 +245,8 @@ def predict_noise(op: OperatingPoint, counts: float, *, pwm_frequency_hz: float,
     return NoisePrediction(
         rms_pu=value, expected_range_pu=(low * value, high * value),
         white_noise_rms_pu=white_noise_rms_pu(op, counts, a, b, revolutions, max_order, f_sw),
-        trials_rms_pu=tuple(float(v) for v in per_trial), counts=float(counts), computation_delay_periods=delay,
+        trials_rms_pu=tuple(float(v) for v in per_trial), counts=float(counts),
+        computation_delay_periods=delay,
         assumptions=(
             f"compare values truncated to whole counts of 1/{counts:g} inside the loop "
             f"({modulation}, steady-state references of eq 27's phasor circuit), mean square "
