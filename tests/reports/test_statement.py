@@ -89,3 +89,18 @@ def test_summary_counts_a_test_that_failed_its_requirement_as_failed():
     row = next(line for line in lines if line.startswith("baseline")).split()
     assert row[1:7] == ["1", "0", "0", "0", "1", "0"]        # pts, pass, c.pass, c.fail, fail, err
     assert any("not accepted: REQ-90" in line for line in lines)
+
+
+def test_summary_never_says_all_pass_where_statement_1_is_not_stated():
+    """Every recorded verdict accepted but the run interrupted: statement 1 is NOT STATED, and
+    the summary printed as the run ends says so instead of "all pass"."""
+    tests = (measured("a", "baseline", "pass",
+                      requirements=[requirement_verdict("REQ-1", 2.0, 30.0)]),
+             {"test_id": "b", "source": "baseline", "outcome": "not run"})
+    interrupted = record(*tests, status="interrupted")
+    assert overall_statement(interrupted, None).requirements.startswith(NOT_STATED)
+    text = "\n".join(summary_lines(interrupted))
+    assert "all pass" not in text
+    assert "requirements: 1 verdicts, all accepted; statement: NOT STATED (run interrupted)" \
+        in text
+    assert "requirements: 1 verdicts, all pass" in "\n".join(summary_lines(record(*tests[:1])))
