@@ -1,7 +1,7 @@
 """Study: the duty-quantisation noise model (``hil.model.pwm_noise``) against the simulated drive.
 
 Run: ``.venv/bin/python studies/pwm_noise_vs_twin.py [--revolutions 8] [--counts 22 32 …]``
-(≈ 2 min). For every operating point of the grid the twin (``hil.sim.DriveTwin``, the bench's
+(≈ 30 s). For every operating point of the grid the twin (``hil.sim.DriveTwin``, the bench's
 default drive: 1.6 kHz loop, 1.5 periods of delay, 1 kHz transducer) is captured as a
 ``hil run`` point would be (transducer torque, the plan's sample rate, R whole revolutions after
 the settling time) and the non-synchronous RMS (``hil.analysis.nonsync``) is taken, with the
