@@ -122,7 +122,8 @@ def render_report(record_dir: str | Path, *, revision: Revision | None = None
     _method_pages(pdf, content, record_dir)
     for section in content.sources:
         _source_pages(pdf, section, record_dir,
-                      (content.record.get("sensitivity") or {}).get(section.name))
+                      (content.record.get("sensitivity") or {}).get(section.name),
+                      plan_checks(content.record, section.name))
     _deviations_and_traceability(pdf, content)
     _attach(pdf, content, record_dir, created)
     return RenderedReport(bytes(pdf.output()), content, pdf.pages_count)
@@ -464,13 +465,26 @@ def _capture_meta(record_dir: Path, relative: str | None) -> dict:
 
 # ---------------------------------------------------------------------- per source
 
+def plan_checks(record: dict, source: str) -> list[tuple[str, dict]]:
+    """A plan's own checks across its points, recorded as sections named ``<source>_<check>``
+    with a ``statement`` and ``accepted`` (e.g. ``pwm_resolution_noise``)."""
+    prefix = f"{source}_"
+    return [(name[len(prefix):], value) for name, value in sorted(record.items())
+            if name.startswith(prefix) and isinstance(value, dict) and "statement" in value]
+
+
 def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
-                  sensitivity: dict | None = None) -> None:
+                  sensitivity: dict | None = None,
+                  checks: list[tuple[str, dict]] = ()) -> None:
     pdf.add_page()
     pdf.heading(f"Source: {section.name}")
     pdf.para(f"Statement: {STATEMENTS[section.statement]}", style="B")
     if sensitivity:
         pdf.para(_sensitivity_text(sensitivity), size=8)
+    for name, check in checks:
+        verdict = "ACCEPTED" if check.get("accepted") else "NOT ACCEPTED"
+        pdf.para(f"{name.replace('_', ' ').capitalize()} check ({check.get('statistic', '')}): "
+                 f"{check['statement']}: {verdict}.", size=8)
     if figures.sweep(pdf, section):
         pdf.caption("Measured ripple with its expanded uncertainty (k = 2), the paper's "
                     "prediction and the tolerance limits of the decision rule where recorded.")
