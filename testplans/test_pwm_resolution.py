@@ -35,6 +35,12 @@ MAX_ORDER = 48
 
 
 def plan(config, injection):
+    if config.torque.bandwidth_hz is None:       # refused at pre-flight, nothing sent
+        from hil.errors import InputError
+
+        raise InputError("pwm_resolution: the bench file's [torque] bandwidth_hz (the torque "
+                         "output's -3 dB bandwidth, from the transducer's data sheet) is needed "
+                         "by the noise check's model")
     # the derived form averages over as many revolutions as the point captures
     return c.point(config.operating_point, "pwm_resolution", injection,
                    c.DERIVED_RANGE_SIMPLE_RULE, revolutions=c.PWM_RESOLUTION_REVOLUTIONS,

@@ -126,3 +126,25 @@ def test_a_requirement_naming_an_unknown_knob_is_refused():
                                  "limit": {"max": 3.0}, "injection": {"nosuch_knob": 1}})
     problems = check_plans({"t": point()}, CONFIG, [req])
     assert any("REQ-9" in p and "nosuch_knob" in p for p in problems), problems
+
+
+def test_pwm_resolution_without_the_transducer_bandwidth_is_refused_before_any_command(tmp_path):
+    """The noise check needs the torque output's bandwidth: a bench file without it is refused at
+    pre-flight (not a silent skip of the one check that catches a scaled PWM counter)."""
+    import tomllib
+
+    import tomli_w
+
+    from hil.config import example_bench_path
+
+    table = tomllib.loads(example_bench_path("sim-bench").read_text())
+    table["torque"].pop("bandwidth_hz", None)
+    bench = tmp_path / "no-bandwidth.toml"
+    bench.write_text(tomli_w.dumps(table))
+    records = tmp_path / "records"
+    result = subprocess.run([sys.executable, "-m", "hil", "run", "--source", "pwm_resolution",
+                             "--bench", str(bench), "--record-dir", str(records), "--no-report"],
+                            capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "[torque] bandwidth_hz" in result.stdout + result.stderr
+    assert not records.exists()
