@@ -26,7 +26,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_JSON = HERE / "results.json"
-#: Figures measured before issue 17's work by the same scripts (the table's "before" column).
+#: Figures measured before issue 17's work, each with its method (the table's "before" column).
 BEFORE_JSON = HERE / "before_issue17.json"
 #: One benchmark may not run longer than this, s (a stuck server must not hang ``make bench``).
 TIMEOUT_S = 1800.0
@@ -232,7 +232,7 @@ def load_before(path: Path = BEFORE_JSON) -> dict[str, dict]:
 
 def table(results: dict[str, dict], before: dict[str, dict] | None = None) -> str:
     """The human summary: one line per figure, with its recorded before-figure where one exists
-    (``before_issue17.json``, measured by the same script before issue 17's work)."""
+    (``before_issue17.json``: measured before issue 17's work, each by the method it states)."""
     before = before or {}
     rows = [("benchmark", "figure", "value", "unit", "before")]
     for name, result in results.items():
@@ -282,8 +282,9 @@ def main(argv: list[str] | None = None) -> int:
     summary["before"] = before
     print(table(summary["benchmarks"], before))
     if before:
-        print(f"before: {BEFORE_JSON.name} (commit {json.loads(BEFORE_JSON.read_text())['commit']}"
-              ", same scripts, measured before issue 17's work)")
+        print(f"before: {BEFORE_JSON.name}: figures quoted from session 2's note, measured "
+              f"against commit {json.loads(BEFORE_JSON.read_text())['commit']} before issue "
+              "17's work; each figure's method is stated there (not all are today's method)")
     m = summary["machine"]
     print(f"\n{m['cpu_count']} cores, load average {m['load_average_1min_start']:.2f} -> "
           f"{m['load_average_1min_end']:.2f}{' (QUICK sizes)' if args.quick else ''}; "

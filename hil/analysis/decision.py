@@ -123,6 +123,9 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
     if not (math.isfinite(predicted_pk_pk_pu) and predicted_pk_pk_pu >= 0):
         raise InputError(f"predicted_pk_pk_pu must be a finite number >= 0, "
                          f"got {predicted_pk_pk_pu!r}")
+    if measured.uncertainty is None:
+        raise InputError("the measurement was analysed without its uncertainty budget "
+                         "(analyze_torque(uncertainty_budget=False)); a verdict needs its U")
     value = measured.pk_pk_pu * base_scale
     expanded = measured.uncertainty.expanded_pu * base_scale
     if not (math.isfinite(value) and math.isfinite(expanded)):

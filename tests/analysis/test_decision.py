@@ -89,3 +89,12 @@ def test_bad_rule_and_prediction_are_input_errors(measured):
         decide(measured=measured, predicted_pk_pk_pu=float("nan"))
     with pytest.raises(InputError, match="predicted_order"):
         decide(measured=measured, predicted_pk_pk_pu=0.04, predicted_order=99)
+
+
+def test_a_result_without_its_uncertainty_budget_cannot_be_judged():
+    time_s = np.arange(8_000) / 20_000.0
+    angle = speed_profile_angle(time_s, electrical_hz=40.0, variation=0.0)
+    torque = ripple(angle, 1.0, {6: (0.02, 0.3)})
+    res = analyze_torque(time_s, torque, angle, max_order=32, uncertainty_budget=False)
+    with pytest.raises(InputError, match="without its uncertainty budget"):
+        decide(res, 0.04)
