@@ -44,6 +44,7 @@ monotonic in C (nor is the simulated drive).
 
 from __future__ import annotations
 
+import cmath
 import math
 from dataclasses import dataclass
 
@@ -54,7 +55,7 @@ from scipy.linalg import expm, solve_discrete_lyapunov
 from hil.analysis.nonsync import synchronous_residual
 from hil.errors import InputError
 from hil.model.core import OperatingPoint, check_range
-from hil.model.pwm_resolution import MODULATIONS, grid_offsets, voltage_phasor
+from hil.model.pwm_resolution import MODULATIONS, grid_offsets
 
 #: Computation delays (PWM periods) the sampled loop model represents: sampled at the counter
 #: valley (0, 1) or peak (½, 1½) before the period the output is applied in.
@@ -90,6 +91,17 @@ class NoisePrediction:
                 "trials_rms_pu": list(self.trials_rms_pu), "counts": self.counts,
                 "computation_delay_periods": self.computation_delay_periods,
                 "assumptions": list(self.assumptions)}
+
+
+def steady_phasor_peak_v(op: OperatingPoint) -> complex:
+    """Peak phase-voltage phasor of the steady state, angle from the q axis (the EMF's direction
+    in forward rotation): V = sign(ω)·E + (R + j·ω_e·L)·I·e^(−jφ) with the signed speed (eq 27's
+    circuit). In reverse rotation the drive still commands +I on q, so it brakes: −E + (R −
+    j·|ω_e|·L)·I, not the motoring phasor of ``OperatingPoint.voltage_phasor_peak_v``."""
+    motor = op.motor
+    current = op.current_a * cmath.exp(-1j * op.current_angle_rad)
+    impedance = complex(motor.phase_resistance_ohm, op.elec_speed_rad_s * motor.phase_inductance_h)
+    return math.copysign(op.emf_peak_v, op.speed_rpm) + impedance * current
 
 
 def computation_delay_periods(delay_s: float, pwm_frequency_hz: float) -> float:
@@ -165,7 +177,7 @@ def quantised_loop_torque_pu(op: OperatingPoint, counts: float, a: np.ndarray, b
     period = 1.0 / pwm_frequency_hz
     settle = int(math.ceil(SETTLE_S / period))
     kept = int(math.ceil(revolutions * 2.0 * math.pi / abs(omega_e) / period)) + 2
-    steady = complex(math.sqrt(2.0) * voltage_phasor(op))   # peak phasor, angle from the EMF
+    steady = steady_phasor_peak_v(op)       # peak phasor, angle from the q axis
     out = _quantised_loop(np.ascontiguousarray(a), np.ascontiguousarray(b), steady,
                           grid_offsets(trials) / counts, float(counts), op.dc_bus_v,
                           omega_e * period, settle, kept, modulation == "svpwm")
@@ -222,7 +234,7 @@ def predict_noise(op: OperatingPoint, counts: float, *, pwm_frequency_hz: float,
                          "(allowed: speed_rpm != 0)")
     if not op.current_a * math.cos(op.current_angle_rad) > 0:
         raise InputError("the noise is stated per unit of K_t·I·cos φ; it needs I·cos φ > 0")
-    v_peak = abs(math.sqrt(2.0) * voltage_phasor(op))
+    v_peak = abs(steady_phasor_peak_v(op))
     linear_limit = op.dc_bus_v / (math.sqrt(3.0) if modulation == "svpwm" else 2.0)
     if v_peak > linear_limit:
         raise InputError(f"the operating point needs a {v_peak:.3g} V peak phase voltage, beyond "

@@ -12,7 +12,7 @@ from hil.analysis.nonsync import nonsynchronous_rms
 from hil.errors import InputError
 from hil.model import OperatingPoint
 from hil.model.pwm_noise import (NOISE_RANGE_FACTORS, computation_delay_periods, loop_matrices,
-                                 predict_noise, white_noise_rms_pu)
+                                 predict_noise, steady_phasor_peak_v, white_noise_rms_pu)
 from hil.sim import DriveConfig, DriveTwin
 
 PLAN_POINT = OperatingPoint(speed_rpm=500, current_a=20.0)  # the simulated bench's point
@@ -106,3 +106,29 @@ def test_bad_input_is_refused_with_the_allowed_values():
     with pytest.raises(InputError, match="sine linear range"):
         predict_noise(OperatingPoint(speed_rpm=0.95 * limit_rpm, current_a=40.0), 32,
                       revolutions=8, max_order=48, modulation="sine", **LOOP)
+
+
+def test_reverse_rotation_is_braking_not_mirrored_motoring():
+    """At a negative speed the drive still commands +I on q (positive torque): it brakes, and
+    its steady references are V = −E + (R − j·|ω_e|·L)·I, not the motoring phasor. The simulated
+    drive at −500 rpm, 30 A lies in the range of the model with the signed phasor (ratio ≈ 0.9
+    at 32 counts); with the motoring phasor it read 0.64× (a correct drive rejected)."""
+    op = OperatingPoint(speed_rpm=-500, current_a=30.0)
+    motor = op.motor
+    braking = -op.emf_peak_v + complex(motor.phase_resistance_ohm,
+                                       -abs(op.elec_speed_rad_s) * motor.phase_inductance_h) * 30.0
+    assert steady_phasor_peak_v(op) == pytest.approx(braking, abs=1e-12)
+    assert steady_phasor_peak_v(PLAN_POINT) == PLAN_POINT.voltage_phasor_peak_v
+
+    twin = DriveTwin(DriveConfig(), seed=1)
+    twin.set_injection(pwm_period_counts=32)
+    twin.speed_rpm, twin.current_command_a = op.speed_rpm, op.current_a
+    twin.enable()
+    twin.advance(0.05, 8000.0)
+    ch = twin.advance(8.25 / (500 / 60 * 2), 8000.0,
+                      channels=["time_s", "torque_nm", "rotor_angle_mech_rad"])
+    stat = nonsynchronous_rms(ch["time_s"], ch["torque_nm"], 2 * ch["rotor_angle_mech_rad"],
+                              max_order=48)
+    prediction = predict_noise(op, 32, revolutions=stat.revolutions, max_order=48, **LOOP)
+    low, high = prediction.expected_range_pu
+    assert low <= stat.rms_nm / op.mean_torque_nm <= high
