@@ -61,7 +61,8 @@ class DriveSetup:
     current_channel_u_a: float | None = None
     #: Upper bound (s) of the inverter's effective dead time, when the drive's documentation
     #: states it; with a coarse encoder it sizes the offsets' dwell term (hil.diagnosis.dwell).
-    #: None: the fitted nuisance dead time + 2 standard uncertainties is used.
+    #: None: the fitted nuisance dead time × 3 (its 100 % model uncertainty at k = 2;
+    #: hil.diagnosis.core._dwell_terms) is used.
     dead_time_bound_s: float | None = None
 
     def __post_init__(self) -> None:
@@ -76,12 +77,15 @@ class DriveSetup:
                 math.isfinite(self.current_channel_u_a) and self.current_channel_u_a >= 0):
             raise InputError(f"current_channel_u_a={self.current_channel_u_a!r} must be >= 0 A "
                              "or None")
-        if self.dead_time_bound_s is not None and not (0 <= self.dead_time_bound_s < 1e-4):
-            raise InputError(f"dead_time_bound_s={self.dead_time_bound_s!r} must be in "
-                             "[0, 1e-4) s or None")
         if not 2000 <= self.pwm_frequency_hz <= 50_000:
             raise InputError(f"pwm_frequency_hz={self.pwm_frequency_hz!r} must be in "
                              "[2000, 50000] Hz")
+        # a dead time of half a PWM period or more leaves no period for the commanded pulse
+        limit_s = min(1e-4, 0.5 / self.pwm_frequency_hz)
+        if self.dead_time_bound_s is not None and not (0 <= self.dead_time_bound_s < limit_s):
+            raise InputError(f"dead_time_bound_s={self.dead_time_bound_s!r} must be in "
+                             f"[0, {limit_s:.3g}) s (below half a PWM period at "
+                             f"{self.pwm_frequency_hz:g} Hz) or None")
 
     def to_dict(self) -> dict:
         data = asdict(self)

@@ -76,3 +76,16 @@ def test_no_dwell_term_without_a_count_line():
                  seed=1)
     assert "offset_dwell_bound" not in case.diagnosis.encoder
     assert not any("stated bound" in note for note in case.diagnosis.notes)
+
+
+@pytest.mark.parametrize("bound_s", [-1e-6, math.nan, math.inf, 2.5e-5, 5e-5])
+def test_a_dead_time_bound_of_half_a_pwm_period_or_more_is_refused(bound_s):
+    """A dead time ≥ half the PWM period (25 µs at 20 kHz) leaves no commanded pulse; such a
+    bound would make ε ≥ V_dc/2 and the offsets' U meaningless (was accepted up to 100 µs)."""
+    from hil.errors import InputError
+
+    with pytest.raises(InputError, match=r"dead_time_bound_s=.*below half a PWM period"):
+        sig.DriveSetup(dead_time_bound_s=bound_s, pwm_frequency_hz=20_000.0)
+    assert sig.DriveSetup(dead_time_bound_s=2.4e-5).dead_time_bound_s == 2.4e-5
+    assert sig.DriveSetup(dead_time_bound_s=9e-5, pwm_frequency_hz=2000.0).dead_time_bound_s \
+        == 9e-5
