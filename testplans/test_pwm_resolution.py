@@ -81,7 +81,7 @@ def test_pwm_resolution_noise(record, bench):
     """Each counter's non-synchronous torque RMS, floor removed, lies in the quantised-loop
     noise model's range (ILAC-G8 guarded: U of the measurement as the guard band)."""
     from hil.analysis import classify
-    from hil.analysis.nonsync import nonsynchronous_rms_of_capture
+    from hil.analysis.nonsync import floor_removed, nonsynchronous_rms_of_capture
     from hil.capture import Capture
     from hil.model import OperatingPoint
     from hil.model.pwm_noise import predict_noise
@@ -119,9 +119,8 @@ def test_pwm_resolution_noise(record, bench):
     rows, accepted = [], True
     for counts in sorted(entries):
         raw_pu, raw_u, model = measured_and_model(entries[counts])
-        value = math.sqrt(max(raw_pu ** 2 - floor_pu ** 2, 0.0))
-        # U (k = 2) of sqrt(raw² − floor²): both standard uncertainties propagated
-        expanded = 2.0 * math.hypot(raw_pu * raw_u, ref_pu * ref_u) / max(value, 1e-12)
+        # sqrt(raw² − floor²) and its U (k = 2), both standard uncertainties propagated
+        value, expanded = floor_removed(raw_pu, raw_u, ref_pu, ref_u, ref_model.rms_pu)
         low, high = model.expected_range_pu
         decision = classify(value, expanded, low, high)
         accepted &= decision == "pass"

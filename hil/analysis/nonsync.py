@@ -121,3 +121,28 @@ def nonsynchronous_rms_of_capture(capture, *, pole_pairs: int, max_order: int,
     return nonsynchronous_rms(capture["time_s"], capture["torque_nm"],
                               pole_pairs * np.unwrap(mech, period=TWO_PI), max_order=max_order,
                               blocks_per_revolution=blocks_per_revolution)
+
+
+def floor_removed(raw: float, raw_u: float, reference: float, reference_u: float,
+                  reference_model: float, *, k: float = 2.0) -> tuple[float, float]:
+    """(value, expanded uncertainty U at coverage ``k``) of a point's non-synchronous RMS with the
+    bench's floor removed in quadrature: value = sqrt(max(raw² − floor², 0)), floor² =
+    max(reference² − reference_model², 0) (the reference point's RMS less its modelled share;
+    all in one unit, e.g. per unit of the mean torque; the model value taken as exact).
+
+    U of value² = k·2·sqrt((raw·u_raw)² + (reference·u_ref)²), the reference term only where a
+    floor is removed. value = sqrt(value²) is not linear near 0, so U is the larger half-width of
+    sqrt over [value² − U², value² + U²] (clipped at 0): the linear U²/(2·value) where value ≫ U,
+    finite (≤ sqrt(U of value²)) when the floor is as large as the point's RMS."""
+    for name, number in (("raw", raw), ("raw_u", raw_u), ("reference", reference),
+                         ("reference_u", reference_u), ("reference_model", reference_model)):
+        if not (math.isfinite(number) and number >= 0):
+            raise InputError(f"{name}={number!r} must be a finite number >= 0")
+    floor2 = max(reference ** 2 - reference_model ** 2, 0.0)
+    square = max(raw ** 2 - floor2, 0.0)
+    value = math.sqrt(square)
+    u_square = 2.0 * math.hypot(raw * raw_u, reference * reference_u if floor2 > 0 else 0.0)
+    spread = k * u_square
+    upper = math.sqrt(square + spread) - value
+    lower = value - math.sqrt(max(square - spread, 0.0))
+    return value, max(upper, lower)

@@ -66,3 +66,26 @@ def test_capture_form_and_bad_input():
         nonsynchronous_rms(time_s, torque, angle, max_order=0)
     with pytest.raises(InputError, match="cannot fit orders"):
         nonsynchronous_rms(time_s[::20], torque[::20], angle[::20], max_order=MAX_ORDER)
+
+
+def test_floor_removal_and_its_uncertainty():
+    """floor_removed: the quadrature removal, its U the linear propagation where the value is far
+    from 0, and finite where the floor is as large as the point (the inline form of the plan
+    divided by max(value, 1e-12) there: U ≈ 1e9 pu printed as '0.000 % ± 1e11 %')."""
+    from hil.analysis.nonsync import floor_removed
+
+    # far from 0: the linear form U = k·hypot(raw·u_raw, ref·u_ref)/value
+    value, expanded = floor_removed(6e-3, 1e-4, 1e-3, 2e-5, 2e-4)
+    floor2 = 1e-3 ** 2 - 2e-4 ** 2
+    assert value == pytest.approx(math.sqrt(6e-3 ** 2 - floor2))
+    assert expanded == pytest.approx(2 * math.hypot(6e-3 * 1e-4, 1e-3 * 2e-5) / value, rel=0.02)
+    # no floor to remove (reference at or below its model): the reference adds no uncertainty
+    assert floor_removed(6e-3, 1e-5, 2e-4, 2e-4, 3e-4) == pytest.approx(
+        (6e-3, 2 * 1e-5), rel=0.01)
+    # the point no noisier than the floor: value 0, U finite and of the order of sqrt(U of value²)
+    value, expanded = floor_removed(1e-3, 2e-5, 1.1e-3, 2e-5, 1e-4)
+    assert value == 0.0
+    u_square = 2 * math.hypot(1e-3 * 2e-5, 1.1e-3 * 2e-5)
+    assert expanded == pytest.approx(math.sqrt(2 * u_square))
+    with pytest.raises(InputError, match="raw_u=nan"):
+        floor_removed(1e-3, math.nan, 1e-3, 1e-5, 1e-4)
