@@ -31,7 +31,7 @@ from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, R
                              SourceSection, fmt, fmt_pct, report_content, status_text)
 from ripple_hil_reports.document import ReportPDF
 from ripple_hil_reports.revisions import Revision
-from ripple_hil_reports.statement import accepted
+from ripple_hil_reports.statement import accepted, plan_checks
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
@@ -464,14 +464,6 @@ def _capture_meta(record_dir: Path, relative: str | None) -> dict:
 
 
 # ---------------------------------------------------------------------- per source
-
-def plan_checks(record: dict, source: str) -> list[tuple[str, dict]]:
-    """A plan's own checks across its points, recorded as sections named ``<source>_<check>``
-    with a ``statement`` and ``accepted`` (e.g. ``pwm_resolution_noise``)."""
-    prefix = f"{source}_"
-    return [(name[len(prefix):], value) for name, value in sorted(record.items())
-            if name.startswith(prefix) and isinstance(value, dict) and "statement" in value]
-
 
 def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
                   sensitivity: dict | None = None,

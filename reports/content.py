@@ -16,7 +16,8 @@ from typing import Any
 
 from hil.record import RECORD_FILE
 from ripple_hil_reports.revisions import Revision
-from ripple_hil_reports.statement import STATUS_TEXT, Statement, overall_statement
+from ripple_hil_reports.statement import (STATUS_TEXT, Statement, overall_statement,
+                                          rejected_checks)
 
 #: ILAC-G8 decisions from best to worst; a source's statement is the worst of its points.
 DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
@@ -98,7 +99,8 @@ def report_content(record: dict, record_dir: Path, capture_problems: list[str],
         if entry.get("kind") in own:
             continue
         groups.setdefault(source_of(entry), []).append(entry)
-    sources = [_section(name, entries) for name, entries in groups.items()]
+    sources = [_section(name, entries, rejected_checks(record, name))
+               for name, entries in groups.items()]
     if statement.voided:        # the points' decisions stay listed; the statement is void
         sources = [replace(section, statement=VOIDED) for section in sources]
     revision = revision or Revision(1, None, None, None)
@@ -160,7 +162,9 @@ def worst_decision(decisions: list[str]) -> str:
     return max(decisions, key=DECISIONS.index)
 
 
-def _section(name: str, entries: list[dict]) -> SourceSection:
+def _section(name: str, entries: list[dict], rejected: list[str] = ()) -> SourceSection:
+    """One source's points and statement; ``rejected``: its checks across the sweep that did
+    not accept the drive (the statement is then FAIL whatever the points say)."""
     injections = [e.get("injection") or {} for e in entries]
     swept = swept_knobs(injections)
     displays = {k: knob_display(k, [_number(i.get(k)) or 0.0 for i in injections]) for k in swept}
@@ -169,6 +173,8 @@ def _section(name: str, entries: list[dict]) -> SourceSection:
     measured = [p for p in points if p.measured_pu is not None]
     worst = max(measured, key=lambda p: p.measured_pu) if measured else None
     judged = [p.decision for p in points if p.outcome != "skipped" and p.decision != NO_VERDICT]
+    if rejected:
+        judged = [d for d in judged if d != NOT_DETERMINED] + ["fail"]
     statement = worst_decision(judged) if judged or not points \
         or any(p.decision != NO_VERDICT for p in points) else NO_VERDICT
     return SourceSection(name=name, swept=swept, points=points, statement=statement, worst=worst)

@@ -124,6 +124,24 @@ def self_check_statement(record: dict) -> tuple[str, list[str], str]:
                                    for t in self_check_tests) + ")", [], ""
 
 
+def plan_checks(record: dict, source: str) -> list[tuple[str, dict]]:
+    """A plan's own checks across its points, recorded as sections named ``<source>_<check>``
+    with a ``statement`` and ``accepted`` (e.g. ``pwm_resolution_noise``)."""
+    prefix = f"{source}_"
+    return [(name[len(prefix):], value) for name, value in sorted(record.items())
+            if name.startswith(prefix) and isinstance(value, dict) and "statement" in value]
+
+
+def rejected_checks(record: dict, source: str) -> list[str]:
+    """The source's checks across its sweep that did not accept the drive: its sensitivity
+    check (``testplans/sensitivity.py``) and its plan checks. Such a check has no point verdict
+    of its own, yet it judges the same model, so the source's model statement is FAIL."""
+    checks = [("sensitivity", (record.get("sensitivity") or {}).get(source))]
+    checks += plan_checks(record, source)
+    return [name for name, check in checks
+            if isinstance(check, dict) and "accepted" in check and not check["accepted"]]
+
+
 #: A requirement its rule did not accept, by ILAC-G8 zone, when the value was within U of the
 #: limit (a plain "fail" needs no words).
 ZONE_TEXT = {
@@ -186,6 +204,9 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
             if previous is None or DECISIONS.index(decision) > DECISIONS.index(previous):
                 model[source] = decision
 
+    for source in list(model):
+        if rejected_checks(record, source):
+            model[source] = "fail"
     run = STATUS_TEXT.get(status, f"status {status!r}")
     integrity = ("not checked" if integrity_problems is None else
                  f"{INVALID}: {len(integrity_problems)} problem(s)" if integrity_problems else

@@ -14,7 +14,7 @@ import pytest
 from pypdf import PdfReader
 
 from hil.record import load_record
-from ripple_hil_reports.build import plan_checks
+from ripple_hil_reports.statement import plan_checks
 
 
 def run_pwm_resolution(tmp_path: Path, *extra: str):
@@ -33,6 +33,16 @@ def source_page(pages: list[str]) -> str:
     return next(page for page in pages if "Source: pwm_resolution" in page)
 
 
+def test_rejected_checks_name_the_sensitivity_check_and_plan_checks():
+    from ripple_hil_reports.statement import rejected_checks
+
+    record = {"sensitivity": {"dead_time": {"accepted": False}, "encoder": {"accepted": True}},
+              "dead_time_noise": {"statement": "y", "accepted": False}}
+    assert rejected_checks(record, "dead_time") == ["sensitivity", "noise"]
+    assert rejected_checks(record, "encoder") == []
+    assert rejected_checks({}, "encoder") == []
+
+
 def test_plan_checks_are_the_sections_named_after_the_source():
     record = {"pwm_resolution_noise": {"statement": "C=32: ...", "accepted": True},
               "pwm_resolution_other": {"no": "statement"}, "sensitivity": {"statement": "x"},
@@ -49,6 +59,11 @@ def test_the_noise_check_is_stated_on_the_source_page(tmp_path, defect, accepted
     assert check["accepted"] is accepted, done.stdout[-3000:]
     assert (done.returncode == 0) is accepted, done.stdout[-3000:]
     page = source_page(pages)
+    # the source's statement and page 1's model validation follow the check, not only the
+    # points (a rejected check has no point verdict of its own)
+    statement = "PASS" if accepted else "FAIL"
+    assert f"Statement: {statement}" in page, page
+    assert f"pwm_resolution: {statement}" in pages[0], pages[0]
     verdict = "ACCEPTED" if accepted else "NOT ACCEPTED"
     assert f"Noise check (" in page and f": {verdict}." in page, page
     first = check["points"][0]
