@@ -139,7 +139,7 @@ def rejected_checks(record: dict, source: str) -> list[str]:
     checks = [("sensitivity", (record.get("sensitivity") or {}).get(source))]
     checks += plan_checks(record, source)
     return [name for name, check in checks
-            if isinstance(check, dict) and "accepted" in check and not check["accepted"]]
+            if isinstance(check, dict) and check.get("accepted") is False]
 
 
 #: A requirement its rule did not accept, by ILAC-G8 zone, when the value was within U of the
