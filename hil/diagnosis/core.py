@@ -262,10 +262,21 @@ def _dwell_terms(spectra, params, problem, result, encoder, setup, max_mech,
             encoder["offset_dwell_bound"] = {"applied": False}
             return []
         factor = 1.0 + EXPANSION_K * P.NUISANCE_REL_UNCERTAINTY
-        bound_s = max(estimate, 0.0) * factor * 1e-6
-        origin = (f"the nuisance dead time {estimate:.3g} µs × {factor:g} (its 100 % model "
-                  "uncertainty at k = 2; the average model reads low with a coarse encoder: "
-                  "state the drive's dead-time bound, DriveSetup.dead_time_bound_s)")
+        # the larger of the model-uncertainty expansion and the fit's own k = 2 interval
+        bound_us = max(max(estimate, 0.0) * factor, estimate + EXPANSION_K * u)
+        if not bound_us > 0.0:
+            notes.append(f"dwell term: the nuisance dead time {estimate:.3g} ± "
+                         f"{EXPANSION_K * u:.2g} µs bounds nothing above zero and no "
+                         "dead_time_bound_s is stated: the offsets' uncertainty lacks the dwell "
+                         "term (state the drive's dead-time bound)")
+            encoder["offset_dwell_bound"] = {"applied": False}
+            return []
+        bound_s = bound_us * 1e-6
+        origin = (f"the larger of the nuisance dead time {estimate:.3g} µs × {factor:g} (its "
+                  "100 % model uncertainty at k = 2) and its fit interval "
+                  f"{estimate:.3g} + {EXPANSION_K * u:.2g} µs (k = 2); the average model reads "
+                  "low with a coarse encoder: state the drive's dead-time bound, "
+                  "DriveSetup.dead_time_bound_s)")
     width = math.radians(encoder["resolution_elec_deg"])
     eps = dwell.leg_loss_v(bound_s, setup.pwm_frequency_hz, setup.motor.dc_bus_v)
     terms = []

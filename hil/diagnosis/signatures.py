@@ -61,8 +61,9 @@ class DriveSetup:
     current_channel_u_a: float | None = None
     #: Upper bound (s) of the inverter's effective dead time, when the drive's documentation
     #: states it; with a coarse encoder it sizes the offsets' dwell term (hil.diagnosis.dwell).
-    #: None: the fitted nuisance dead time × 3 (its 100 % model uncertainty at k = 2;
-    #: hil.diagnosis.core._dwell_terms) is used.
+    #: None: the larger of the fitted nuisance dead time × 3 (its 100 % model uncertainty at
+    #: k = 2) and its fit interval estimate + 2u (hil.diagnosis.core._dwell_terms) is used;
+    #: with neither above zero the dwell term is not applied, and the output says so.
     dead_time_bound_s: float | None = None
 
     def __post_init__(self) -> None:

@@ -89,3 +89,19 @@ def test_a_dead_time_bound_of_half_a_pwm_period_or_more_is_refused(bound_s):
     assert sig.DriveSetup(dead_time_bound_s=2.4e-5).dead_time_bound_s == 2.4e-5
     assert sig.DriveSetup(dead_time_bound_s=9e-5, pwm_frequency_hz=2000.0).dead_time_bound_s \
         == 9e-5
+
+
+def test_the_fallback_dead_time_bound_is_never_zero_while_the_term_says_applied():
+    """No dead time hidden: the nuisance estimate is about zero (or below), so × 3 bounds
+    nothing; the fallback also takes the fit's own k = 2 interval, so an applied term has a
+    non-zero ε (it said "applied" with ε = 0 before), or it is not applied and says why."""
+    faults = HiddenFaults(ia_offset_a=0.3, dead_time_s=0.0, encoder_decimation=200)
+    case = prove(faults, design.design_points(), revolutions_elec=design.REVOLUTIONS_ELEC,
+                 sample_rate_hz=design.SAMPLE_RATE_HZ, max_mech_order=design.MAX_MECH_ORDER,
+                 seed=1)
+    bound = case.diagnosis.encoder["offset_dwell_bound"]
+    if bound["applied"]:
+        assert bound["dead_time_bound_us"] > 0 and bound["leg_error_bound_v"] > 0, bound
+        assert "fit interval" in bound["dead_time_bound_from"]
+    else:
+        assert any("bounds nothing above zero" in note for note in case.diagnosis.notes)
