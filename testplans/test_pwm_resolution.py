@@ -41,6 +41,12 @@ def plan(config, injection):
         raise InputError("pwm_resolution: the bench file's [torque] bandwidth_hz (the torque "
                          "output's -3 dB bandwidth, from the transducer's data sheet) is needed "
                          "by the noise check's model")
+    from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
+    from hil.model.pwm_noise import computation_delay_periods
+
+    # a loop delay the noise model cannot represent: refused here, before the sweep runs
+    computation_delay_periods(c.current_loop(config)["current_loop_delay_s"],
+                              injection.get("pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ))
     # the derived form averages over as many revolutions as the point captures
     return c.point(config.operating_point, "pwm_resolution", injection,
                    c.DERIVED_RANGE_SIMPLE_RULE, revolutions=c.PWM_RESOLUTION_REVOLUTIONS,
@@ -84,6 +90,7 @@ def test_pwm_resolution_noise(record, bench):
     from hil.analysis.nonsync import floor_removed, nonsynchronous_rms_of_capture
     from hil.capture import Capture
     from hil.model import OperatingPoint
+    from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
     from hil.model.pwm_noise import predict_noise
 
     config = bench.config
@@ -108,7 +115,7 @@ def test_pwm_resolution_noise(record, bench):
                             current_angle_rad=point["current_angle_rad"], motor=config.motor)
         model = predict_noise(op, entry["injection"]["pwm_period_counts"],
                               pwm_frequency_hz=entry["injection"].get(
-                                  "pwm_frequency_hz", 20_000.0),
+                                  "pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ),
                               transducer_bandwidth_hz=config.torque.bandwidth_hz,
                               revolutions=stat.revolutions, max_order=MAX_ORDER, **loop)
         base = op.mean_torque_nm

@@ -148,3 +148,20 @@ def test_pwm_resolution_without_the_transducer_bandwidth_is_refused_before_any_c
     assert result.returncode == 2, result.stdout + result.stderr
     assert "[torque] bandwidth_hz" in result.stdout + result.stderr
     assert not records.exists()
+
+
+def test_pwm_resolution_with_a_loop_delay_the_noise_model_cannot_represent_is_refused(tmp_path):
+    """On a real bench file (the simulated bench refuses such a delay itself): 90 µs at 20 kHz
+    is 1.8 PWM periods — refused at pre-flight, not after the sweep ran."""
+    from dataclasses import replace
+
+    from hil.config import example_bench_path, load_bench
+    from hil.errors import InputError
+    from ripple_hil_testplans import test_pwm_resolution as plan_module
+
+    config = load_bench(example_bench_path("real-bench"))
+    config = replace(config, drive=replace(config.drive, current_loop_delay_s=90e-6))
+    with pytest.raises(InputError, match="noise model needs 0.5, 1, 1.5 or 2 periods"):
+        plan_module.plan(config, {"pwm_period_counts": 32})
+    ok = replace(config, drive=replace(config.drive, current_loop_delay_s=75e-6))
+    plan_module.plan(ok, {"pwm_period_counts": 32})
