@@ -165,3 +165,18 @@ def test_pwm_resolution_with_a_loop_delay_the_noise_model_cannot_represent_is_re
         plan_module.plan(config, {"pwm_period_counts": 32})
     ok = replace(config, drive=replace(config.drive, current_loop_delay_s=75e-6))
     plan_module.plan(ok, {"pwm_period_counts": 32})
+
+
+def test_pwm_resolution_at_negative_speed_is_refused_not_judged_with_a_mirrored_model():
+    """The derived pk-pk model mirrors reverse rotation as motoring while the drive brakes
+    (a correct drive failed at −500 rpm / 30 A): the plan refuses it at pre-flight."""
+    from dataclasses import replace
+
+    from hil.config import example_bench_path, load_bench
+    from hil.errors import InputError
+    from ripple_hil_testplans import test_pwm_resolution as plan_module
+
+    config = load_bench(example_bench_path("sim-bench"))
+    reverse = replace(config, operating_point=replace(config.operating_point, speed_rpm=-500.0))
+    with pytest.raises(InputError, match="forward rotation only"):
+        plan_module.plan(reverse, {"pwm_period_counts": 32})
