@@ -41,15 +41,6 @@ def plan(config, injection):
         raise InputError("pwm_resolution: the bench file's [torque] bandwidth_hz (the torque "
                          "output's -3 dB bandwidth, from the transducer's data sheet) is needed "
                          "by the noise check's model")
-    if config.operating_point.speed_rpm < 0:
-        from hil.errors import InputError
-
-        # hil.model.pwm_resolution.derived_pk_pk_pu mirrors reverse rotation as motoring, but
-        # the drive brakes there (+I on q against −E): a correct drive failed its 32-count point
-        # at −500 rpm / 30 A. Refused rather than judged with a model known wrong there.
-        raise InputError("pwm_resolution: the derived pk-pk model holds for forward rotation "
-                         f"only (speed_rpm={config.operating_point.speed_rpm:g} brakes); run "
-                         "this plan at a positive speed")
     from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
     from hil.model.pwm_noise import computation_delay_periods
 

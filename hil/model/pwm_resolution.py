@@ -145,10 +145,26 @@ def closed_loop_bound_pu(op: OperatingPoint, counts: float, bandwidth_hz: float)
         op.current_a * math.cos(op.current_angle_rad))
 
 
+def forward_phasor_peak_v(op: OperatingPoint) -> complex:
+    """Peak phase-voltage phasor (angle from the EMF) of the forward-rotating problem
+    equivalent to ``op``. Forward: ``op.voltage_phasor_peak_v``. Reverse: the drive still
+    commands I·e^(−jφ) on the forward q axis while the EMF is −E, so it brakes:
+    V = −E + (R − j·|ω_e|·L)·I·e^(−jφ); swapping two phases (d kept, q reversed, −conj of every
+    dq phasor) makes that the forward problem V' = E + (R + j·|ω_e|·L)·(−I·e^(+jφ)), a current
+    at π − φ behind the EMF (not mirrored motoring, which would keep φ)."""
+    if op.speed_rpm >= 0.0:
+        return op.voltage_phasor_peak_v
+    motor = op.motor
+    current = -op.current_a * cmath.exp(1j * op.current_angle_rad)
+    reactance = abs(op.elec_speed_rad_s) * motor.phase_inductance_h
+    return op.emf_peak_v + complex(motor.phase_resistance_ohm, reactance) * current
+
+
 def leg_references_pu(theta: np.ndarray, op: OperatingPoint, modulation: str) -> np.ndarray:
-    """Steady-state leg voltage references, per unit of V_dc, at electrical angles θ (3 × N)."""
-    phasor = voltage_phasor(op)
-    v_peak, delta = math.sqrt(2.0) * abs(phasor), cmath.phase(phasor)
+    """Steady-state leg voltage references, per unit of V_dc, at electrical angles θ (3 × N) of
+    the forward-rotating equivalent of ``op`` (``forward_phasor_peak_v``)."""
+    phasor = forward_phasor_peak_v(op)
+    v_peak, delta = abs(phasor), cmath.phase(phasor)
     reference = v_peak * np.sin(theta[None, :] + delta - PHASE_OFFSETS_RAD[:, None]) / op.dc_bus_v
     if modulation == "svpwm":
         reference = reference - 0.5 * (reference.max(axis=0) + reference.min(axis=0))
@@ -183,7 +199,8 @@ def derived_pk_pk_pu(op: OperatingPoint, counts: float, *, pwm_frequency_hz: flo
     theta = omega_e * np.arange(n) / pwm_frequency_hz
     reference = leg_references_pu(theta, op, modulation)
     omega = 2.0 * math.pi * np.fft.fftfreq(n, 1.0 / pwm_frequency_hz)
-    forward = dataclasses.replace(op, speed_rpm=abs(op.speed_rpm))  # mirror image if negative
+    # the loop's rejection depends on |ω_e| only; the references carry the braking (above)
+    forward = dataclasses.replace(op, speed_rpm=abs(op.speed_rpm))
     response = loop_rejection(omega - omega_e, forward, 2.0 * math.pi * bandwidth_hz, delay_s)
     orders = np.arange(n // 2 + 1) / span
     keep = (orders <= max_order) & (np.abs(orders - np.round(orders)) < 1e-9) & (orders > 0)
@@ -266,7 +283,7 @@ def _derived_prediction(op: OperatingPoint, counts: float, bandwidth_hz: float, 
     if modulation not in MODULATIONS:
         raise InputError(f"modulation={modulation!r} is not one of {', '.join(MODULATIONS)}")
     orders = check_range("max_order", max_order, 1, 10000)
-    v_peak = math.sqrt(2.0) * abs(voltage_phasor(op))
+    v_peak = abs(forward_phasor_peak_v(op))
     linear_limit = op.dc_bus_v / (math.sqrt(3.0) if modulation == "svpwm" else 2.0)
     if v_peak > linear_limit:
         raise InputError(f"the operating point needs a {v_peak:.3g} V peak phase voltage, beyond "

@@ -167,16 +167,32 @@ def test_pwm_resolution_with_a_loop_delay_the_noise_model_cannot_represent_is_re
     plan_module.plan(ok, {"pwm_period_counts": 32})
 
 
-def test_pwm_resolution_at_negative_speed_is_refused_not_judged_with_a_mirrored_model():
-    """The derived pk-pk model mirrors reverse rotation as motoring while the drive brakes
-    (a correct drive failed at −500 rpm / 30 A): the plan refuses it at pre-flight."""
-    from dataclasses import replace
+def test_pwm_resolution_at_negative_speed_models_braking_and_passes_a_correct_drive(tmp_path):
+    """In reverse rotation the drive brakes (+I on q against −E). The derived pk-pk model took it
+    for mirrored motoring and a correct drive failed its 32-count point at −500 rpm / 30 A; with
+    the braking phasor (``forward_phasor_peak_v``, the mirror of the noise model's independently
+    written signed-speed phasor) the plan passes it."""
+    import cmath
+    import tomllib
 
-    from hil.config import example_bench_path, load_bench
-    from hil.errors import InputError
-    from ripple_hil_testplans import test_pwm_resolution as plan_module
+    import tomli_w
 
-    config = load_bench(example_bench_path("sim-bench"))
-    reverse = replace(config, operating_point=replace(config.operating_point, speed_rpm=-500.0))
-    with pytest.raises(InputError, match="forward rotation only"):
-        plan_module.plan(reverse, {"pwm_period_counts": 32})
+    from hil.config import example_bench_path
+    from hil.model import OperatingPoint
+    from hil.model.pwm_noise import steady_phasor_peak_v
+    from hil.model.pwm_resolution import forward_phasor_peak_v
+
+    reverse = OperatingPoint(speed_rpm=-500.0, current_a=30.0, current_angle_rad=0.3)
+    assert cmath.isclose(forward_phasor_peak_v(reverse),
+                         -steady_phasor_peak_v(reverse).conjugate(), rel_tol=1e-12)
+    forward = OperatingPoint(speed_rpm=500.0, current_a=30.0, current_angle_rad=0.3)
+    assert forward_phasor_peak_v(forward) == forward.voltage_phasor_peak_v
+    table = tomllib.loads(example_bench_path("sim-bench").read_text())
+    table["operating_point"].update(speed_rpm=-500.0, current_a=30.0)
+    bench = tmp_path / "reverse.toml"
+    bench.write_text(tomli_w.dumps(table))
+    result = subprocess.run([sys.executable, "-m", "hil", "run", "--source", "pwm_resolution",
+                             "--bench", str(bench), "--record-dir", str(tmp_path / "r"),
+                             "--no-report"], capture_output=True, text=True, timeout=300,
+                            cwd=tmp_path)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
