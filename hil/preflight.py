@@ -1,40 +1,55 @@
 """Pre-flight: every point of every selected plan is checked before the first bench command.
 
-A point that could only fail after the motor has run — a command beyond the bench limits or the
-motor's voltage limit, a predicted order above the analysed band, a capture the DAQ cannot hold or
-sample fast enough, an injection outside the drive's EDS range, a requirement on an order the
-point does not analyse — is found here, from the bench file, the EDS and the DAQ register map
-alone, and reported at collection time. Nothing is sent to the bench.
+Two kinds of problem are found here, from the bench file, the EDS and the DAQ register map
+alone, at collection time; nothing is sent to the bench:
+
+- **hard** (:func:`hard_problems`): a command beyond the bench's ``[limits]``, an injection
+  outside the drive's EDS range, a predicted order above the analysed band, a requirement on an
+  order the point does not analyse. The run does not start (``pytest.UsageError``).
+- **outside the plan's validity region** (:mod:`hil.validity`): reverse rotation where the model
+  does not handle braking, the motor's voltage limit (dead time included), a capture the DAQ
+  cannot hold or sample fast enough, a ripple below the bench's resolvable floor. That point is
+  skipped as *not determinable here* with its reason (``fixtures/preflight.py``); the rest run.
 """
 
 from __future__ import annotations
-
-import math
 
 from hil.config import BenchConfig
 from hil.errors import InputError
 
 
 def voltage_needed_v(config: BenchConfig, speed_rpm: float, current_a: float,
-                     current_angle_rad: float) -> float:
-    """Peak phase voltage the drive must apply in steady state, V: |E + (R + jω_e·L)·I|
-    with the current lagging the EMF by φ (paper eqs 1-4; Ke read as the bench file says)."""
-    motor = config.motor
-    omega_m = abs(speed_rpm) * 2.0 * math.pi / 60.0
-    emf = motor.emf_peak_v_s_per_rad * omega_m
-    omega_e = omega_m * motor.pole_pairs
-    current = complex(math.cos(-current_angle_rad), math.sin(-current_angle_rad)) * current_a
-    return abs(emf + complex(motor.phase_resistance_ohm, omega_e * motor.phase_inductance_h)
-               * current)
+                     current_angle_rad: float, dead_time_s: float = 0.0,
+                     pwm_frequency_hz: float = 20_000.0) -> float:
+    """Peak phase voltage the inverter must give in steady state, V: the phasor with the signed
+    speed (reverse rotation under positive torque brakes) plus the dead time's loss along the
+    current (``hil.model.voltage.inverter_voltage_needed_v``, paper eqs 1-4, 32-37)."""
+    from hil.model.voltage import inverter_voltage_needed_v
+
+    return inverter_voltage_needed_v(config.motor, speed_rpm, current_a, current_angle_rad,
+                                     dead_time_s=dead_time_s, pwm_frequency_hz=pwm_frequency_hz)
 
 
 def voltage_limit_v(config: BenchConfig) -> float:
     """The largest peak phase voltage of centre-aligned SVPWM without overmodulation, V_dc/√3."""
-    return config.motor.dc_bus_v / math.sqrt(3.0)
+    from hil.model.voltage import svpwm_limit_v
+
+    return svpwm_limit_v(config.motor.dc_bus_v)
 
 
 def check_point(plan, config: BenchConfig, requirements=()) -> list[str]:
-    """Every problem of one :class:`hil.measurement.PointPlan` on this bench (empty: fine)."""
+    """Every problem of one :class:`hil.measurement.PointPlan` on this bench (empty: fine): the
+    hard ones (:func:`hard_problems`) and those of its plan's validity region
+    (:func:`hil.validity.problems`: a point outside it is not determinable, not an error)."""
+    from hil import validity
+
+    return hard_problems(plan, config, requirements) + validity.problems(plan, config)
+
+
+def hard_problems(plan, config: BenchConfig, requirements=()) -> list[str]:
+    """What stops a run before it starts: the bench's safety ``[limits]``, an injection outside
+    the drive's EDS, a predicted order above the analysed band, a requirement the point cannot
+    judge (a plan or bench-file error, never a property of the point's physics)."""
     problems: list[str] = []
     limits = config.limits
     if abs(plan.speed_rpm) > limits.speed_rpm:
@@ -43,36 +58,9 @@ def check_point(plan, config: BenchConfig, requirements=()) -> list[str]:
     if not 0 <= plan.current_a <= limits.current_a:
         problems.append(f"current {plan.current_a:g} A outside 0..limits.current_a = "
                         f"{limits.current_a:g}")
-    needed, available = (voltage_needed_v(config, plan.speed_rpm, plan.current_a,
-                                          plan.current_angle_rad), voltage_limit_v(config))
-    if needed > available:
-        problems.append(f"needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
-                        f"{plan.current_a:g} A; the drive has {available:.2f} V (V_dc/√3)")
-    problems += _capture_problems(plan, config)
     problems += _injection_problems(plan, config)
     problems += _order_problems(plan, config)
     problems += _requirement_problems(plan, requirements)
-    return problems
-
-
-def _capture_problems(plan, config: BenchConfig) -> list[str]:
-    from ripple_hil_drivers.daq_register_map import load_register_map
-
-    device = load_register_map(config.daq.register_map).device
-    pole_pairs = config.motor.pole_pairs
-    rate = plan.capture_rate_hz(pole_pairs)
-    samples = int(round(plan.capture_duration_s(pole_pairs) * rate))
-    problems = []
-    if rate > float(device["max_sample_rate_hz"]):
-        problems.append(f"capture rate {rate:g} Hz exceeds the DAQ's max_sample_rate_hz = "
-                        f"{device['max_sample_rate_hz']}")
-    if samples > int(device["buffer_capacity_samples"]):
-        problems.append(f"capture of {samples} samples exceeds the DAQ's "
-                        f"buffer_capacity_samples = {device['buffer_capacity_samples']}")
-    nyquist_orders = rate / 2.0 / plan.electrical_frequency_hz(pole_pairs)
-    if plan.analysis == "torque" and plan.max_order > nyquist_orders:
-        problems.append(f"max_order {plan.max_order} is above what {rate:g} Hz can resolve at "
-                        f"{plan.speed_rpm:g} rpm (order {nyquist_orders:.0f})")
     return problems
 
 
@@ -96,6 +84,10 @@ def _injection_problems(plan, config: BenchConfig) -> list[str]:
 def _order_problems(plan, config: BenchConfig) -> list[str]:
     if plan.rule is None:
         return []
+    from hil import validity
+
+    if validity.voltage_problems(plan, config):
+        return []                # beyond the voltage limit: not driven (not determinable)
     from hil.measurement import predicted_order
 
     try:
@@ -121,12 +113,14 @@ def _requirement_problems(plan, requirements) -> list[str]:
 
 
 def check_plans(points: dict, config: BenchConfig, requirements=()) -> list[str]:
-    """``{test id: PointPlan}`` → one line per problem, naming the test (empty: all fine); and
+    """``{test id: PointPlan}`` → one line per hard problem (:func:`hard_problems`), naming the
+    test (empty: all fine; a point outside its validity region is skipped as not determinable by
+    ``fixtures/preflight.py``, not refused here); and
     every requirement whose injection names a knob the drive's EDS does not have (a typo that
     would silently make the line apply nowhere)."""
     lines = []
     for test_id, plan in points.items():
-        lines += [f"{test_id}: {problem}" for problem in check_point(plan, config, requirements)]
+        lines += [f"{test_id}: {problem}" for problem in hard_problems(plan, config, requirements)]
     return lines + requirement_knob_problems(requirements, config)
 
 

@@ -83,8 +83,13 @@ class OperatingPoint:
         self._check_voltage_limit()
 
     def _check_voltage_limit(self) -> None:
-        """Refuse a point the drive cannot reach: |V| > V_dc/√3, SVPWM's linear limit."""
-        needed = abs(self.voltage_phasor_peak_v)
+        """Refuse a point the drive cannot reach: |V| > V_dc/√3, SVPWM's linear limit, with V the
+        steady phasor at the *signed* speed (reverse rotation under positive torque brakes and
+        needs less than the motoring phasor ``voltage_phasor_peak_v``; hil.model.voltage)."""
+        from hil.model.voltage import steady_voltage_phasor_peak_v
+
+        needed = abs(steady_voltage_phasor_peak_v(self.motor, self.speed_rpm, self.current_a,
+                                                  self.current_angle_rad))
         limit = self.dc_bus_v / math.sqrt(3.0)
         if needed <= limit * (1 + 1e-12) or self.allow_beyond_voltage_limit:
             return

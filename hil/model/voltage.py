@@ -1,0 +1,60 @@
+"""The phase voltage a point needs and the voltage the inverter can give (design.md §9).
+
+Steady state of the circuit of paper eqs 1-4 / eq 27 (peak phasors, angle from the q axis, the
+direction of the EMF in forward rotation), with the *signed* speed: the drive commands the current
+I·e^(−jφ) on its q axis whatever the direction, so
+
+    V = sign(ω)·E + (R + j·ω_e·L)·I·e^(−jφ),    ω_e signed.
+
+In forward rotation that is motoring; in reverse rotation under positive torque the EMF opposes
+the drive's voltage and the machine *brakes* (it returns power): the needed |V| is smaller than
+the motoring figure of :attr:`hil.model.OperatingPoint.voltage_phasor_peak_v`, which takes |ω|.
+
+The inverter's linear range under SVPWM is a peak phase voltage of V_dc/√3. Dead time takes part
+of it: each leg loses ε = T_d·f_pwm·V_dc of its average voltage against the sign of its current
+(paper eqs 32-37, averaged over a PWM period), a square wave ±ε per leg whose fundamental has the
+peak (4/π)·ε; the common mode it leaves is a triplen and does not reach the phases, so the phase
+voltage loses (4/π)·T_d·f_pwm·V_dc along the current's direction. The inverter must therefore
+give V + (4/π)·ε·I/|I|; a point is within reach when that magnitude is ≤ V_dc/√3.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+from hil.motor import MotorParameters
+
+
+def steady_voltage_phasor_peak_v(motor: MotorParameters, speed_rpm: float, current_a: float,
+                                 current_angle_rad: float) -> complex:
+    """Peak phase-voltage phasor the drive applies in steady state, V (angle from the forward q
+    axis): sign(ω)·E + (R + j·ω_e·L)·I·e^(−jφ) with the signed speed (braking in reverse)."""
+    omega_m = speed_rpm * 2.0 * math.pi / 60.0
+    omega_e = omega_m * motor.pole_pairs
+    emf = motor.emf_peak_v_s_per_rad * omega_m          # signed: −E in reverse rotation
+    current = current_a * cmath.exp(-1j * current_angle_rad)
+    return emf + complex(motor.phase_resistance_ohm, omega_e * motor.phase_inductance_h) * current
+
+
+def dead_time_voltage_loss_v(dead_time_s: float, pwm_frequency_hz: float, dc_bus_v: float) -> float:
+    """Peak fundamental phase voltage lost to dead time, V: (4/π)·T_d·f_pwm·V_dc (module
+    docstring; the fundamental of the ±T_d·f_pwm·V_dc leg error of eqs 32-37)."""
+    return 4.0 / math.pi * dead_time_s * pwm_frequency_hz * dc_bus_v
+
+
+def svpwm_limit_v(dc_bus_v: float) -> float:
+    """Largest peak phase voltage of centre-aligned SVPWM without overmodulation: V_dc/√3, V."""
+    return dc_bus_v / math.sqrt(3.0)
+
+
+def inverter_voltage_needed_v(motor: MotorParameters, speed_rpm: float, current_a: float,
+                              current_angle_rad: float, dead_time_s: float = 0.0,
+                              pwm_frequency_hz: float = 20_000.0) -> float:
+    """Peak phase voltage the inverter must produce, V: the steady phasor plus the dead time's
+    loss along the current, |V + (4/π)·T_d·f_pwm·V_dc·e^(−jφ)| (module docstring)."""
+    phasor = steady_voltage_phasor_peak_v(motor, speed_rpm, current_a, current_angle_rad)
+    loss = dead_time_voltage_loss_v(dead_time_s, pwm_frequency_hz, motor.dc_bus_v)
+    if current_a > 0:
+        phasor += loss * cmath.exp(-1j * current_angle_rad)
+    return abs(phasor)

@@ -1,0 +1,269 @@
+"""Where each plan's verdict may be given: one declared validity region per source (design.md §9).
+
+A point outside its plan's region is *not determinable here*: the pre-flight skips it with
+``pytest.skip(not_determinable(reason))`` before any bench command (``hil.preflight``,
+``fixtures/preflight.py``); it is neither a pass nor a fail. The bench's hard safety limits
+(``[limits]``) stay hard errors, checked apart (``hil.preflight.hard_problems``).
+
+What a region checks, in the order a refusal names it:
+
+1. **Direction.** Reverse rotation under the positive torque the plans command is *braking*
+   (``hil.model.voltage``). A model that takes the drive as mirrored motoring is refused there.
+2. **Speed** |n| within the range the model assumes (the encoder plan runs at its own 12 rpm).
+3. **Voltage headroom.** The peak phase voltage the inverter must give — the steady phasor with
+   the signed speed (braking in reverse) plus the dead time's (4/π)·T_d·f_pwm·V_dc along the
+   current — within the SVPWM limit V_dc/√3 (``hil.model.voltage``); beyond it the current is not
+   regulated and no model of the paper applies.
+4. **Capture.** The DAQ's rate and buffer, the Nyquist order of the analysed band
+   (rate / (2·f_e) ≥ max_order), and for the switching analysis (PWM switching) the effective
+   samples per PWM period of equivalent-time sampling at *this* speed
+   (``hil.analysis.switching``: ≥ 8; a rate chosen for 500 rpm may not walk through the period
+   at another speed).
+5. **Resolvable ripple.** The bench's resolvable pk-pk floor must take at most ``floor_fraction``
+   of the rule's acceptance half-width at the point (rel_tol·predicted + abs_tol, or the distance
+   from the prediction to the top of a derived model's range + abs_tol; per unit of the nameplate
+   mean torque K_t·I·cos φ). The floor is two counts of the torque reading's stated resolution
+   (``[[instrument]] resolution`` of the DAQ or transducer, in N·m: a pk-pk cannot be read finer
+   than ±1 count), or, with no resolution stated, the transducer's accuracy class × full scale.
+   With 0.5 the floor's bias can take at most half of the band, the rest is left to the model's
+   and the measurement's own error. This refuses what the bench cannot resolve: an encoder 2.5°
+   point at 10 A (0.0042 N·m predicted against a 0.001 N·m floor) or word length 12 bit at
+   250 rpm / 10 A, which failed a correct drive when judged at the bench's own floor (issue 21).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from hil.config import BenchConfig
+from hil.errors import InputError
+
+#: The bench floor may take at most this fraction of a rule's acceptance half-width (docstring 5).
+FLOOR_FRACTION = 0.5
+#: Counts of the torque reading's resolution that make the resolvable pk-pk floor (±1 count).
+FLOOR_COUNTS = 2.0
+
+
+@dataclass(frozen=True)
+class Region:
+    """Where one plan's model and band hold (module docstring).
+
+    ``braking``: the model is right in reverse rotation under positive torque (braking);
+    ``speed_rpm``: the |speed| range of the plan's point, rpm; ``voltage``: the point needs current
+    regulation (the SVPWM headroom is checked); ``floor_fraction``: the bench floor may take at
+    most this share of the rule's acceptance half-width (None: the plan judges no ripple
+    prediction against the floor); ``why``: the region's reason, in words.
+    """
+
+    braking: bool
+    why: str
+    speed_rpm: tuple[float, float] = (0.0, math.inf)
+    voltage: bool = True
+    floor_fraction: float | None = FLOOR_FRACTION
+
+
+REGIONS: dict[str, Region] = {
+    "encoder": Region(
+        braking=True, speed_rpm=(0.0, 60.0),
+        why="eqs 7-9 are quasi-static (rotor stepped slowly, the loop settles within each encoder "
+            "step): the plan runs at +12 rpm whatever the bench's point; pk-pk per unit is "
+            "independent of the current, so low current is limited by the floor"),
+    "word_length": Region(
+        braking=True,
+        why="the truncation bias acts like a dc offset on both sensors (order 1), independent of "
+            "the EMF's sign; 12-bit ripple is near the floor at low current"),
+    "dc_offset": Region(
+        braking=True,
+        why="eqs 15-20: the order-1 ripple depends on |I| and the offsets only, not on the EMF's "
+            "sign"),
+    "gain_mismatch": Region(
+        braking=True,
+        why="eqs 21-26: the order-2 ripple depends on |I| and the gains only, not on the EMF's "
+            "sign"),
+    "pwm_resolution": Region(
+        braking=True,
+        why="derived duty-quantisation model; reverse rotation is taken as braking "
+            "(hil.model.pwm_resolution.forward_phasor_peak_v)"),
+    "pwm_switching": Region(
+        braking=False,
+        why="switched-circuit torque under SVPWM with the motoring phasor: reverse rotation "
+            "(braking) measured 0.68-0.73x the model at -800 rpm (issue 21); capture by "
+            "equivalent-time sampling at the plan's fixed rates (the walk must complete within "
+            "a window at the point's speed)"),
+    "dead_time": Region(
+        braking=True,
+        why="average-voltage model with the loop's rejection (signed electrical speed); the "
+            "order-6 ripple is small (0.2-1 %), so low current and 1 us reach the floor"),
+    "baseline": Region(
+        braking=True,
+        why="nothing injected, judged against the 1 % ceiling; needs a regulated current"),
+    "self_check": Region(
+        braking=True, floor_fraction=None,
+        why="torque scale, current channels and speed against the command: needs a regulated "
+            "current (voltage headroom) and a capture the DAQ can hold"),
+    "ripple_map": Region(
+        braking=True, floor_fraction=None,
+        why="the drive as it is, no model verdict: a cell is measured only where the current is "
+            "regulated"),
+    "diagnosis": Region(
+        braking=True, floor_fraction=None,
+        why="designed points, no model verdict; fitted with the forward models, which need a "
+            "regulated current"),
+}
+
+
+def region_of(source: str) -> Region | None:
+    """The declared region of a source's plan (None: a user's source without one)."""
+    return REGIONS.get(source)
+
+
+def refusal(plan, config: BenchConfig) -> str | None:
+    """Why ``plan`` (a :class:`hil.measurement.PointPlan`) cannot be judged on this bench: the
+    first limit it breaks, "<which limit>, <value> vs <limit>" (None: inside its region)."""
+    reasons = problems(plan, config)
+    return reasons[0] if reasons else None
+
+
+def problems(plan, config: BenchConfig) -> list[str]:
+    """Every region limit ``plan`` breaks (module docstring, in that order; empty: fine)."""
+    region = region_of(plan.source) or Region(braking=True, why="no declared region")
+    found = []
+    if plan.speed_rpm < 0 and not region.braking:
+        found.append(f"reverse rotation is braking, outside the {plan.source} model: speed "
+                     f"{plan.speed_rpm:g} rpm vs >= 0 rpm")
+    low, high = region.speed_rpm
+    if not low <= abs(plan.speed_rpm) <= high:
+        found.append(f"speed outside the {plan.source} model's range: |{plan.speed_rpm:g}| rpm "
+                     f"vs {low:g}..{high:g} rpm")
+    if region.voltage:
+        found += voltage_problems(plan, config)
+    found += capture_problems(plan, config)
+    if region.floor_fraction is not None and plan.rule is not None:
+        found += floor_problems(plan, config, region.floor_fraction)
+    return found
+
+
+def injected_or_default(plan, config: BenchConfig, knob: str) -> float:
+    """The point's value of a drive knob: its injection, else the drive EDS's default (SI)."""
+    if knob in plan.injection:
+        return float(plan.injection[knob])
+    from ripple_hil_drivers.canopen_eds import injection_objects
+
+    return float(injection_objects(config.drive.eds)[knob].default_si)
+
+
+def voltage_problems(plan, config: BenchConfig) -> list[str]:
+    """The inverter's peak phase voltage against V_dc/√3 (``hil.model.voltage``)."""
+    from hil.model.voltage import inverter_voltage_needed_v, svpwm_limit_v
+
+    motor = config.motor
+    dead_time_s = injected_or_default(plan, config, "dead_time_s")
+    needed = inverter_voltage_needed_v(
+        motor, plan.speed_rpm, plan.current_a, plan.current_angle_rad, dead_time_s=dead_time_s,
+        pwm_frequency_hz=injected_or_default(plan, config, "pwm_frequency_hz"))
+    available = svpwm_limit_v(motor.dc_bus_v)
+    if needed <= available:
+        return []
+    return [f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
+            f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us included) vs "
+            f"{available:.2f} V (V_dc/√3, SVPWM)"]
+
+
+def capture_problems(plan, config: BenchConfig) -> list[str]:
+    """The DAQ's rate and buffer, the analysed band's Nyquist order and, for the switching
+    analysis, the effective samples per PWM period at this speed."""
+    from ripple_hil_drivers.daq_register_map import load_register_map
+
+    device = load_register_map(config.daq.register_map).device
+    pole_pairs = config.motor.pole_pairs
+    rate = plan.capture_rate_hz(pole_pairs)
+    samples = int(round(plan.capture_duration_s(pole_pairs) * rate))
+    found = []
+    if rate > float(device["max_sample_rate_hz"]):
+        found.append(f"capture rate {rate:g} Hz exceeds the DAQ's max_sample_rate_hz = "
+                     f"{device['max_sample_rate_hz']}")
+    if samples > int(device["buffer_capacity_samples"]):
+        found.append(f"capture of {samples} samples exceeds the DAQ's "
+                     f"buffer_capacity_samples = {device['buffer_capacity_samples']}")
+    nyquist_orders = rate / 2.0 / plan.electrical_frequency_hz(pole_pairs)
+    if plan.analysis == "torque" and plan.max_order > nyquist_orders:
+        found.append(f"max_order {plan.max_order} is above what {rate:g} Hz can resolve at "
+                     f"{plan.speed_rpm:g} rpm (order {nyquist_orders:.0f})")
+    if plan.analysis == "switching":
+        found += _switching_sampling_problems(plan, config, rate)
+    return found
+
+
+def effective_samples_per_period(rate_hz: float, pwm_frequency_hz: float,
+                                 window_periods: int) -> float:
+    """PWM period ÷ the largest gap between the sample phases (modulo the period) within one
+    window of ``window_periods`` PWM periods (equivalent-time sampling, hil.analysis.switching)."""
+    samples = max(1, int(math.floor(window_periods * rate_hz / pwm_frequency_hz)))
+    phases = sorted(math.fmod(k * pwm_frequency_hz / rate_hz, 1.0) for k in range(samples))
+    gaps = [b - a for a, b in zip(phases, phases[1:])] + [1.0 - phases[-1] + phases[0]]
+    return 1.0 / max(gaps)
+
+
+def _switching_sampling_problems(plan, config: BenchConfig, rate_hz: float) -> list[str]:
+    from hil.analysis.switching import MAX_WINDOW_ANGLE_RAD, MIN_EFFECTIVE_SAMPLES_PER_PERIOD
+
+    pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
+    omega_e = 2.0 * math.pi * plan.electrical_frequency_hz(config.motor.pole_pairs)
+    window_periods = max(1, int(MAX_WINDOW_ANGLE_RAD / (omega_e / pwm_hz) + 1e-6))
+    effective = effective_samples_per_period(rate_hz, pwm_hz, window_periods)
+    if effective >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD:
+        return []
+    return [f"capture rate vs PWM frequency: {rate_hz:g} Hz gives {effective:.3g} effective samples "
+            f"per PWM period of {pwm_hz:g} Hz at {plan.speed_rpm:g} rpm (windows of "
+            f"{window_periods} periods) vs >= {MIN_EFFECTIVE_SAMPLES_PER_PERIOD}"]
+
+
+def bench_floor_nm(config: BenchConfig) -> float:
+    """The bench's resolvable torque pk-pk, N·m (module docstring 5): two counts of the stated
+    torque resolution, else the transducer's accuracy class × full scale."""
+    inputs = config.uncertainty_inputs()
+    if inputs["daq_lsb_nm"]:
+        return FLOOR_COUNTS * float(inputs["daq_lsb_nm"])
+    return inputs["transducer_accuracy_class_pct"] / 100.0 * inputs["transducer_full_scale_nm"]
+
+
+def acceptance_half_width_pu(rule, predicted_pu: float,
+                             expected_range_pu: tuple[float, float] | None) -> float:
+    """How far above the prediction a measured pk-pk may read and still be accepted, per unit of
+    the nameplate mean torque: the rule's band on the side the floor pushes (upward)."""
+    if rule.expected_range and expected_range_pu is not None:
+        return max(0.0, expected_range_pu[1] - predicted_pu) + rule.abs_tol_pu
+    if rule.upper_bound:
+        return max(0.0, predicted_pu * (1.0 + rule.rel_tol)) + rule.abs_tol_pu
+    return rule.rel_tol * abs(predicted_pu) + rule.abs_tol_pu
+
+
+def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) -> list[str]:
+    """The bench floor against the rule's acceptance half-width at this point (docstring 5)."""
+    from hil.measurement import BASELINE
+    from hil.measurement import _predict as predict_plan   # the prediction measure_point judges
+    from hil.model import OperatingPoint
+
+    try:
+        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                            current_angle_rad=plan.current_angle_rad, motor=config.motor,
+                            allow_beyond_voltage_limit=True)
+        prediction = None if plan.source == BASELINE else predict_plan(plan, op)
+    except InputError as exc:
+        return [f"no prediction at this point: {exc}"]
+    nameplate_nm = op.mean_torque_nm
+    if prediction is None:
+        predicted_pu, expected = 0.0, None
+    else:
+        scale = prediction.base_nm / nameplate_nm
+        predicted_pu = prediction.pk_pk_pu * scale
+        expected = (None if prediction.expected_range_pu is None else
+                    tuple(v * scale for v in prediction.expected_range_pu))
+    half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)
+    floor_pu = bench_floor_nm(config) / nameplate_nm
+    if floor_pu <= fraction * half_width_pu:
+        return []
+    return [f"ripple below the bench's resolvable floor: floor {floor_pu * 100:.3g} % of the mean "
+            f"torque vs {fraction:g} x the acceptance half-width {half_width_pu * 100:.3g} % "
+            f"(predicted {predicted_pu * 100:.3g} %)"]
