@@ -1,0 +1,240 @@
+"""Validity study (issue 21 item 9): a CORRECT simulated drive over several motors and operating
+points, every plan, run as a user would.
+
+For each motor (Table I and two very different ones: pole count, bus voltage, L/R, Ke stated
+another way) and each operating point (both directions, low current, near the voltage limit) a copy
+of ``hil/examples/sim-bench.toml`` is written with that ``[motor]`` and ``[operating_point]``,
+and ``python -m hil run --bench COPY --no-report`` runs every plan on the unmodified simulated
+drive. Each test of the record is then one of:
+
+- ``pass``: judged and accepted;
+- ``wrong rejection``: judged and failed — the drive is correct, so the plan is wrong there;
+- ``not determinable``: refused by its plan's validity region (hil.validity) before the bench was
+  touched, or a check its sweep could not resolve (the reason is kept);
+- ``measured``: no verdict to give (diagnosis and ripple-map points, references);
+- ``error``: the test raised.
+
+Run: ``.venv/bin/python studies/validity.py [--reduced] [--out DIR]`` (the full grid: 3 motors ×
+12 points, ≈ 15-30 s per point on one core; ``--reduced``: 2 runs for CI). Writes
+``DIR/validity.json`` and ``DIR/validity.md`` and prints the table; exit 1 on a wrong rejection.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+from collections import Counter
+from pathlib import Path
+
+import tomli_w
+
+from hil.config import example_bench_path
+from hil.motor import MotorParameters
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE_PREFIX
+
+#: The motors: the bench file's ``[motor]`` table of each (Table I: the shipped bench's own).
+MOTORS: dict[str, dict] = {
+    "table_i": {},
+    # 8 poles, 48 V, L/R = 2.5 ms (Table I: 4 poles, 12 V, 0.7 ms), Ke per RMS phase
+    "p8_48v": {"model": "8-pole 48 V PMSM (study)", "serial_number": "STUDY-P8", "pole_count": 8,
+               "dc_bus_v": 48.0, "phase_resistance_ohm": 0.12, "phase_inductance_h": 0.3e-3,
+               "max_reactance_ohm": 0.4, "ke_v_s_per_rad": 0.06, "ke_definition": "rms_phase"},
+    # 2 poles, 24 V, L/R = 0.25 ms, Ke stated peak line-to-line
+    "p2_24v": {"model": "2-pole 24 V PMSM (study)", "serial_number": "STUDY-P2", "pole_count": 2,
+               "dc_bus_v": 24.0, "phase_resistance_ohm": 0.4, "phase_inductance_h": 0.1e-3,
+               "max_reactance_ohm": 0.1, "ke_v_s_per_rad": 0.08, "ke_definition": "peak_line"},
+}
+#: Fixed points (speed rpm, peak current A) of every motor; two near the voltage limit are added.
+FIXED_POINTS = [(500.0, 20.0), (250.0, 10.0), (800.0, 15.0), (1500.0, 30.0), (-800.0, 15.0),
+                (-500.0, 20.0), (1000.0, 5.0), (250.0, 5.0), (-250.0, 10.0), (1200.0, 10.0)]
+#: The near-limit points run at this fraction of the speed where 20 A reaches V_dc/√3.
+NEAR_LIMIT_FRACTION = 0.9
+NEAR_LIMIT_CURRENT_A = 20.0
+#: The reduced grid (CI): a reverse point on Table I and a forward one on the 8-pole motor.
+REDUCED = [("table_i", (-500.0, 20.0)), ("p8_48v", (800.0, 15.0))]
+#: A run's own time limit, s.
+RUN_TIMEOUT_S = 1200.0
+
+PASS, WRONG, NOT_DET, ERROR = "pass", "wrong rejection", "not determinable", "error"
+
+
+def motor_parameters(name: str) -> MotorParameters:
+    base = _base_bench()["motor"]
+    table = base | MOTORS[name]
+    keys = {f for f in MotorParameters.__dataclass_fields__}
+    return MotorParameters(**{k: v for k, v in table.items() if k in keys})
+
+
+def near_limit_speed_rpm(motor: MotorParameters, speed_limit_rpm: float) -> float:
+    """``NEAR_LIMIT_FRACTION`` of the forward speed at which ``NEAR_LIMIT_CURRENT_A`` needs
+    V_dc/√3 (the motoring phasor), within the bench's speed limit."""
+    from hil.model import OperatingPoint
+
+    top = OperatingPoint(speed_rpm=1.0, current_a=NEAR_LIMIT_CURRENT_A,
+                         motor=motor).voltage_limited_speed_rpm()
+    return float(round(min(NEAR_LIMIT_FRACTION * top, 0.97 * speed_limit_rpm)))
+
+
+def grid(name: str) -> list[tuple[float, float]]:
+    """The motor's operating points: the fixed ones and ± the near-limit speed at 20 A."""
+    limit = _base_bench()["limits"]["speed_rpm"]
+    near = near_limit_speed_rpm(motor_parameters(name), limit)
+    return FIXED_POINTS + [(near, NEAR_LIMIT_CURRENT_A), (-near, NEAR_LIMIT_CURRENT_A)]
+
+
+def _base_bench() -> dict:
+    return tomllib.loads(example_bench_path("sim-bench").read_text())
+
+
+def bench_copy(name: str, speed_rpm: float, current_a: float, folder: Path) -> Path:
+    """A copy of the shipped simulated bench with this motor and operating point."""
+    table = _base_bench()
+    table["motor"] = table["motor"] | MOTORS[name]
+    table["operating_point"] = {"speed_rpm": speed_rpm, "current_a": current_a,
+                                "current_angle_deg": 0.0}
+    path = folder / f"bench-{name}-{speed_rpm:g}rpm-{current_a:g}A.toml"
+    path.write_text(tomli_w.dumps(table))
+    return path
+
+
+def classify(test: dict) -> tuple[str, str | None]:
+    """One record test → (category, reason) (module docstring)."""
+    outcome, message = test.get("outcome"), test.get("message") or test.get("error")
+    if outcome == "passed":
+        judged = test.get("verdict") or test.get("checks") or test.get("requirements")
+        if not judged and test.get("kind") in ("diagnosis", "ripple_map", "measurement"):
+            return MEASURED, None          # a point without a rule (a sensitivity test judges)
+        return PASS, None
+    if outcome in ("not determinable", MEASURED):
+        return (NOT_DET, message) if outcome != MEASURED else (MEASURED, None)
+    if outcome == "skipped":
+        reason = message or ""
+        if reason.startswith(NOT_DETERMINABLE_PREFIX):
+            reason = reason[len(NOT_DETERMINABLE_PREFIX):]
+        return NOT_DET, reason
+    if outcome == "failed":
+        return WRONG, message
+    return ERROR, message
+
+
+def run_point(name: str, speed_rpm: float, current_a: float, folder: Path,
+              sources=()) -> dict:
+    """One ``hil run`` on the correct simulated drive; the classified tests of its record."""
+    from hil.record import load_record
+
+    folder.mkdir(parents=True, exist_ok=True)
+    bench = bench_copy(name, speed_rpm, current_a, folder)
+    records = folder / "records"
+    args = [sys.executable, "-m", "hil", "run", "--bench", str(bench), "--no-report",
+            "--record-dir", str(records)]
+    for source in sources:
+        args += ["--source", source]
+    started = time.perf_counter()
+    done = subprocess.run(args, capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+                          cwd=folder)
+    row = {"motor": name, "speed_rpm": speed_rpm, "current_a": current_a,
+           "exit_status": done.returncode, "seconds": round(time.perf_counter() - started, 1),
+           "tests": []}
+    found = sorted(records.iterdir()) if records.exists() else []
+    if not found:
+        row["run_error"] = (done.stdout[-1500:] + done.stderr[-1500:]).strip()
+        return row
+    for test in load_record(found[-1])["tests"]:
+        category, reason = classify(test)
+        row["tests"].append({"test_id": test.get("test_id"), "source": test.get("source"),
+                             "category": category, "reason": reason})
+    return row
+
+
+def counts(row: dict) -> Counter:
+    return Counter(t["category"] for t in row["tests"])
+
+
+def model_points(rows: list[dict]) -> Counter:
+    """Categories of the model-validation points (injected sources' sweep points)."""
+    injected = {"encoder", "word_length", "dc_offset", "gain_mismatch", "pwm_resolution",
+                "pwm_switching", "dead_time"}
+    return Counter(t["category"] for row in rows for t in row["tests"]
+                   if t["source"] in injected and "sensitivity" not in (t["test_id"] or "")
+                   and "noise" not in (t["test_id"] or ""))
+
+
+def markdown(rows: list[dict]) -> str:
+    lines = ["| motor | speed rpm | current A | pass | wrong rejection | not determinable | "
+             "measured | error | exit |", "|---|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        c = counts(row)
+        lines.append(f"| {row['motor']} | {row['speed_rpm']:g} | {row['current_a']:g} | "
+                     f"{c[PASS]} | {c[WRONG]} | {c[NOT_DET]} | {c[MEASURED]} | {c[ERROR]} | "
+                     f"{row['exit_status']}{' (no record)' if 'run_error' in row else ''} |")
+    total = Counter()
+    for row in rows:
+        total += counts(row)
+    lines.append(f"| **all** | | | {total[PASS]} | {total[WRONG]} | {total[NOT_DET]} | "
+                 f"{total[MEASURED]} | {total[ERROR]} | |")
+    model = model_points(rows)
+    judged = model[PASS] + model[WRONG]
+    share = judged / max(1, judged + model[NOT_DET] + model[ERROR])
+    lines += ["", f"Model-validation points: {judged} judged ({model[PASS]} pass, "
+                  f"{model[WRONG]} wrong rejections), {model[NOT_DET]} not determinable, "
+                  f"{model[ERROR]} errors: {100 * share:.0f} % judged.", ""]
+    bad = [(row, t) for row in rows for t in row["tests"] if t["category"] in (WRONG, ERROR)]
+    if bad:
+        lines += ["Wrong rejections and errors:", ""]
+        lines += [f"- {row['motor']} {row['speed_rpm']:g} rpm {row['current_a']:g} A: "
+                  f"`{t['test_id']}` {t['category']}: {(t['reason'] or '')[:300]}"
+                  for row, t in bad]
+    reasons = Counter((t["source"], _reason_kind(t["reason"])) for row in rows
+                      for t in row["tests"] if t["category"] == NOT_DET)
+    if reasons:
+        lines += ["", "Not determinable, by plan and limit:", "",
+                  "| plan | limit | tests |", "|---|---|---|"]
+        lines += [f"| {source} | {kind} | {n} |" for (source, kind), n in sorted(reasons.items())]
+    runs = [row for row in rows if "run_error" in row]
+    if runs:
+        lines += ["", "Runs without a record:", ""]
+        lines += [f"- {r['motor']} {r['speed_rpm']:g}/{r['current_a']:g}: "
+                  f"{r['run_error'][-300:]}" for r in runs]
+    return "\n".join(lines)
+
+
+def _reason_kind(reason: str | None) -> str:
+    """The limit a not-determinable reason names (its words before the first colon)."""
+    return (reason or "?").split(":")[0][:60]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--reduced", action="store_true", help="the small CI grid")
+    parser.add_argument("--out", type=Path, default=Path("validity-study"))
+    parser.add_argument("--motor", action="append", choices=sorted(MOTORS),
+                        help="only these motors (repeatable)")
+    args = parser.parse_args(argv)
+    if args.reduced:
+        plan = REDUCED
+    else:
+        plan = [(name, point) for name in (args.motor or MOTORS) for point in grid(name)]
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for index, (name, (speed, current)) in enumerate(plan):
+            row = run_point(name, speed, current, Path(tmp) / f"p{index}")
+            rows.append(row)
+            c = counts(row)
+            print(f"{name} {speed:g} rpm {current:g} A: {dict(c)} ({row['seconds']} s)",
+                  file=sys.stderr, flush=True)
+            (args.out / "validity.json").write_text(json.dumps(
+                {"motors": MOTORS, "rows": rows}, indent=1))
+    table = markdown(rows)
+    (args.out / "validity.md").write_text(table + "\n")
+    print(table)
+    return 1 if any(counts(row)[WRONG] for row in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
