@@ -62,6 +62,13 @@ class Region:
     voltage: bool = True
     floor_fraction: float | None = FLOOR_FRACTION
 
+    def to_dict(self) -> dict:
+        """JSON-safe (an open upper speed bound is None), for the record's agreed rules."""
+        low, high = self.speed_rpm
+        return {"braking": self.braking, "speed_rpm": [low, None if math.isinf(high) else high],
+                "voltage_headroom": self.voltage, "floor_fraction": self.floor_fraction,
+                "why": self.why}
+
 
 REGIONS: dict[str, Region] = {
     "encoder": Region(

@@ -1,10 +1,12 @@
-"""Session set-up of the test plans: the decision rules are written to the record before the
-first point is measured (they are agreed before measuring, ISO/IEC 17025 §7.1.3)."""
+"""Session set-up of the test plans: the decision rules and the plans' validity regions
+(hil.validity) are written to the record before the first point is measured (they are agreed
+before measuring, ISO/IEC 17025 §7.1.3)."""
 
 from dataclasses import asdict
 
 import pytest
 
+from hil import validity
 from ripple_hil_testplans import conditions as c
 
 
@@ -19,4 +21,8 @@ def agreed_decision_rules(record):
         "derived_estimate": asdict(c.DERIVED_ESTIMATE_RULE),
         "baseline": asdict(c.BASELINE_RULE),
         "baseline_ceiling_pu": c.BASELINE_CEILING_PU,
+        "validity_regions": {name: region.to_dict() for name, region in validity.REGIONS.items()},
+        "validity_floor": f"{validity.FLOOR_COUNTS:g} counts of the torque reading's resolution "
+                          f"may take at most {validity.FLOOR_FRACTION:g} of a rule's acceptance "
+                          "half-width; a point outside its region is not determinable",
     })

@@ -1,0 +1,60 @@
+"""The pre-flight skips a point outside its plan's validity region as "not determinable here"
+before any bench command, runs the rest, and a correct drive passes where the region allows —
+off the default point (250 rpm / 10 A; braking at −2300 rpm, beyond the motoring voltage limit)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+import tomli_w
+
+from hil.config import example_bench_path
+from hil.outcome_kinds import NOT_DETERMINABLE_PREFIX
+from hil.record import load_record
+from ripple_hil_testplans import conditions as c
+
+PLANS = Path(c.__file__).parent
+
+
+def bench_at(tmp_path: Path, speed_rpm: float, current_a: float) -> Path:
+    table = tomllib.loads(example_bench_path("sim-bench").read_text())
+    table["operating_point"] = {"speed_rpm": speed_rpm, "current_a": current_a,
+                                "current_angle_deg": 0.0}
+    path = tmp_path / "bench.toml"
+    path.write_text(tomli_w.dumps(table))
+    return path
+
+
+def run(tmp_path: Path, bench: Path, plan: str, *extra: str):
+    records = tmp_path / "records"
+    done = subprocess.run([sys.executable, "-m", "pytest", str(PLANS / plan), "-q",
+                           "-p", "no:cacheprovider", "--hil-bench", str(bench),
+                           "--hil-record", str(records), *extra],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    record = load_record(sorted(records.iterdir())[-1])
+    return done, {t["test_id"].split("::")[-1]: t for t in record["tests"]}
+
+
+def test_word_length_12_bit_at_250_rpm_10_a_is_not_determinable_and_the_rest_pass(tmp_path):
+    done, tests = run(tmp_path, bench_at(tmp_path, 250.0, 10.0), "test_word_length.py",
+                      "-k", "not sensitivity")
+    refused = tests["test_word_length[word_length_bits=12]"]
+    assert refused["outcome"] in ("skipped", "not determinable"), refused
+    assert refused["message"].startswith(NOT_DETERMINABLE_PREFIX + "ripple not resolvable")
+    assert not refused.get("capture")                 # never driven: nothing captured
+    for bits in (8, 10):                              # a correct drive, off the default point
+        assert tests[f"test_word_length[word_length_bits={bits}]"]["outcome"] == "passed"
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+
+
+def test_braking_beyond_the_motoring_voltage_limit_is_driven_and_a_correct_drive_passes(tmp_path):
+    # 20 A reaches V_dc/√3 at 1709 rpm motoring; braking at −2300 rpm needs 6.74 V of 6.93 V
+    done, tests = run(tmp_path, bench_at(tmp_path, -2300.0, 20.0), "test_dc_offset.py",
+                      "-k", "test_dc_offset[0.01-0.01]")
+    point = tests["test_dc_offset[0.01-0.01]"]
+    assert point["outcome"] == "passed", point.get("message") or done.stdout[-2000:]
+    assert point["operating_point"]["speed_rpm"] == pytest.approx(-2300.0)

@@ -1,0 +1,166 @@
+"""Validity regions (hil.validity, hil.model.voltage): each limit refuses the point it exists to
+refuse, with its reason, and lets a point inside the region through — off the default point."""
+
+from __future__ import annotations
+
+import ast
+import cmath
+import math
+from pathlib import Path
+
+import pytest
+
+from hil import validity
+from hil.config import default_sim_bench
+from hil.errors import InputError
+from hil.model import OperatingPoint
+from hil.model.voltage import (dead_time_voltage_loss_v, inverter_voltage_needed_v,
+                               steady_voltage_phasor_peak_v, svpwm_limit_v)
+from hil.motor import TABLE_I
+from ripple_hil_testplans import conditions as c
+from ripple_hil_testplans import (test_dead_time, test_encoder, test_pwm_resolution,
+                                  test_pwm_switching, test_word_length)
+
+BASE = default_sim_bench()
+
+
+def at(speed_rpm, current_a, config=BASE):
+    return config.with_overrides({"operating_point": {"speed_rpm": speed_rpm,
+                                                      "current_a": current_a}})
+
+
+def plan_sources() -> set[str]:
+    """Every ``ripple_source`` marker of the shipped plans, read from their source."""
+    found = set()
+    for path in Path(c.__file__).parent.glob("test_*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "ripple_source"
+                    and node.args and isinstance(node.args[0], ast.Constant)):
+                found.add(node.args[0].value)
+    return found
+
+
+def test_every_shipped_plan_declares_a_region():
+    assert plan_sources() == set(validity.REGIONS), "a plan without a region (or a stale region)"
+    assert all(region.why for region in validity.REGIONS.values())
+
+
+# ------------------------------------------------------------------------------ voltage
+def test_forward_phasor_is_the_motoring_one_and_reverse_brakes():
+    forward = OperatingPoint(speed_rpm=800.0, current_a=15.0, current_angle_rad=0.2)
+    assert steady_voltage_phasor_peak_v(TABLE_I, 800.0, 15.0, 0.2) == pytest.approx(
+        forward.voltage_phasor_peak_v)
+    # reverse: −E + (R − j·|ω_e|·L)·I·e^(−jφ), written out by hand
+    omega_e = 800.0 * 2 * math.pi / 60 * 2
+    e = TABLE_I.emf_peak_v_s_per_rad * 800.0 * 2 * math.pi / 60
+    by_hand = -e + complex(0.055, -omega_e * 38.5e-6) * 15.0 * cmath.exp(-0.2j)
+    reverse = steady_voltage_phasor_peak_v(TABLE_I, -800.0, 15.0, 0.2)
+    assert reverse == pytest.approx(by_hand)
+    assert abs(reverse) < abs(forward.voltage_phasor_peak_v)      # braking needs less
+
+
+def test_dead_time_voltage_loss_of_issue_21s_point():
+    # (4/π)·1 µs·20 kHz·12 V = 0.3056 V
+    assert dead_time_voltage_loss_v(1e-6, 20_000.0, 12.0) == pytest.approx(0.30558, rel=1e-4)
+    # 1500 rpm / 30 A on Table I: 6.77 V without dead time (within 6.93 V), beyond with 1 µs
+    assert inverter_voltage_needed_v(TABLE_I, 1500.0, 30.0, 0.0) == pytest.approx(6.769, abs=1e-3)
+    assert inverter_voltage_needed_v(TABLE_I, 1500.0, 30.0, 0.0, 1e-6, 20_000.0) > svpwm_limit_v(12)
+    config = at(1500.0, 30.0)
+    refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 1e-6}), config)
+    assert refused.startswith("voltage headroom") and "vs 6.93 V" in refused, refused
+    # the same point without injected dead time is inside the headroom
+    assert not validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 0.0}), config)
+
+
+def test_a_braking_point_beyond_the_motoring_limit_is_accepted_and_forward_is_not():
+    # 20 A reaches V_dc/√3 at 1709 rpm motoring; braking at −2300 rpm needs 6.74 V only
+    assert OperatingPoint(speed_rpm=-2300.0, current_a=20.0).current_a == 20.0
+    with pytest.raises(InputError, match="V_dc/√3"):
+        OperatingPoint(speed_rpm=2300.0, current_a=20.0)
+    config = at(-2300.0, 20.0)
+    assert validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 0.0}), config) == []
+    config = at(2300.0, 20.0)
+    assert validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 0.0}), config)
+
+
+# ------------------------------------------------------------------------------ direction
+def test_reverse_rotation_is_refused_only_where_the_model_does_not_brake():
+    config = at(-800.0, 15.0)
+    refused = validity.refusal(test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0}),
+                               config)
+    assert refused.startswith("reverse rotation is braking") and "-800 rpm" in refused
+    assert validity.refusal(test_pwm_resolution.plan(config, {"pwm_period_counts": 32}),
+                            config) is None
+
+
+# ------------------------------------------------------------------------------ floor
+def test_bench_floor_is_two_counts_of_the_stated_resolution():
+    assert validity.bench_floor_nm(BASE) == pytest.approx(2 * 0.0005)
+
+
+def test_encoder_2_5_degrees_is_judged_at_20_a_and_refused_at_10_a():
+    step = {"encoder_decimation": 25}
+    config = at(500.0, 20.0)
+    assert validity.refusal(test_encoder.plan(config, step), config) is None
+    config = at(250.0, 10.0)
+    refused = validity.refusal(test_encoder.plan(config, step), config)
+    # floor 0.001 N·m over K_t·10 A·cos 10° = 0.481 N·m: 0.208 %; half-width 0.2·0.864 % + 0.2 %
+    assert "resolvable floor" in refused and "0.208 %" in refused and "0.373 %" in refused
+    # a coarser step at the same point is judged
+    assert validity.refusal(test_encoder.plan(config, {"encoder_decimation": 50}), config) is None
+
+
+def test_word_length_12_bit_at_250_rpm_10_a_is_refused():
+    config = at(250.0, 10.0)
+    refused = validity.refusal(test_word_length.plan(config, {"word_length_bits": 12}), config)
+    assert "resolvable floor" in refused, refused
+    assert validity.refusal(test_word_length.plan(config, {"word_length_bits": 10}),
+                            config) is None
+
+
+def test_acceptance_half_width_of_each_rule_kind():
+    assert validity.acceptance_half_width_pu(c.CLOSED_FORM_RULE, 0.05, None) == pytest.approx(
+        0.2 * 0.05 + 0.002)
+    assert validity.acceptance_half_width_pu(c.DERIVED_RANGE_RULE, 0.02, (0.01, 0.03)) == \
+        pytest.approx(0.01 + 0.001)
+    assert validity.acceptance_half_width_pu(c.BASELINE_RULE, 0.0, None) == pytest.approx(0.01)
+
+
+# ------------------------------------------------------------------------------ capture
+def test_effective_samples_of_equivalent_time_sampling():
+    # 182 kHz at 20 kHz: 9.1 samples per period, the phases repeat after 10 periods → 91
+    assert validity.effective_samples_per_period(182_000.0, 20_000.0, 10) == pytest.approx(91.0)
+    # a whole multiple never walks: 10 per period whatever the window
+    assert validity.effective_samples_per_period(200_000.0, 20_000.0, 10) == pytest.approx(10.0)
+    # 40 kHz at 162 kHz with windows of 6 periods (1500 rpm): the walk is not complete
+    assert validity.effective_samples_per_period(162_000.0, 40_000.0, 6) < 8
+
+
+def test_pwm_switching_40_khz_at_1500_rpm_is_refused_for_its_capture():
+    config = at(1500.0, 20.0)
+    refused = validity.refusal(test_pwm_switching.plan(config, {"pwm_frequency_hz": 40_000.0}),
+                               config)
+    assert refused.startswith("capture rate vs PWM frequency") and "vs >= 8" in refused
+
+
+def test_switching_sampling_bias_bound():
+    # K_t·(2/3)·V_dc/L × T_pwm/effective: Table I at 500 rpm, 20 kHz, 182 kHz (91 effective)
+    config = at(500.0, 20.0)
+    plan = test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0})
+    slope = TABLE_I.torque_constant_nm_per_a * (2 / 3) * 12.0 / 38.5e-6
+    assert validity.switching_sampling_bias_nm(plan, config) == pytest.approx(
+        slope / 20_000.0 / 91.0)
+    assert validity.refusal(plan, config) is None
+    # at 5 A the same absolute bound is 4× larger per unit: refused
+    config = at(500.0, 5.0)
+    refused = validity.refusal(test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0}),
+                               config)
+    assert "sampling bias bound" in refused, refused
+
+
+def test_region_dict_is_json_safe():
+    import json
+
+    table = {name: region.to_dict() for name, region in validity.REGIONS.items()}
+    assert json.loads(json.dumps(table, allow_nan=False))["encoder"]["speed_rpm"] == [0.0, 60.0]
+    assert table["dc_offset"]["speed_rpm"] == [0.0, None]
