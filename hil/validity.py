@@ -50,23 +50,22 @@ class Region:
     """Where one plan's model and band hold (module docstring).
 
     ``braking``: the model is right in reverse rotation under positive torque (braking);
-    ``speed_rpm``: the |speed| range of the plan's point, rpm; ``voltage``: the point needs current
-    regulation (the SVPWM headroom is checked); ``floor_fraction``: the bench floor may take at
-    most this share of the rule's acceptance half-width (None: the plan judges no ripple
-    prediction against the floor); ``why``: the region's reason, in words.
+    ``speed_rpm``: the |speed| range of the plan's point, rpm (every plan needs a regulated
+    current, so the voltage headroom is checked for all); ``floor_fraction``: the bench floor
+    may take at most this share of the rule's acceptance half-width (None: the plan judges no
+    ripple prediction against the floor); ``why``: the region's reason, in words.
     """
 
     braking: bool
     why: str
     speed_rpm: tuple[float, float] = (0.0, math.inf)
-    voltage: bool = True
     floor_fraction: float | None = FLOOR_FRACTION
 
     def to_dict(self) -> dict:
         """JSON-safe (an open upper speed bound is None), for the record's agreed rules."""
         low, high = self.speed_rpm
         return {"braking": self.braking, "speed_rpm": [low, None if math.isinf(high) else high],
-                "voltage_headroom": self.voltage, "floor_fraction": self.floor_fraction,
+                "floor_fraction": self.floor_fraction,
                 "why": self.why}
 
 
@@ -143,8 +142,7 @@ def problems(plan, config: BenchConfig) -> list[str]:
     if not low <= abs(plan.speed_rpm) <= high:
         found.append(f"speed outside the {plan.source} model's range: |{plan.speed_rpm:g}| rpm "
                      f"vs {low:g}..{high:g} rpm")
-    if region.voltage:
-        found += voltage_problems(plan, config)
+    found += voltage_problems(plan, config)
     found += capture_problems(plan, config)
     if region.floor_fraction is not None and plan.rule is not None:
         found += floor_problems(plan, config, region.floor_fraction)
