@@ -218,6 +218,25 @@ def switching_window_periods(plan, config: BenchConfig, pwm_hz: float) -> int:
     return max(1, int(MAX_WINDOW_ANGLE_RAD / (omega_e / pwm_hz) + 1e-6))
 
 
+def switching_sample_rate_hz(speed_rpm: float, pole_pairs: int, pwm_frequency_hz: float,
+                             max_sample_rate_hz: float) -> float:
+    """A DAQ rate for the switching analysis *at this speed*, Hz: f_pwm·(n + 1/G), G the PWM
+    periods of one 3° analysis window at ``speed_rpm``, n the most whole samples per period the
+    DAQ allows, so that the sample phases walk once through the period within every window
+    (equivalent-time sampling, n·G + 1 effective samples per period). How a plan adapts its point
+    instead of a rate fixed for one speed (the PWM-switching plan's rates are fixed for 500 rpm)."""
+    from hil.analysis.switching import MAX_WINDOW_ANGLE_RAD
+
+    omega_e = 2.0 * math.pi * abs(speed_rpm) / 60.0 * pole_pairs
+    window_periods = max(1, int(MAX_WINDOW_ANGLE_RAD / (omega_e / pwm_frequency_hz) + 1e-6))
+    walk = 1.0 / window_periods if window_periods > 1 else 0.5
+    whole = math.floor(max_sample_rate_hz / pwm_frequency_hz - walk)
+    if whole < 1:
+        raise InputError(f"a DAQ of {max_sample_rate_hz:g} Hz cannot sample pwm_frequency_hz="
+                         f"{pwm_frequency_hz:g} once per period")
+    return pwm_frequency_hz * (whole + walk)
+
+
 def _switching_sampling_problems(plan, config: BenchConfig, rate_hz: float) -> list[str]:
     from hil.analysis.switching import MIN_EFFECTIVE_SAMPLES_PER_PERIOD
 

@@ -164,3 +164,16 @@ def test_region_dict_is_json_safe():
     table = {name: region.to_dict() for name, region in validity.REGIONS.items()}
     assert json.loads(json.dumps(table, allow_nan=False))["encoder"]["speed_rpm"] == [0.0, 60.0]
     assert table["dc_offset"]["speed_rpm"] == [0.0, None]
+
+
+def test_a_switching_rate_derived_from_the_speed_resolves_where_the_fixed_one_is_refused():
+    config = at(1500.0, 20.0)
+    fixed = test_pwm_switching.plan(config, {"pwm_frequency_hz": 40_000.0})
+    assert "capture rate vs PWM frequency" in validity.refusal(fixed, config)
+    rate = validity.switching_sample_rate_hz(1500.0, 2, 40_000.0, 200_000.0)
+    assert rate <= 200_000.0
+    adapted = fixed.__class__(**{**fixed.__dict__, "sample_rate_hz": rate})
+    assert validity.capture_problems(adapted, config) == []
+    windows = validity.switching_window_periods(adapted, config, 40_000.0)     # 6 at 1500 rpm
+    assert validity.effective_samples_per_period(rate, 40_000.0, windows) == pytest.approx(
+        4 * windows + 1)
