@@ -12,8 +12,9 @@ What a region checks, in the order a refusal names it:
 2. **Speed** |n| within the range the model assumes (the encoder plan runs at its own 12 rpm).
 3. **Voltage headroom.** The peak phase voltage the inverter must give — the steady phasor with
    the signed speed (braking in reverse) plus the dead time's (4/π)·T_d·f_pwm·V_dc along the
-   current — within the SVPWM limit V_dc/√3 (``hil.model.voltage``); beyond it the current is not
-   regulated and no model of the paper applies.
+   current — within the SVPWM limit less the on-times the dead time swallows,
+   (V_dc/√3)·(1 − 2·T_d·f_pwm) (``hil.model.voltage``); beyond it the current is not regulated or
+   pulses are dropped, and no model of the paper applies.
 4. **Capture.** The DAQ's rate and buffer, the Nyquist order of the analysed band
    (rate / (2·f_e) ≥ max_order), and for the switching analysis (PWM switching) the effective
    samples per PWM period of equivalent-time sampling at *this* speed
@@ -160,19 +161,22 @@ def injected_or_default(plan, config: BenchConfig, knob: str) -> float:
 
 def voltage_problems(plan, config: BenchConfig) -> list[str]:
     """The inverter's peak phase voltage against V_dc/√3 (``hil.model.voltage``)."""
-    from hil.model.voltage import inverter_voltage_needed_v, svpwm_limit_v
+    from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
 
     motor = config.motor
     dead_time_s = injected_or_default(plan, config, "dead_time_s")
+    pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
     needed = inverter_voltage_needed_v(
         motor, plan.speed_rpm, plan.current_a, plan.current_angle_rad, dead_time_s=dead_time_s,
-        pwm_frequency_hz=injected_or_default(plan, config, "pwm_frequency_hz"))
-    available = svpwm_limit_v(motor.dc_bus_v)
+        pwm_frequency_hz=pwm_hz)
+    available = linear_limit_v(motor.dc_bus_v, dead_time_s, pwm_hz)
     if needed <= available:
         return []
+    limit = ("V_dc/√3, SVPWM" if dead_time_s == 0 else
+             f"V_dc/√3·(1 − 2·T_d·f_pwm), SVPWM with on-times > {dead_time_s * 1e6:g} us")
     return [f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
             f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us included) vs "
-            f"{available:.2f} V (V_dc/√3, SVPWM)"]
+            f"{available:.2f} V ({limit})"]
 
 
 def capture_problems(plan, config: BenchConfig) -> list[str]:

@@ -14,9 +14,10 @@ drive. Each test of the record is then one of:
 - ``measured``: no verdict to give (diagnosis and ripple-map points, references);
 - ``error``: the test raised.
 
-Run: ``.venv/bin/python studies/validity.py [--reduced] [--out DIR]`` (the full grid: 3 motors ×
-12 points, ≈ 15-30 s per point on one core; ``--reduced``: 2 runs for CI). Writes
-``DIR/validity.json`` and ``DIR/validity.md`` and prints the table; exit 1 on a wrong rejection.
+Run: ``.venv/bin/python studies/validity.py [--reduced] [--motor NAME] [--out DIR]`` (the full
+grid: 3 motors × 12 points, ≈ 15-30 s per point on one core; ``--reduced``: 2 runs for CI).
+Writes ``DIR/validity.json`` and ``DIR/validity.md`` and prints the table (``--from-json FILE``
+prints it again); exit 1 on a wrong rejection.
 """
 
 from __future__ import annotations
@@ -183,6 +184,15 @@ def markdown(rows: list[dict]) -> str:
     lines += ["", f"Model-validation points: {judged} judged ({model[PASS]} pass, "
                   f"{model[WRONG]} wrong rejections), {model[NOT_DET]} not determinable, "
                   f"{model[ERROR]} errors: {100 * share:.0f} % judged.", ""]
+    lines += ["| plan | pass | wrong rejection | not determinable | measured | error |",
+              "|---|---|---|---|---|---|"]
+    per_plan: dict[str, Counter] = {}
+    for row in rows:
+        for t in row["tests"]:
+            per_plan.setdefault(t["source"] or "?", Counter())[t["category"]] += 1
+    lines += [f"| {plan} | {c[PASS]} | {c[WRONG]} | {c[NOT_DET]} | {c[MEASURED]} | {c[ERROR]} |"
+              for plan, c in sorted(per_plan.items())]
+    lines.append("")
     bad = [(row, t) for row in rows for t in row["tests"] if t["category"] in (WRONG, ERROR)]
     if bad:
         lines += ["Wrong rejections and errors:", ""]
@@ -214,7 +224,13 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=Path("validity-study"))
     parser.add_argument("--motor", action="append", choices=sorted(MOTORS),
                         help="only these motors (repeatable)")
+    parser.add_argument("--from-json", type=Path,
+                        help="only write the table again from a study's validity.json")
     args = parser.parse_args(argv)
+    if args.from_json:
+        rows = json.loads(args.from_json.read_text())["rows"]
+        print(markdown(rows))
+        return 1 if any(counts(row)[WRONG] for row in rows) else 0
     if args.reduced:
         plan = REDUCED
     else:

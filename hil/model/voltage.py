@@ -15,7 +15,14 @@ of it: each leg loses ε = T_d·f_pwm·V_dc of its average voltage against the s
 (paper eqs 32-37, averaged over a PWM period), a square wave ±ε per leg whose fundamental has the
 peak (4/π)·ε; the common mode it leaves is a triplen and does not reach the phases, so the phase
 voltage loses (4/π)·T_d·f_pwm·V_dc along the current's direction. The inverter must therefore
-give V + (4/π)·ε·I/|I|; a point is within reach when that magnitude is ≤ V_dc/√3.
+give V + (4/π)·ε·I/|I|.
+
+That loss is a constant ε per leg only while every switch's on-time is longer than T_d: a shorter
+pulse is swallowed whole (pulse dropping) and the error is no longer the model's. Under
+centre-aligned SVPWM a leg's duty swings over 0.5 ± (√3/2)·|V|/V_dc, so both on-times stay above
+T_d while |V| ≤ (V_dc/√3)·(1 − 2·T_d·f_pwm) (:func:`linear_limit_v`). A point is within reach
+when the inverter's |V + loss| is within that limit (Table I at 1200 rpm / 10 A with 4 µs needs
+5.86 V against 5.82 V, and a correct drive measured 23 % against the model's 2.9 % there).
 """
 
 from __future__ import annotations
@@ -46,6 +53,13 @@ def dead_time_voltage_loss_v(dead_time_s: float, pwm_frequency_hz: float, dc_bus
 def svpwm_limit_v(dc_bus_v: float) -> float:
     """Largest peak phase voltage of centre-aligned SVPWM without overmodulation: V_dc/√3, V."""
     return dc_bus_v / math.sqrt(3.0)
+
+
+def linear_limit_v(dc_bus_v: float, dead_time_s: float = 0.0,
+                   pwm_frequency_hz: float = 20_000.0) -> float:
+    """Largest peak phase voltage of centre-aligned SVPWM with every on-time longer than the dead
+    time, V: (V_dc/√3)·(1 − 2·T_d·f_pwm) (module docstring; V_dc/√3 without dead time)."""
+    return svpwm_limit_v(dc_bus_v) * (1.0 - 2.0 * dead_time_s * pwm_frequency_hz)
 
 
 def inverter_voltage_needed_v(motor: MotorParameters, speed_rpm: float, current_a: float,

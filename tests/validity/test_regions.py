@@ -15,7 +15,7 @@ from hil.config import default_sim_bench
 from hil.errors import InputError
 from hil.model import OperatingPoint
 from hil.model.voltage import (dead_time_voltage_loss_v, inverter_voltage_needed_v,
-                               steady_voltage_phasor_peak_v, svpwm_limit_v)
+                               linear_limit_v, steady_voltage_phasor_peak_v, svpwm_limit_v)
 from hil.motor import TABLE_I
 from ripple_hil_testplans import conditions as c
 from ripple_hil_testplans import (test_dead_time, test_encoder, test_pwm_resolution,
@@ -67,9 +67,23 @@ def test_dead_time_voltage_loss_of_issue_21s_point():
     assert inverter_voltage_needed_v(TABLE_I, 1500.0, 30.0, 0.0, 1e-6, 20_000.0) > svpwm_limit_v(12)
     config = at(1500.0, 30.0)
     refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 1e-6}), config)
-    assert refused.startswith("voltage headroom") and "vs 6.93 V" in refused, refused
+    # against (V_dc/√3)·(1 − 2·1 µs·20 kHz) = 6.65 V
+    assert refused.startswith("voltage headroom") and "vs 6.65 V" in refused, refused
     # the same point without injected dead time is inside the headroom
     assert not validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 0.0}), config)
+
+
+def test_pulse_dropping_limit_of_dead_time():
+    # (V_dc/√3)·(1 − 2·4 µs·20 kHz) = 6.928 × 0.84 = 5.82 V
+    assert linear_limit_v(12.0, 4e-6, 20_000.0) == pytest.approx(12 / 3 ** 0.5 * 0.84)
+    assert linear_limit_v(12.0) == svpwm_limit_v(12.0)
+    # Table I at 1200 rpm / 10 A: 4 µs needs 5.86 V (a correct drive measured 23 % against
+    # 2.9 %): refused; 2 µs needs 5.25 V of 6.37 V: inside
+    config = at(1200.0, 10.0)
+    refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 4e-6}), config)
+    assert refused.startswith("voltage headroom") and "5.86 V" in refused and "5.82 V" in refused
+    assert validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 2e-6}),
+                                     config) == []
 
 
 def test_a_braking_point_beyond_the_motoring_limit_is_accepted_and_forward_is_not():
