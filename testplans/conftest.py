@@ -26,3 +26,15 @@ def agreed_decision_rules(record):
                           f"may take at most {validity.FLOOR_FRACTION:g} of a rule's acceptance "
                           "half-width; a point outside its region is not determinable",
     })
+
+
+@pytest.fixture(autouse=True)
+def not_determinable_here(request, agreed_decision_rules):
+    """Skip a point the pre-flight found outside its plan's validity region (hil.validity), with
+    its reason, after the decision rules are in the record; nothing is sent to the drive."""
+    from hil.outcome_kinds import not_determinable
+    from ripple_hil_fixtures.preflight import refusal_of
+
+    reason = refusal_of(request.node)
+    if reason is not None:
+        pytest.skip(not_determinable(reason))

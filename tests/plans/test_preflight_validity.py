@@ -58,3 +58,14 @@ def test_braking_beyond_the_motoring_voltage_limit_is_driven_and_a_correct_drive
     point = tests["test_dc_offset[0.01-0.01]"]
     assert point["outcome"] == "passed", point.get("message") or done.stdout[-2000:]
     assert point["operating_point"]["speed_rpm"] == pytest.approx(-2300.0)
+
+
+def test_a_run_whose_first_points_are_refused_still_agrees_its_rules_first(tmp_path):
+    """The self-check runs first; refused (2500 rpm / 20 A needs more than V_dc/√3), it is
+    skipped after the decision rules and the regions are in the record, not before."""
+    done, tests = run(tmp_path, bench_at(tmp_path, 2500.0, 20.0), "test_self_check.py")
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    entry = tests["test_bench_self_check"]
+    assert entry["message"].startswith(NOT_DETERMINABLE_PREFIX + "voltage headroom"), entry
+    record = load_record(sorted((tmp_path / "records").iterdir())[-1])
+    assert record["decision_rule"]["validity_regions"]["self_check"]["braking"] is True
