@@ -38,6 +38,7 @@ from hil.analysis import InstrumentUncertainty, analyze_torque
 from hil.errors import InputError
 from hil.measurement import PointPlan
 from hil.model import OperatingPoint, predict
+from hil.model.dead_time import dead_time_linear_voltage_limit_v, dead_time_voltage_command_v
 from hil.motor import TABLE_I, MotorParameters
 from hil.sim import DriveConfig, DriveTwin, MotorModel
 
@@ -76,7 +77,7 @@ def holdout_set() -> list[Point]:
     points = []
     seed = 11
     for motor, speeds, currents in (("B", (150.0, -400.0, 900.0), (8.0, 25.0)),
-                                    ("C", (600.0, -1500.0, 2500.0), (6.0, 15.0)),
+                                    ("C", (300.0, -800.0, 1300.0), (5.0, 12.0)),
                                     ("TableI", (-300.0, -750.0, 400.0), (15.0, 30.0))):
         for s in speeds:
             for i in currents:
@@ -117,6 +118,12 @@ def evaluate(point: Point) -> dict | None:
                            **LOOP)
     except InputError as exc:
         print(f"  {point}: refused by the model ({exc})")
+        return None
+    command = dead_time_voltage_command_v(op, point.dead_time_s, PWM_HZ)
+    limit = dead_time_linear_voltage_limit_v(point.dead_time_s, PWM_HZ, op.dc_bus_v)
+    if command > limit:
+        print(f"  {point}: refused, voltage command {command:.2f} V > {limit:.2f} V "
+              "(dead-time edges dropped)")
         return None
     plan = PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
                      speed_rpm=point.speed_rpm, current_a=point.current_a)

@@ -72,6 +72,29 @@ def dead_time_voltage_loss_v(dead_time_s: float, pwm_frequency_hz: float,
     return 4.0 / math.pi * t_d * f_sw * v_dc
 
 
+def dead_time_linear_voltage_limit_v(dead_time_s: float, pwm_frequency_hz: float,
+                                     dc_bus_v: float) -> float:
+    """Largest peak phase-voltage command (V) for which every PWM period keeps both dead-time
+    edges of every leg (centre-aligned PWM, dead time after each edge, SVPWM min-max).
+
+    A leg's duty d reaches 0.5 + (√3/2)·|V|/V_dc with min-max injection; its low interval at
+    each end of the period, (1 − d)/(2·f_sw), must outlast the dead time T_d, or the edge is
+    dropped and the leg error is no longer ε·sign(i) (the average model, and eqs 32-37, no
+    longer hold). Hence |V| ≤ (V_dc/√3)·(1 − 4·T_d·f_sw). The command includes the dead time's
+    own fundamental (:func:`dead_time_voltage_loss_v`), which the loop adds.
+    """
+    t_d = check_range("dead_time_s", dead_time_s, *DEAD_TIME_RANGE_S, unit=" s")
+    f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, 0.0, 1e6, unit=" Hz")
+    return dc_bus_v / math.sqrt(3.0) * max(0.0, 1.0 - 4.0 * t_d * f_sw)
+
+
+def dead_time_voltage_command_v(op: OperatingPoint, dead_time_s: float,
+                                pwm_frequency_hz: float) -> float:
+    """Peak phase voltage (V) the loop commands at ``op``: |E + (R + jω_e·L)·I| plus the dead
+    time's fundamental loss (in phase with the current; added in magnitude, an upper bound)."""
+    return abs(op.voltage_phasor_peak_v) + dead_time_voltage_loss_v(dead_time_s, pwm_frequency_hz, op.dc_bus_v)
+
+
 def transducer_response(frequency_hz, bandwidth_hz: float | None):
     """Stated first-order transducer response at a signed frequency (Hz): 1/(1 + j·f/f_t).
 
