@@ -1,7 +1,7 @@
 """Study: the dead-time models against the simulated drive, calibration and holdout sets.
 
 Run: ``.venv/bin/python studies/dead_time_calibration.py [--set calibration|holdout|both]
-[--quick]`` (both sets ≈ 2–4 min on one core; ``--quick``: a few points of each, for CI).
+[--quick]`` (both sets ≈ 30 s on one core; ``--quick``: every 4th point, for CI).
 
 Every point is captured as the dead-time plan captures it (``hil.measurement.PointPlan``
 defaults: transducer torque, 8 electrical revolutions after 0.05 s, the plan's sample rate,
