@@ -17,7 +17,7 @@ from hil.cli import main
 from hil.record import load_record
 from record_factory import EXPECTED_DECISIONS, POINTS, write_record
 from ripple_hil_reports import build_report, render_report
-from ripple_hil_reports.content import knob_display, swept_knobs, worst_decision
+from ripple_hil_reports.content import knob_display, swept_knobs
 from ripple_hil_reports.document import ZERO_WIDTH_SPACE, breakable
 
 
@@ -248,8 +248,6 @@ def test_content_helpers():
     assert swept_knobs([{"encoder_decimation": 100, "hall_mode": False},
                         {"encoder_decimation": 1, "hall_mode": True}]) == ["encoder_decimation",
                                                                            "hall_mode"]
-    assert worst_decision(["pass", "conditional fail", "conditional pass"]) == "conditional fail"
-    assert worst_decision(["pass", "not determined"]) == "not determined"
     assert knob_display("dead_time_s", [1e-6, 2e-6]) == ("dead_time (µs)", 1e6)
     assert knob_display("ia_gain_error_pu", [0.01]) == ("ia_gain_error (%)", 100.0)
     assert knob_display("word_length_bits", [8]) == ("word_length (bits)", 1.0)
@@ -355,12 +353,15 @@ def test_environment_from_the_lab_or_a_daq_channel():
 
 
 def test_a_test_without_a_model_verdict_does_not_make_its_source_undetermined():
+    from hil.outcome_kinds import MEASURED
     from ripple_hil_reports.content import NO_VERDICT, _section
 
     judged = {"test_id": "a", "outcome": "passed", "injection": {"x_a": 1.0},
               "verdict": {"decision": "pass", "measured_pk_pk_pu": 0.01}}
     sensitivity = {"test_id": "b", "outcome": "passed", "injection": {}}
+    reference = {"test_id": "r", "outcome": MEASURED, "injection": {}}
     errored = {"test_id": "c", "outcome": "error", "injection": {}}
-    assert _section("s", [judged, sensitivity]).statement == "pass"
-    assert _section("s", [sensitivity]).statement == NO_VERDICT
+    assert _section("s", [judged, sensitivity, reference]).statement == "pass"
+    assert _section("s", [reference]).statement == MEASURED
+    assert [p.decision for p in _section("s", [reference]).points] == [NO_VERDICT]
     assert _section("s", [judged, sensitivity, errored]).statement == "not determined"
