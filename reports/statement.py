@@ -137,8 +137,10 @@ class SourceState:
     def text(self) -> str:
         """``encoder: NOT DETERMINED (3 pass, 2 not run)``; a source whose every test passed:
         ``encoder: PASS``."""
-        counts = ", ".join(f"{n} {state}" for state, n in self.counts.items() if n) \
-            if set(self.counts) - {"pass"} else ""
+        order = (*STATE_RANK, NOT_RUN, MEASURED)
+        counts = ", ".join(f"{self.counts[state]} {state}" for state in sorted(
+            self.counts, key=lambda s: order.index(s) if s in order else len(order))
+            if self.counts[state]) if set(self.counts) - {"pass"} else ""
         return f"{self.name}: {self.state.upper()}" + (f" ({counts})" if counts else "")
 
 
