@@ -14,7 +14,8 @@ from it. Page 1, the source pages (``reports.content``) and the terminal summary
 2. **model validation** — per selected source, its worst state over *every* test of it: a point
    not run, skipped, errored or not determinable here makes the source NOT DETERMINED (never PASS
    on the points that did run); a failed point or a rejected sweep check makes it FAIL;
-   diagnosis / ripple-map points judge nothing (MEASURED, NO VERDICT) and move no state;
+   diagnosis / ripple-map points judge nothing (MEASURED, NO VERDICT) or are judged by
+   requirements only (NO MODEL VERDICT: statement 1 states them) and move no state;
 3. **bench self-check** — PASS, FAILED (naming the checks), "not completed" (it did not run to
    its end, e.g. the bench was lost) or "not run";
 4. **run status and integrity** — the record's status (with the signal that stopped it, when
@@ -61,6 +62,8 @@ DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
 #: the worst of its tests); "not run" and "measured, no verdict" are what a source is when none
 #: of its tests ran, or none judged anything.
 NOT_DETERMINED, NOT_RUN = "not determined", "not run"
+#: A test judged by requirements only (no model, no self-check): it has no part in statement 2.
+NO_MODEL_VERDICT = "no model verdict"
 STATE_RANK = ("pass", "conditional pass", NOT_DETERMINED, "conditional fail", "fail")
 #: Record statuses and what they mean for a reader.
 STATUS_TEXT = {
@@ -103,8 +106,9 @@ def source_of(entry: dict) -> str:
 
 def test_state(test: dict) -> str | None:
     """One test's part in its source's state: a decision of :data:`STATE_RANK`, "not run",
-    :data:`MEASURED` (judged nothing), or None (no part: an expected failure or a non-strict
-    unexpected pass, as pytest counts them)."""
+    :data:`MEASURED` (judged nothing), :data:`NO_MODEL_VERDICT` (judged by requirements only),
+    or None (no part: an expected failure or a non-strict unexpected pass, as pytest counts
+    them)."""
     outcome = test.get("outcome")
     decision = (test.get("verdict") or {}).get("decision")
     if outcome == NOT_RUN:
@@ -117,8 +121,10 @@ def test_state(test: dict) -> str | None:
         return None
     if decision in DECISIONS:
         return decision
-    if outcome == "passed" and test.get("measured") and not test.get("requirements") \
-            and not test.get("checks"):
+    if outcome in ("passed", "failed") and test.get("requirements") and not test.get("checks") \
+            and (outcome == "passed" or not all(map(accepted, test["requirements"]))):
+        return NO_MODEL_VERDICT     # judged by requirements only: statement 1, not statement 2
+    if outcome == "passed" and test.get("measured") and not test.get("checks"):
         return MEASURED      # measure() judged nothing (a record written before the outcome)
     return "fail" if outcome == "failed" else "pass" if outcome == "passed" else NOT_DETERMINED
 
@@ -137,7 +143,7 @@ class SourceState:
     def text(self) -> str:
         """``encoder: NOT DETERMINED (3 pass, 2 not run)``; a source whose every test passed:
         ``encoder: PASS``."""
-        order = (*STATE_RANK, NOT_RUN, MEASURED)
+        order = (*STATE_RANK, NOT_RUN, NO_MODEL_VERDICT, MEASURED)
         counts = ", ".join(f"{self.counts[state]} {state}" for state in sorted(
             self.counts, key=lambda s: order.index(s) if s in order else len(order))
             if self.counts[state]) if set(self.counts) - {"pass"} else ""
@@ -162,7 +168,7 @@ def source_states(record: dict) -> dict[str, SourceState]:
     for source, items in states.items():
         counts = Counter(state for state, _ in items)
         judged = [NOT_DETERMINED if state == NOT_RUN else state for state, _ in items
-                  if state != MEASURED]
+                  if state not in (MEASURED, NO_MODEL_VERDICT)]
         if rejected_checks(record, source):
             judged.append("fail")
         if not items:
@@ -172,7 +178,7 @@ def source_states(record: dict) -> dict[str, SourceState]:
         elif judged:
             state = NOT_RUN
         else:
-            state = MEASURED
+            state = NO_MODEL_VERDICT if counts[NO_MODEL_VERDICT] else MEASURED
         reasons = [f"{test.get('test_id')}: {test.get('outcome')}"
                    + (f": {detail}" if (detail := test.get("message") or test.get("error"))
                       else "")
