@@ -52,7 +52,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE, is_not_determinable
 from hil.record import BAD_OUTCOMES
 
 PASS, CONDITIONAL_PASS, FAIL, NOT_STATED, INVALID = (
@@ -150,6 +150,15 @@ class SourceState:
         return f"{self.name}: {self.state.upper()}" + (f" ({counts})" if counts else "")
 
 
+def _reason(test: dict) -> str:
+    """``test: outcome: message`` (a not-determinable message already says so)."""
+    detail = test.get("message") or test.get("error") or ""
+    name = str(test.get("test_id")).split("::")[-1]
+    if is_not_determinable(detail):
+        return f"{name}: {detail}"
+    return f"{name}: {test.get('outcome')}" + (f": {detail}" if detail else "")
+
+
 def source_states(record: dict) -> dict[str, SourceState]:
     """Every source of the record's tests (the bench self-check excepted: statement 3) → its
     state: the worst of its tests' states (:data:`STATE_RANK`; "not run" counts as not
@@ -179,10 +188,7 @@ def source_states(record: dict) -> dict[str, SourceState]:
             state = NOT_RUN
         else:
             state = NO_MODEL_VERDICT if counts[NO_MODEL_VERDICT] else MEASURED
-        reasons = [f"{test.get('test_id')}: {test.get('outcome')}"
-                   + (f": {detail}" if (detail := test.get("message") or test.get("error"))
-                      else "")
-                   for s, test in items if s in (NOT_DETERMINED, NOT_RUN, "fail")]
+        reasons = [_reason(test) for s, test in items if s in (NOT_DETERMINED, NOT_RUN, "fail")]
         reasons += [f"{name} check across the sweep rejected the drive"
                     for name in rejected_checks(record, source)]
         out[source] = SourceState(source, state, dict(counts), reasons)
