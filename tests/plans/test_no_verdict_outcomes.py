@@ -78,3 +78,14 @@ def test_the_diagnosis_fails_when_it_cannot_state_a_controller_parameter():
                                                    "dead_time_us"]
     assert unstated_parameters(SimpleNamespace(parameters=good[1:])) == [
         "ia_offset_a: not fitted"]
+
+
+def test_the_record_accepts_the_shared_outcome_words():
+    """``hil.measurement`` records "measured, no verdict" and the plugin "not determinable":
+    the record's outcome list must hold both (``hil/record.py`` OUTCOMES += the two words of
+    ``hil.outcome_kinds``), or every point that judges nothing errors when it is recorded."""
+    import hil.record
+
+    missing = {MEASURED, NOT_DETERMINABLE} - set(hil.record.OUTCOMES)
+    assert not missing, (f"hil.record.OUTCOMES lacks {sorted(missing)}: add "
+                         f"hil.outcome_kinds.NOT_DETERMINABLE and MEASURED to it")
