@@ -35,7 +35,7 @@ import numpy as np
 from hil.errors import InputError
 from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
                             angle_grid, check_range)
-from hil.model.pwm_resolution import voltage_phasor
+from hil.model.pwm_resolution import forward_phasor_peak_v
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
 MODELS = ("paper", "switched_torque")
@@ -63,6 +63,13 @@ def angle_from_zero_crossing(theta: np.ndarray, voltage_angle_rad: float) -> np.
     return np.abs(np.mod(theta + voltage_angle_rad + sixth / 2, sixth) - sixth / 2)
 
 
+def forward_voltage_rms(op: OperatingPoint) -> complex:
+    """RMS phase-voltage phasor (angle from the EMF) of the forward-rotating problem equivalent to
+    ``op``: at negative speed the drive brakes (``pwm_resolution.forward_phasor_peak_v``), so the
+    switching pattern is that of a current at π − φ behind the EMF, not of mirrored motoring."""
+    return forward_phasor_peak_v(op) / math.sqrt(2.0)
+
+
 def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: float,
                               modulation: str = "svpwm") -> np.ndarray:
     """Pk-pk torque ripple within one centre-aligned PWM period at each angle θ.
@@ -72,7 +79,7 @@ def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: f
     Per unit of the mean torque; the fundamental's change within the period and the ripple's own
     resistive drop are neglected (the tests check it against a switched-circuit torque sum).
     """
-    phasor = voltage_phasor(op)
+    phasor = forward_voltage_rms(op)
     v_peak, delta = math.sqrt(2.0) * abs(phasor), math.atan2(phasor.imag, phasor.real)
     shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])          # e_x / E
     reference = v_peak * np.sin(theta[None, :] + delta - PHASE_OFFSETS_RAD[:, None])
@@ -108,7 +115,7 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
     if modulation not in MODULATIONS:
         raise InputError(f"modulation={modulation!r} is not one of {', '.join(MODULATIONS)}")
     period = 1.0 / f_sw
-    phasor = voltage_phasor(op)
+    phasor = forward_voltage_rms(op)
     v_peak = math.sqrt(2.0) * abs(phasor)
     delta = math.atan2(phasor.imag, phasor.real)
     theta = angle_grid()
