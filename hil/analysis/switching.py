@@ -237,6 +237,8 @@ def capture_settings(speed_rpm: float, pole_pairs: int, pwm_frequency_hz: float,
                         for j in range(1, k) if math.gcd(j, k) == 1})
     best, best_key = None, None
     for n in range(int(max_sample_rate_hz // pwm_frequency_hz), 0, -1):
+        if best is not None and best.effective_samples_per_period >= (n + 1) * lengths[0]:
+            break                   # no slower rate can give more samples per window
         for q in fractions:
             rate = float(round(pwm_frequency_hz * (n + q)))   # a DAQ takes whole Hz
             revs = min(revolutions, int(buffer_samples * elec_hz / rate - 0.25))
