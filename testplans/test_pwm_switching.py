@@ -101,7 +101,29 @@ def test_pwm_switching(measure, bench, injection):
     if isinstance(settings, str):
         pytest.skip(not_determinable(f"pwm_switching: {settings}"))
     outcome = measure(plan(bench.config, injection))
+    reason = unresolved(outcome.verdict)
+    if reason:
+        pytest.skip(not_determinable(f"pwm_switching: {reason}"))
     assert outcome.passed, outcome.summary()
+
+
+def unresolved(verdict) -> str | None:
+    """Why this verdict cannot tell a right drive from a wrong one, or None: U (the guard band)
+    is at least the tolerance zone's half-width, so no measurement could be accepted, and the
+    interval measured ± U still overlaps the zone (an interval wholly outside stays a FAIL).
+    Where this happens: few effective samples per PWM period (a window of one period at high
+    electrical speed) and a ripple small against the sampling bias bound."""
+    if verdict is None or verdict.guarded_pass or verdict.signature_ok is False:
+        return None
+    half_width = (verdict.upper_limit_pu - verdict.lower_limit_pu) / 2.0
+    u = verdict.expanded_uncertainty_pu
+    overlaps = (verdict.measured_pk_pk_pu + u >= verdict.lower_limit_pu
+                and verdict.measured_pk_pk_pu - u <= verdict.upper_limit_pu)
+    if u >= half_width and overlaps:
+        return (f"measured {verdict.measured_pk_pk_pu:.4g} ± {u:.2g} pu against the zone "
+                f"[{verdict.lower_limit_pu:.4g}, {verdict.upper_limit_pu:.4g}]: U is wider than "
+                "the zone's half-width (sampling bias of few samples per PWM period)")
+    return None
 
 
 def test_pwm_switching_sensitivity(record):

@@ -50,7 +50,8 @@ Fields of the returned :class:`~hil.analysis.metrics.RippleResult` (same type as
   bias (extremes falling between sample phases read low), bounded in each window by the corner
   where the lines through the samples on either side of its largest (and smallest) sample meet
   — T̂ is piecewise linear within a PWM period — on the window's samples folded onto one period,
-  the worst window kept and added linearly (an estimated bound: a segment shorter than the
+  averaged over the windows of each angle bin as the envelope is, the largest bin kept, added
+  linearly (an estimated bound: a segment shorter than the
   sample spacing near an extreme escapes it); and the
   current channels' DAQ resolution (meta ``daq_lsb``). The notes give G and the effective
   samples per period.
@@ -154,7 +155,8 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
     pk_pk_pu = peak_nm / abs(mean_nm) if mean_nm != 0 else math.nan
     amplitude, phase = np.abs(coefficients[1:]), np.angle(coefficients[1:])
     # extremes between sample phases read low: bounded per window from the neighbouring slopes
-    sampling_bias_nm = _sampling_bias_bound_nm(used, time_s[:windows.stop], windows)
+    sampling_bias_nm = _sampling_bias_bound_nm(used, time_s[:windows.stop], windows, centres,
+                                               n_bins)
     budget = _budget(per_rev, per_rev_mean, pk_pk_pu, mean_nm, sampling_bias_nm, windows,
                      capture, motor, instruments)
     named = ENVELOPE_ORDER if ENVELOPE_ORDER <= max_order else None
@@ -344,19 +346,22 @@ def _corner_excess(phase_s: np.ndarray, value: np.ndarray) -> float:
     return max(after, before)
 
 
-def _sampling_bias_bound_nm(torque_nm: np.ndarray, time_s: np.ndarray, windows: _Windows) -> float:
-    """Largest amount, over the windows, by which a window's sampled pk-pk may read below the
-    true one: the corner excess (:func:`_corner_excess`) of its maximum plus that of its minimum,
-    on the samples folded onto one PWM period (equivalent time)."""
+def _sampling_bias_bound_nm(torque_nm: np.ndarray, time_s: np.ndarray, windows: _Windows,
+                            centres: TravelAngle, n_bins: int) -> float:
+    """How far the synchronously averaged envelope's maximum may read below the true one: each
+    window's pk-pk reads low by at most the corner excess (:func:`_corner_excess`) of its maximum
+    plus that of its minimum, on its samples folded onto one PWM period (equivalent time); the
+    average of the windows in an angle bin by at most their bounds' average; the largest bin
+    average over the revolutions' bins is kept."""
     phase = np.mod(time_s - time_s[0], windows.period_s)
     bounds = np.append(windows.starts, windows.stop)
-    worst = 0.0
-    for start, stop in zip(bounds[:-1], bounds[1:]):
-        if stop - start < 5:
-            continue
-        p, v = phase[start:stop], torque_nm[start:stop]
-        worst = max(worst, _corner_excess(p, v) + _corner_excess(p, -v))
-    return worst
+    per_window = np.zeros(windows.starts.size)
+    for k, (start, stop) in enumerate(zip(bounds[:-1], bounds[1:])):
+        if stop - start >= 5:
+            p, v = phase[start:stop], torque_nm[start:stop]
+            per_window[k] = _corner_excess(p, v) + _corner_excess(p, -v)
+    binned = resample_revolutions(centres, per_window, n_bins).matrix_nm.mean(axis=0)
+    return float(max(binned.max(), 0.0))
 
 
 def _envelope_revolutions(torque_nm, windows, centres, n_bins, max_order, response):
@@ -410,7 +415,7 @@ def _budget(per_rev, per_rev_mean, pk_pk_pu, mean_nm, sampling_bias_nm, windows,
                       combination="linear")]
     rows.append(BudgetRow(f"sampling: extremes between sample phases (largest gap "
                           f"{windows.largest_gap_s:.3g} s; corner of the neighbouring slopes, "
-                          "worst window)",
+                          "worst angle bin)",
                           sampling_bias_nm, "N*m", "bias bound (reads low; added linearly)", 1.0,
                           1.0 / mean_abs, "1/(N*m)", sampling_bias_nm / mean_abs,
                           combination="linear"))

@@ -38,6 +38,12 @@ from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint,
 from hil.model.pwm_resolution import forward_phasor_peak_v
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
+#: The switched-torque form names the envelope's order 6 only where its envelope varies by at
+#: least this fraction of its maximum; a flatter envelope's dominant order is below what a
+#: capture resolves (calibration set, studies/pwm_calibration.py: the twin's envelope was
+#: dominated by order 6 at every PWM frequency where the predicted variation was >= 0.083 and
+#: by another order at some frequency where it was <= 0.033; hil/model/README.md).
+ENVELOPE_ORDER_MIN_VARIATION = 0.05
 MODELS = ("paper", "switched_torque")
 MODULATIONS = ("svpwm", "sine")
 
@@ -138,17 +144,25 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
               "modulation_index": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
     pk_pk = peak / op.current_a
     equations = "eqs 29-31"
+    order = 6.0
     if model == "switched_torque":
         equations = "switching-state torque slopes (not in the paper; eqs 29-31 for the paper's)"
         envelope = switched_torque_ripple_pu(theta, op, period, modulation)
         pk_pk = float(np.max(envelope))
+        variation = float(np.ptp(envelope)) / pk_pk
+        extras["envelope_variation_pu"] = variation
+        if variation < ENVELOPE_ORDER_MIN_VARIATION:
+            order = None
         assumptions[:4] = [
             f"centre-aligned {modulation} carrier, ideal switches; pk-pk within one PWM period",
             "ripple from the switching states only: fundamental slope and ripple's R drop neglected",
             "waveform_pu is the envelope of the switching-frequency torque ripple (order 6)"]
+        if order is None:
+            assumptions.append(f"envelope flat within {100 * variation:.1f} % of its maximum "
+                               f"(< {100 * ENVELOPE_ORDER_MIN_VARIATION:g} %): no order named")
     return Prediction(
         source="pwm_switching", pk_pk_pu=pk_pk, base=MEAN_TORQUE_BASE,
-        base_nm=op.mean_torque_nm, order=6.0,
+        base_nm=op.mean_torque_nm, order=order,
         inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
                 "modulation": modulation, **op.to_dict()},
         equations=equations, assumptions=assumptions,
