@@ -10,6 +10,32 @@ from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("word_length")
 
+#: Tolerance of the sweep's slope (measured/expected, 1 for a correct drive). Calibrated out of
+#: sample (studies/pwm_calibration.py; hil/model/README.md): on the calibration set (Table I,
+#: 4 points incl. reverse, 2 seeds) the slopes were 0.980–1.186 with U ≤ 0.096, so
+#: max(|s − 1| + U) = 0.28, rounded up to ±0.30; checked on the holdout set (two other motors,
+#: other points and seeds). It replaces the ±0.5 of conditions.DERIVED_RANGE_SLOPE_TOL (set
+#: from the models' stated ranges, not from data), which a drive applying half the word-length
+#: effect passed (0.538 ± 0.017); that drive now fails.
+SLOPE_TOL = 0.30
+#: Validity region of the derived model, from the same study: within its range on Table I
+#: (L/R = 0.70 ms) and on an 8-pole 48 V motor (L/R = 2.5 ms), but 1.1–1.41× its value on a
+#: 2-pole 24 V motor with L/R = 0.30 ms (4 of 12 points beyond its +20 %; cause not found). A
+#: motor whose electrical time constant is below the smallest validated one is not determinable
+#: here.
+MIN_TIME_CONSTANT_S = 0.7e-3
+
+
+def outside_region(config) -> str | None:
+    """Why the word-length model is not validated for this bench's motor, or None."""
+    motor = config.motor
+    tau = motor.phase_inductance_h / motor.phase_resistance_ohm
+    if tau < MIN_TIME_CONSTANT_S * (1 - 1e-6):
+        return (f"word_length: the motor's L/R = {1e3 * tau:.2g} ms is below the "
+                f"{1e3 * MIN_TIME_CONSTANT_S:.2g} ms down to which the derived model is "
+                "validated (hil/model/README.md)")
+    return None
+
 
 def plan(config, injection):
     return c.point(config.operating_point, "word_length", injection, c.DERIVED_RANGE_RULE,
@@ -24,11 +50,16 @@ def plan(config, injection):
 
 @pytest.mark.parametrize("injection", c.WORD_LENGTH_SWEEP, ids=c.sweep_id)
 def test_word_length(measure, bench, injection):
+    reason = outside_region(bench.config)
+    if reason:
+        from hil.outcome_kinds import not_determinable
+
+        pytest.skip(not_determinable(reason))
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
 
 
 def test_word_length_sensitivity(record):
     """The sweep's measured ripple scales with the word length as the derived model says."""
-    result = check_sensitivity(record, "word_length", c.DERIVED_RANGE_SLOPE_TOL)
+    result = check_sensitivity(record, "word_length", SLOPE_TOL)
     assert result["accepted"], result["statement"]
