@@ -152,9 +152,9 @@ def ratios(rows, source: str, kind: str) -> list[tuple[str, float, float]]:
         elif kind == "slope" and r.get("sensitivity"):
             s = r["sensitivity"]
             value = s.get("slope", s.get("exponent"))
-            u = s.get("slope_expanded_u", s.get("expanded_u", s.get("exponent_expanded_u")))
+            u = s.get("slope_u", s.get("exponent_u"))        # standard; k = 2 below
             if value is not None:
-                out.append((label, float(value), float(u) if u is not None else math.nan))
+                out.append((label, float(value), 2.0 * float(u) if u is not None else math.nan))
     return out
 
 
@@ -174,6 +174,16 @@ def table(path: Path) -> None:
                   f"{sorted(r)[len(r) // 2]:.3f}  max {max(r):.3f}")
             for label, value, u in values:
                 print(f"      {label:<44} {value:7.3f}  ±{u:.3f}")
+    print("\noutcomes of the correct drive's tests (per set and source)")
+    for name in SETS:
+        for source in SOURCES:
+            counts: dict[str, int] = {}
+            for r in rows:
+                if r["set"] == name and r["source"] == source and "error" not in r:
+                    for outcome in r["outcomes"].values():
+                        counts[outcome] = counts.get(outcome, 0) + 1
+            if counts:
+                print(f"  {name:<11} {source:<15} {counts}")
     errors = [r for r in rows if "error" in r]
     for r in errors:
         print("ERROR", r["set"], r["source"], r["motor"], r["speed_rpm"], r["current_a"],
