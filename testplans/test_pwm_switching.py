@@ -19,6 +19,12 @@ DAQ cannot capture (fewer than 8 effective samples per period at any rate, e.g. 
 with the reason, never judged. Reverse rotation is braking: the model takes the
 forward-equivalent voltage phasor (hil.model.pwm_resolution.forward_phasor_peak_v).
 
+A point whose U (mostly the sampling-bias bound of few samples per period) is as wide as the
+tolerance zone's half-width, and whose interval still overlaps the zone, cannot tell a right
+drive from a wrong one: not determinable here (an interval wholly outside the zone is a FAIL).
+The ±20 % band and the slope's ±0.20 were checked out of sample (hil/model/README.md, "PWM and
+word-length bands"; studies/pwm_calibration.py).
+
 Decision rule, from the physics: what is measured is the *torque* ripple within a period under
 the drive's centre-aligned SVPWM. hil.model's ``switched_torque`` form (with ``svpwm``) computes
 exactly that — the torque path through the switching states of a period — under ideal switches,
@@ -49,13 +55,13 @@ MAX_ORDER = 24
 #: The prediction the plan judges against (module docstring).
 PREDICTION = {"model": "switched_torque", "modulation": "svpwm"}
 EXPECTATION = ("judged against the switched-circuit torque ripple of the drive's centre-aligned "
-               "SVPWM (hil.model switched_torque). The paper's eqs 30-31 give the phase-current "
-               "ripple 2·Δi at the phase-voltage zero crossing and equate it to the torque "
-               "ripple; at this modulation index (M ≈ 0.23) the current ripple is larger at the "
-               "voltage peak than at the zero crossing, and the torque ripple (the ripple's "
-               "projection on the EMF) has a nearly flat envelope that peaks midway between "
-               "zero crossings, about 12 % above the paper's figure, which is recorded for "
-               "comparison only (prediction.extras.paper_pk_pk_pu)")
+               "SVPWM (hil.model switched_torque; reverse rotation as braking). The paper's eqs "
+               "30-31 give the phase-current ripple 2·Δi at the phase-voltage zero crossing and "
+               "equate it to the torque ripple; the torque ripple (the current ripple's "
+               "projection on the EMF) has a flatter envelope that peaks midway between zero "
+               "crossings; the paper's figure is recorded for comparison only "
+               "(prediction.extras.paper_pk_pk_pu). Order 6 is judged where the predicted "
+               "envelope varies enough to be resolved (hil/model/README.md)")
 
 
 def capture(config, injection):
