@@ -1,0 +1,74 @@
+"""The order-phase verdict (``hil.analysis.decision.decide_phase``) on synthetic torque of known
+phase: it passes the right phase, fails a phase moved by the amount a wrong sensor or sign moves
+it, needs the order resolved, and follows the sign of the mean torque."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from analysis_synthetic import ripple
+from hil.analysis import analyze_torque
+from hil.analysis.decision import decide_phase, measured_order_phase
+from hil.errors import InputError
+
+RATE_HZ, ELECTRICAL_HZ, REVOLUTIONS = 4000.0, 20.0, 8
+
+
+def result(mean_nm: float, orders: dict, noise_nm: float = 1e-4, direction: int = 1, seed=1):
+    time_s = np.arange(int(RATE_HZ * REVOLUTIONS / ELECTRICAL_HZ)) / RATE_HZ
+    angle = 0.4 + direction * 2 * math.pi * ELECTRICAL_HZ * time_s
+    torque = ripple(angle, mean_nm, orders)
+    torque += np.random.default_rng(seed).normal(0.0, noise_nm, time_s.size)
+    return analyze_torque(time_s, torque, angle, max_order=8)
+
+
+@pytest.mark.parametrize("direction", [1, -1])
+def test_the_right_phase_passes_and_a_moved_phase_fails(direction):
+    measured = result(1.0, {1: (0.02, 1.05)}, direction=direction)
+    ok = decide_phase(measured, 1, 1.05, tolerance_rad=0.2)
+    assert ok.decision == "pass" and ok.guarded_pass
+    assert abs(ok.difference_rad) < 0.01 and ok.measured_u_rad < 0.02
+    # the other sensor (60 degrees away) and the other sign (pi away) fail
+    for predicted in (1.05 - math.pi / 3, 1.05 + math.pi / 3, 1.05 - math.pi):
+        moved = decide_phase(measured, 1, predicted, tolerance_rad=0.2)
+        assert moved.decision == "fail" and not moved.guarded_pass, moved.reason
+
+
+def test_the_phase_difference_wraps_across_pi():
+    measured = result(1.0, {2: (0.02, math.pi - 0.02)})
+    verdict = decide_phase(measured, 2, -math.pi + 0.02, tolerance_rad=0.1)
+    assert verdict.difference_rad == pytest.approx(-0.04, abs=0.01) and verdict.guarded_pass
+
+
+def test_guard_band_makes_a_marginal_phase_conditional():
+    measured = result(1.0, {1: (0.002, 0.5)}, noise_nm=2e-3)
+    _, u_phase, _ = measured_order_phase(measured, 1)
+    assert u_phase > 0.05
+    phase = measured_order_phase(measured, 1)[0]
+    inside = decide_phase(measured, 1, phase - (0.15 - u_phase / 2), tolerance_rad=0.15)
+    assert inside.decision == "conditional pass" and not inside.guarded_pass
+    outside = decide_phase(measured, 1, phase - (0.15 + u_phase / 2), tolerance_rad=0.15)
+    assert outside.decision == "conditional fail" and not outside.guarded_pass
+
+
+def test_an_order_that_is_not_resolved_has_no_phase_and_fails():
+    measured = result(1.0, {1: (0.02, 0.3)}, noise_nm=1e-3)
+    verdict = decide_phase(measured, 3, 0.3, tolerance_rad=0.2)
+    assert verdict.decision == "fail" and "not resolved" in verdict.reason
+
+
+def test_a_negative_mean_torque_turns_the_per_unit_phase_by_pi():
+    measured = result(-1.0, {1: (0.02, 0.3)})
+    phase, _, _ = measured_order_phase(measured, 1)
+    assert phase == pytest.approx(0.3 - math.pi, abs=0.01)
+
+
+def test_bad_inputs_are_refused():
+    measured = result(1.0, {1: (0.02, 0.3)})
+    with pytest.raises(InputError):
+        decide_phase(measured, 1, 0.3, tolerance_rad=0.0)
+    with pytest.raises(InputError):
+        decide_phase(measured, 9, 0.3, tolerance_rad=0.2)
