@@ -33,7 +33,8 @@ def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0,
     if bench is not None:
         args += ["--hil-bench", str(bench)]
     for key, value in defects.items():
-        args += ["--hil-sim-defect", f"{key}={value}"]
+        text = str(value).lower() if isinstance(value, bool) else value   # a TOML value
+        args += ["--hil-sim-defect", f"{key}={text}"]
     done = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s, cwd=folder)
     records = sorted((folder / "records").iterdir()) if (folder / "records").exists() else []
     outcomes: dict[str, Counter] = defaultdict(Counter)
