@@ -6,6 +6,9 @@ and the measured phase's own U (``hil.analysis.decision.decide_phase``).
 Tolerance zone: T = asin(rel_tol) + U_model. asin(rel_tol) is the closed form's own magnitude
 tolerance read on the phasor (a phasor within rel_tol·|c| of the prediction lies within
 asin(rel_tol) of its phase: 0.20 → 0.201 rad, 11.5°); U_model adds the chain's bounds.
+
+A bench file without ``[torque] bandwidth_hz`` gets no phase verdict (the transducer's phase is
+then unknown; the self-check's dynamics test says "not determinable here" for the same reason).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ def phase_judge(rel_tol: float):
     """A ``PointPlan.phase`` callable judging the order phase the prediction names."""
     def judge(result, prediction, plan, bench):
         predicted = prediction.extras.get("order_phase_rad")
-        if predicted is None or prediction.order is None:
+        if predicted is None or prediction.order is None or bench.config.torque.bandwidth_hz is None:
             return None
         order = int(round(prediction.order))
         drive = bench.config.drive
