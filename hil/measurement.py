@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 from hil.analysis import ANALYSES, DecisionRule, RippleResult, Verdict, decide, run_analysis
+from hil.analysis.decision import with_phase
 from hil.bench import Bench
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, predict
@@ -63,7 +64,8 @@ class PointPlan:
     checks: Callable | None = field(default=None, compare=False)
     #: ``phase(result, prediction, plan, bench) -> PhaseVerdict | None``: the order phase judged
     #: against the model's (design.md §9, :func:`hil.analysis.decision.decide_phase`); recorded
-    #: in the entry's ``verdict`` as ``phase``, a phase that does not pass fails the point.
+    #: in the entry's ``verdict`` as ``phase``; the verdict's decision is the worse of magnitude
+    #: and phase (:func:`hil.analysis.decision.with_phase`), so a wrong phase fails the point.
     phase: Callable | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -202,6 +204,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                              expected_range_pu=expected_range)
             if plan.phase is not None:
                 phase_verdict = plan.phase(result, prediction, plan, bench)
+                verdict = with_phase(verdict, phase_verdict)
         judged = [judge(req, result, torque_accuracy_nm=_torque_accuracy_nm(bench))
                   for req in chosen]
         checks = plan.checks(capture, result, plan, bench) if plan.checks else None

@@ -23,7 +23,7 @@ eq 14) or a ceiling (the baseline), the zone is one-sided, ``[0, p_pred + T]``: 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from hil.analysis.metrics import RippleResult
 from hil.errors import InputError
@@ -242,3 +242,14 @@ def decide_phase(measured: RippleResult, order: int, predicted_phase_rad: float,
                         predicted_phase_rad=float(predicted_phase_rad),
                         difference_rad=difference, tolerance_rad=float(tolerance_rad),
                         guard_band_rad=guard, reason=reason)
+
+
+def with_phase(verdict: Verdict, phase: PhaseVerdict | None) -> Verdict:
+    """The point's verdict once its order phase is judged too: the decision is the worse of the
+    two (as a wrong signature overrides the magnitude), ``magnitude_decision`` keeps the
+    magnitude's own, and the reason names the phase. ``phase`` None leaves ``verdict`` as is."""
+    if phase is None:
+        return verdict
+    decision = max(verdict.decision, phase.decision, key=DECISIONS.index)
+    return replace(verdict, decision=decision, guarded_pass=decision == "pass",
+                   reason=f"{verdict.reason}; phase: {phase.reason}")

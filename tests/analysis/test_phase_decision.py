@@ -72,3 +72,18 @@ def test_bad_inputs_are_refused():
         decide_phase(measured, 1, 0.3, tolerance_rad=0.0)
     with pytest.raises(InputError):
         decide_phase(measured, 9, 0.3, tolerance_rad=0.2)
+
+
+def test_the_point_verdict_is_the_worse_of_magnitude_and_phase():
+    from hil.analysis import decide
+    from hil.analysis.decision import with_phase
+
+    measured = result(1.0, {1: (0.02, 1.05)})
+    magnitude = decide(measured, 0.04, 1)
+    assert magnitude.decision == "pass"
+    wrong = with_phase(magnitude, decide_phase(measured, 1, 1.05 - math.pi / 3, tolerance_rad=0.2))
+    assert wrong.decision == "fail" and not wrong.guarded_pass
+    assert wrong.magnitude_decision == "pass" and "phase" in wrong.reason
+    right = with_phase(magnitude, decide_phase(measured, 1, 1.05, tolerance_rad=0.2))
+    assert right.decision == "pass" and right.guarded_pass
+    assert with_phase(magnitude, None) is magnitude
