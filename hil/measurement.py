@@ -146,8 +146,6 @@ class PointOutcome:
             text += (f" vs predicted {self.verdict.predicted_pk_pk_pu:.4f} pu of the nameplate "
                      f"torque (order {self.prediction.order}) -> {self.verdict.decision}: "
                      f"{self.verdict.reason}")
-        if self.phase_verdict is not None:
-            text += f"; phase: {self.phase_verdict.reason}"
         for req in self.requirements:
             text += f"; {req['statement']}"
         for item in self.failed_checks:
