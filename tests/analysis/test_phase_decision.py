@@ -87,3 +87,34 @@ def test_the_point_verdict_is_the_worse_of_magnitude_and_phase():
     right = with_phase(magnitude, decide_phase(measured, 1, 1.05, tolerance_rad=0.2))
     assert right.decision == "pass" and right.guarded_pass
     assert with_phase(magnitude, None) is magnitude
+
+
+def test_the_plans_phase_judge_corrects_for_the_stated_transducer_and_needs_it():
+    """``ripple_hil_testplans.phase``: the model phase moved by the stated transducer's lag is
+    what passes; a bench file without a transducer bandwidth gets no phase verdict."""
+    from types import SimpleNamespace
+
+    from hil.config import default_sim_bench
+    from hil.model import OperatingPoint, predict
+    from ripple_hil_testplans.phase import phase_judge
+
+    config = default_sim_bench()
+    pole_pairs = config.motor.pole_pairs
+    speed_rpm = ELECTRICAL_HZ * 60.0 / pole_pairs
+    op = OperatingPoint(speed_rpm=speed_rpm, current_a=20.0, motor=config.motor)
+    prediction = predict("dc_offset", op, ia_offset_a=0.2)
+    model_phase = prediction.extras["order_phase_rad"]
+    lag = math.atan(ELECTRICAL_HZ / config.torque.bandwidth_hz)
+    plan = SimpleNamespace(speed_rpm=speed_rpm)
+    judge = phase_judge(0.2)
+    lagging = result(1.0, {1: (0.02, model_phase - lag)})
+    verdict = judge(lagging, prediction, plan, SimpleNamespace(config=config))
+    assert verdict.guarded_pass and abs(verdict.difference_rad) < 0.01
+    assert verdict.tolerance_rad == pytest.approx(math.asin(0.2) + lag + math.atan(
+        ELECTRICAL_HZ / 1600.0) + 2 * math.pi * ELECTRICAL_HZ * 75e-6 + math.pi * pole_pairs
+        / 7200, rel=1e-6)
+    other_sensor = result(1.0, {1: (0.02, model_phase - math.pi / 3)})
+    assert not judge(other_sensor, prediction, plan, SimpleNamespace(config=config)).guarded_pass
+    unstated = SimpleNamespace(config=SimpleNamespace(
+        torque=SimpleNamespace(bandwidth_hz=None), drive=config.drive, motor=config.motor))
+    assert judge(lagging, prediction, plan, unstated) is None
