@@ -211,7 +211,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         _add_safely(record, entry)
         raise
     accepted = ((verdict is None or verdict.guarded_pass)
-                and (phase_verdict is None or phase_verdict.guarded_pass) and all(r["accepted"] for r in judged)
+                and (phase_verdict is None or phase_verdict.guarded_pass)
+                and all(r["accepted"] for r in judged)
                 and all(c["passed"] for c in checks or ()))
     if checks is not None:
         entry["checks"] = checks

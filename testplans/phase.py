@@ -27,7 +27,8 @@ def phase_judge(rel_tol: float):
     """A ``PointPlan.phase`` callable judging the order phase the prediction names."""
     def judge(result, prediction, plan, bench):
         predicted = prediction.extras.get("order_phase_rad")
-        if predicted is None or prediction.order is None or bench.config.torque.bandwidth_hz is None:
+        if (predicted is None or prediction.order is None
+                or bench.config.torque.bandwidth_hz is None):
             return None
         order = int(round(prediction.order))
         drive = bench.config.drive

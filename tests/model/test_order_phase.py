@@ -41,7 +41,8 @@ def test_the_order_1_phase_names_the_sensor_and_the_sign():
     assert phase(0.0, 0.01) == pytest.approx(0.0, abs=1e-12)
     assert abs(phase(0.0, -0.01)) == pytest.approx(math.pi)
     # the magnitude cannot tell these apart
-    assert abs(dc_offset.order1_phasor(0.01, 0)) == pytest.approx(abs(dc_offset.order1_phasor(0, 0.01)))
+    assert abs(dc_offset.order1_phasor(0.01, 0)) == pytest.approx(
+        abs(dc_offset.order1_phasor(0, 0.01)))
 
 
 def test_the_order_2_phase_gives_the_sign_of_ka_minus_kb():
@@ -66,4 +67,5 @@ def test_the_chain_correction_follows_the_direction_of_rotation():
         math.atan(33.33 / 1000) + math.atan(33.33 / 1600) + 2 * math.pi * 33.33 * 75e-6
         + math.pi * 2 / 7200, rel=1e-3)
     assert transducer_phase_rad(100.0, None) == 0.0
-    assert wrap_rad(math.pi) == pytest.approx(math.pi) and wrap_rad(-math.pi) == pytest.approx(math.pi)
+    assert wrap_rad(math.pi) == pytest.approx(math.pi)
+    assert wrap_rad(-math.pi) == pytest.approx(math.pi)
