@@ -20,6 +20,7 @@ from hil.bench import Bench
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, predict
 from hil.model.core import MEAN_TORQUE_BASE
+from hil.outcome_kinds import MEASURED
 from hil.record import RunRecord, utc_now
 
 #: The source name of a point with nothing injected (the bench's own ripple).
@@ -158,6 +159,10 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                   nodeid: str | None = None, requirements=()) -> PointOutcome:
     """Run one point on ``bench`` and record it; raises after recording if anything fails.
 
+    A point that nothing judges — no model rule (``plan.rule`` None), no requirement that
+    applies, no self-check — is recorded "measured, no verdict" (``hil.outcome_kinds.MEASURED``,
+    design.md §9), never "passed"; the plugin keeps that outcome when the test passes.
+
     The model verdict compares pk-pk per unit of the *nameplate* mean torque K_t·I·cos φ (the
     paper's base, :attr:`hil.model.OperatingPoint.mean_torque_nm`) on both sides, so that a weak
     drive or a transducer scale error cannot move the prediction; the variant per unit of the
@@ -217,7 +222,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     if checks is not None:
         entry["checks"] = checks
     entry.update(
-        outcome="passed" if accepted else "failed",
+        outcome=(MEASURED if verdict is None and not judged and checks is None else
+                 "passed" if accepted else "failed"),
         measured=result.to_dict() | {"analysis_settings": settings},
         uncertainty=result.uncertainty.to_dict(),
         requirements=judged,

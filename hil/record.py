@@ -45,6 +45,7 @@ import hil
 from hil.capture import Capture, atomic_write_bytes
 from hil.config import BenchConfig
 from hil.errors import HilError, InputError
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
 
 FORMAT = "ripple-hil-record/2"
 #: Formats :func:`load_record` reads (version 1: record.json rewritten per test, no seal).
@@ -60,7 +61,8 @@ CAPTURE_DIR = "captures"
 STATUSES = ("running", "complete", "interrupted", "aborted", "stopped", "partial-selection",
             "failed")
 FINAL_STATUSES = STATUSES[1:]
-OUTCOMES = ("passed", "failed", "error", "skipped", "xfailed", "xpassed", "not run")
+OUTCOMES = ("passed", "failed", "error", "skipped", "xfailed", "xpassed", "not run",
+            NOT_DETERMINABLE, MEASURED)
 #: Outcomes that make a statement of conformity impossible to give as PASS.
 BAD_OUTCOMES = ("failed", "error")
 KINDS = ("measurement", "self_check", "ripple_map", "diagnosis", "other")
