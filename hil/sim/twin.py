@@ -30,7 +30,8 @@ class DriveTwin:
     """Simulated drive under test on a speed-holding dyno (see COMMON.md for the contract).
 
     ``defects`` (test-only, ``hil.sim.defects``): the drive reads back the commanded injection
-    (``injection``) but simulates ``defects.applied(injection)``; the transducer reading
+    (``injection``) but simulates ``defects.applied_config(config)`` (the applied injection, a
+    slower transducer or current loop than stated); the transducer reading
     ``torque_nm`` (which the DAQ and the serial transducer both serve) is scaled by
     ``defects.transducer_scale``.
     """
@@ -119,8 +120,7 @@ class DriveTwin:
             names, rows = select_channels(channels)
             simulated = self._config
             if self.defects.active:
-                simulated = replace(simulated,
-                                    injection=self.defects.applied(simulated.injection))
+                simulated = self.defects.applied_config(simulated)
             params = pack_params(simulated)
             dt = 1.0 / sample_rate_hz
             if settle_s > 0:
