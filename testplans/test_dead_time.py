@@ -20,7 +20,7 @@ import math
 
 import pytest
 
-from hil.analysis.decision import DecisionRule, classify
+from hil.analysis.decision import DecisionRule, decide_phase
 from hil.outcome_kinds import not_determinable
 from ripple_hil_testplans import conditions as c
 from ripple_hil_testplans.sensitivity import check_sensitivity
@@ -64,31 +64,21 @@ def validity_reason(config, injection) -> str | None:
     return None
 
 
-def phase_check(outcome) -> dict:
-    """Order-6 phase measured against the model's, with U = 2·u(A_6)/A_6 (rad, k = 2)."""
-    result, prediction = outcome.result, outcome.prediction
-    predicted = prediction.extras["order6_phase_rad"]
-    measured = float(result.phase_rad[5])
-    amplitude = float(result.amplitude_nm[5])
-    expanded = (2.0 * float(result.amplitude_u_nm[5]) / amplitude if amplitude > 0
-                else math.inf)
-    difference = (measured - predicted + math.pi) % (2 * math.pi) - math.pi
-    decision = classify(difference, expanded, -PHASE_TOLERANCE_RAD, PHASE_TOLERANCE_RAD)
-    resolved = expanded < PHASE_TOLERANCE_RAD
-    statement = (f"order-6 phase {math.degrees(measured):.1f}° vs model "
-                 f"{math.degrees(predicted):.1f}°: Δ {math.degrees(difference):+.1f}° ± "
-                 f"{math.degrees(expanded):.1f}° (k=2) against ±"
-                 f"{math.degrees(PHASE_TOLERANCE_RAD):.0f}° → {decision}")
-    return {"name": "dead_time order-6 phase", "measured_rad": measured,
-            "predicted_rad": predicted, "difference_rad": difference,
-            "expanded_uncertainty_rad": expanded,
-            "tolerance_rad": PHASE_TOLERANCE_RAD, "decision": decision, "resolved": resolved,
-            "passed": decision in ("pass", "conditional pass"), "statement": statement}
+def phase_judge(result, prediction, plan, bench):
+    """The order-6 phase verdict (``PointPlan.phase``, recorded as ``verdict.phase``): the
+    model's phase (it already includes the stated loop and transducer) against ±5°, guarded
+    by the measured phase's U = 2·u(A_6)/A_6. None — no phase verdict, the point is then not
+    determinable — when that U is not below the tolerance (the order is too small to have a
+    phase here)."""
+    verdict = decide_phase(result, 6, prediction.extras["order6_phase_rad"],
+                           tolerance_rad=PHASE_TOLERANCE_RAD)
+    return verdict if verdict.guard_band_rad < PHASE_TOLERANCE_RAD else None
 
 
 def plan(config, injection):
     return c.point(config.operating_point, "dead_time", injection, DEAD_TIME_RULE,
                    named_order=6, prediction_params=prediction_params(config),
+                   phase=phase_judge,
                    expectation="judged against the current-clamping model (average leg error "
                                "with the actual current's sign, the stated loop and "
                                "transducer); the order-6 phase is judged too; the paper's "
@@ -102,10 +92,10 @@ def test_dead_time(measure, bench, injection):
         pytest.skip(not_determinable(reason))
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
-    phase = phase_check(outcome)
-    if not phase["resolved"]:
-        pytest.skip(not_determinable(phase["statement"] + " (its U exceeds the tolerance)"))
-    assert phase["passed"], phase["statement"]
+    if outcome.phase_verdict is None:
+        pytest.skip(not_determinable(
+            "order-6 phase: its U (2·u(A_6)/A_6) is not below the "
+            f"±{math.degrees(PHASE_TOLERANCE_RAD):.0f}° tolerance"))
 
 
 def test_dead_time_sensitivity(record):

@@ -1,13 +1,12 @@
 """The dead-time plan's band and phase check against the simulated drive, off the calibration set.
 
 Captures as the plan captures (studies/dead_time_calibration.py), judged with the plan's rule
-(``DEAD_TIME_RULE``, guarded: |m − p| ≤ rel_tol·p + abs_tol − U) and ``phase_check``.
+(``DEAD_TIME_RULE``, guarded: |m − p| ≤ rel_tol·p + abs_tol − U) and ``phase_judge`` (None: the order-6 phase is not resolved).
 """
 
 import math
 import sys
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
@@ -17,7 +16,7 @@ import dead_time_calibration as study  # noqa: E402
 from hil.measurement import PointPlan  # noqa: E402
 from hil.model import OperatingPoint, predict  # noqa: E402
 from hil.sim import DriveConfig, DriveTwin, MotorModel, TransducerModel  # noqa: E402
-from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE, phase_check  # noqa: E402
+from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE, phase_judge  # noqa: E402
 
 
 def judge(point, *, model_scale=1.0, transducer_hz=1000.0):
@@ -49,7 +48,7 @@ def judge(point, *, model_scale=1.0, transducer_hz=1000.0):
     predicted = model_scale * prediction.pk_pk_nm / nameplate
     pk_pk_ok = abs(measured - predicted) <= (DEAD_TIME_RULE.rel_tol * predicted
                                              + DEAD_TIME_RULE.abs_tol_pu - expanded)
-    return pk_pk_ok, phase_check(SimpleNamespace(result=result, prediction=prediction))
+    return pk_pk_ok, phase_judge(result, prediction, plan, None)
 
 
 HOLDOUT = [study.Point("B", -400.0, 8.0, 3e-6, 16), study.Point("TableI", -750.0, 15.0, 3e-6, 38),
@@ -61,7 +60,7 @@ def test_correct_drive_passes_on_holdout_points(point):
     assert point not in study.calibration_set()
     pk_pk_ok, phase = judge(point)
     assert pk_pk_ok
-    assert phase["passed"] and phase["resolved"], phase["statement"]
+    assert phase is not None and phase.guarded_pass, phase
 
 
 @pytest.mark.parametrize("point", HOLDOUT[:2], ids=lambda p: f"{p.motor}-{p.speed_rpm:g}rpm")
@@ -77,7 +76,7 @@ def test_transducer_lagging_1ms_more_than_stated_fails_the_phase_check():
     tau = 1.0 / (2 * math.pi * 1000.0) + 1e-3
     point = study.Point("TableI", 500.0, 20.0, 4e-6, 3)
     pk_pk_ok, phase = judge(point, transducer_hz=1.0 / (2 * math.pi * tau))
-    assert phase["resolved"] and not phase["passed"], phase["statement"]
-    assert math.degrees(phase["difference_rad"]) < -20.0
+    assert phase is not None and not phase.guarded_pass, phase
+    assert math.degrees(phase.difference_rad) < -20.0
     _, right = judge(point)
-    assert right["passed"], right["statement"]
+    assert right is not None and right.guarded_pass, right.reason
