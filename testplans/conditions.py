@@ -30,13 +30,9 @@ DERIVED_RANGE_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.001, expected_range=
 #: reaction moves the quantisation steps from one revolution to the next), so the synchronous
 #: average's type-A U is of the order of the value itself (1.3 % ± 2.2 % at 32 counts) and a
 #: guarded rule could never accept. Simple acceptance (ILAC-G8, w = 0) against the derived model's
-#: own range; U is reported beside each point, and the sweep's scaling is checked as well.
+#: own range; U is reported beside each point (PWM resolution's noise check judges the scaling).
 DERIVED_RANGE_SIMPLE_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.001, expected_range=True,
                                          guard_band_factor=0.0)
-#: Slope tolerance of the sensitivity check for the derived-range sources: their models state
-#: ranges of ±20 % (word length's bias terms) and [¼, 2]× (PWM resolution), so their slopes are
-#: judged within ±50 %: a drive that ignores the injection gives a slope near 0.
-DERIVED_RANGE_SLOPE_TOL = 0.5
 #: Firmware facts the derived word-length model needs, here the simulated drive's (state your
 #: drive's from its firmware documentation): a 12-bit current ADC over ±100 A, and sin/cos of the
 #: other phases computed by trigonometric identities from one table entry.

@@ -5,8 +5,11 @@ Eq 28 is the torque change of one voltage step with the voltage applied open loo
 closes a current loop around the PWM, which turns the step into a disturbance it rejects. Both
 eq 28 and the closed-loop bound are one-sided (a drive ignoring the injection meets them), so the
 plan judges against the derived duty-quantisation model of hil.model.pwm_resolution (two-sided,
-its own stated range; simple acceptance — see conditions.DERIVED_RANGE_SIMPLE_RULE) and checks
-that the ripple scales with the counter as the model says; the bound and eq 28 are recorded.
+its own stated range; simple acceptance — see conditions.DERIVED_RANGE_SIMPLE_RULE); the bound
+and eq 28 are recorded. There is no pk-pk scaling-exponent check: its U (±0.7 to ±1.6 at every
+point of the calibration and holdout sets, hil/model/README.md) is always wider than any useful
+tolerance, so it could never judge (it was "not determinable" at every point, leaving the source
+NOT DETERMINED on every run); the noise check below judges the scaling with the counter.
 
 Neither catches a drive that applies the counter scaled (1.5× or 0.7× the commanded counts):
 the pk-pk of a ripple that is not synchronous with the rotor has U ≈ its value, the derived
@@ -22,7 +25,6 @@ import math
 import pytest
 
 from ripple_hil_testplans import conditions as c
-from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_resolution")
 
@@ -63,13 +65,6 @@ def plan(config, injection):
 def test_pwm_resolution(measure, bench, injection):
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
-
-
-def test_pwm_resolution_sensitivity(record):
-    """The sweep's measured ripple scales with the counter as the derived model says."""
-    result = check_sensitivity(record, "pwm_resolution", c.DERIVED_RANGE_SLOPE_TOL,
-                               mode="scaling")
-    assert result["accepted"], result["statement"]
 
 
 def test_pwm_resolution_noise_reference(measure, bench):

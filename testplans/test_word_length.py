@@ -14,7 +14,7 @@ pytestmark = pytest.mark.ripple_source("word_length")
 #: sample (studies/pwm_calibration.py; hil/model/README.md): on the calibration set (Table I,
 #: 4 points incl. reverse, 2 seeds) the slopes were 0.980–1.186 with U ≤ 0.096, so
 #: max(|s − 1| + U) = 0.28, rounded up to ±0.30; checked on the holdout set (two other motors,
-#: other points and seeds). It replaces the ±0.5 of conditions.DERIVED_RANGE_SLOPE_TOL (set
+#: other points and seeds). It replaces the ±0.5 derived-range slope tolerance of session 3 (set
 #: from the models' stated ranges, not from data), which a drive applying half the word-length
 #: effect passed (0.538 ± 0.017); that drive now fails.
 SLOPE_TOL = 0.30
