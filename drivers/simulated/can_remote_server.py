@@ -8,11 +8,41 @@ drive with only the bench-file settings ``interface = "remote"``, ``channel =
 
 from __future__ import annotations
 
+import logging
 import os
 import uuid
 
+import can_remote.server
+
 from ripple_hil_drivers.canopen_transport import BusServer, CanBusSettings
 from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
+
+log = logging.getLogger(__name__)
+
+
+class ClientSafeProtocol(can_remote.server.RemoteServerProtocol):
+    """python-can-remote's per-client session, ending quietly when the client goes away.
+
+    The library's send thread dies with a ``BrokenPipeError`` traceback when a client process
+    is killed mid-session (issue 22.8) and never shuts its bus down, so a long-lived ``hil
+    sim-bench`` would keep one more virtual bus queueing every CAN frame per dead client. Here
+    a connection error (``OSError``) in that thread ends the session: one log line, the
+    session stops, its bus is shut down.
+    """
+
+    def _send_to_client(self):
+        try:
+            super()._send_to_client()
+        except OSError as exc:
+            log.info("CAN remote client gone (%s): session closed", exc)
+            self.running = False
+            self.bus.shutdown()
+
+
+def use_client_safe_sessions() -> None:
+    """Make the python-can-remote server of this process open ``ClientSafeProtocol`` sessions
+    (its request handler looks the session class up in its module when a client connects)."""
+    can_remote.server.RemoteServerProtocol = ClientSafeProtocol
 
 
 class RemoteSimulatedDrive:
@@ -23,6 +53,7 @@ class RemoteSimulatedDrive:
         channel = f"sim-bench-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         self.local_settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
         self.drive = SimulatedDrive(twin, self.local_settings, node_id, **drive_options)
+        use_client_safe_sessions()
         self.server = BusServer(self.local_settings, host=host, port=port)
         self.node_id = node_id
 
