@@ -20,29 +20,31 @@ from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
 log = logging.getLogger(__name__)
 
 
-class ClientSafeProtocol(can_remote.server.RemoteServerProtocol):
-    """python-can-remote's per-client session, ending quietly when the client goes away.
+def use_client_safe_sessions() -> None:
+    """End a python-can-remote client session quietly when its client goes away.
 
-    The library's send thread dies with a ``BrokenPipeError`` traceback when a client process
-    is killed mid-session (issue 22.8) and never shuts its bus down, so a long-lived ``hil
-    sim-bench`` would keep one more virtual bus queueing every CAN frame per dead client. Here
-    a connection error (``OSError``) in that thread ends the session: one log line, the
-    session stops, its bus is shut down.
+    The library's per-client send thread (``RemoteServerProtocol._send_to_client``) dies with a
+    ``BrokenPipeError`` traceback when a client process is killed mid-session (issue 22.8) and
+    never shuts its bus down, so a long-lived ``hil sim-bench`` would keep one more virtual bus
+    queueing every CAN frame per dead client. Wrapped here (once per process; the library
+    creates the session class itself, so it cannot be handed a subclass): a connection error
+    (``OSError``) in that thread logs one line, stops the session and shuts its bus down.
     """
+    protocol = can_remote.server.RemoteServerProtocol
+    if getattr(protocol._send_to_client, "client_safe", False):
+        return
+    send_to_client = protocol._send_to_client
 
     def _send_to_client(self):
         try:
-            super()._send_to_client()
+            send_to_client(self)
         except OSError as exc:
             log.info("CAN remote client gone (%s): session closed", exc)
             self.running = False
             self.bus.shutdown()
 
-
-def use_client_safe_sessions() -> None:
-    """Make the python-can-remote server of this process open ``ClientSafeProtocol`` sessions
-    (its request handler looks the session class up in its module when a client connects)."""
-    can_remote.server.RemoteServerProtocol = ClientSafeProtocol
+    _send_to_client.client_safe = True
+    protocol._send_to_client = _send_to_client
 
 
 class RemoteSimulatedDrive:
