@@ -121,6 +121,9 @@ class SimulatedBench:
         from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
         from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
 
+        from hil.sim.warmup import prepare_twin_engine
+
+        prepare_twin_engine()     # compile (if needed) before any instrument is served
         try:
             drive_table = self._start_drive()
             daq_table = self._start_daq(SimulatedDaq)
