@@ -27,10 +27,13 @@ AUTO_REPORT = "auto"
 
 def plan_modules() -> dict[str, Path]:
     """Ripple source name → test-plan module file, from the installed ``ripple_hil_testplans``
-    package (the testplans/ folder)."""
-    import ripple_hil_testplans
+    package (the testplans/ folder). Found without importing it: pytest marks the packages of
+    an installed plugin's distribution for assertion rewriting, and one imported before
+    ``pytest.main`` cannot be (a PytestAssertRewriteWarning on every run, issue 22.9)."""
+    import importlib.util
 
-    folder = Path(ripple_hil_testplans.__file__).parent
+    spec = importlib.util.find_spec("ripple_hil_testplans")
+    folder = Path(next(iter(spec.submodule_search_locations)))
     return {path.stem.removeprefix("test_"): path for path in sorted(folder.glob("test_*.py"))}
 
 
