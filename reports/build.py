@@ -42,8 +42,10 @@ BUDGET_LABELS = {"sensitivity": "sens. coeff.", "sensitivity_unit": "sens. unit"
                  "distribution": "distribution"}
 BUDGET_WIDTHS = {"value": 16, "unit": 11, "distribution": 24, "divisor": 12, "sensitivity": 15,
                  "sensitivity_unit": 16, "contribution_pu": 18, "combination": 16}
-#: Captures larger than this in total are listed with their hashes but not attached.
-MAX_ATTACHED_BYTES = 25 * 1024 * 1024
+#: Captures larger than this in total are listed with their hashes but not attached (they stay
+#: in the record folder, hashed). 1 MiB keeps a default run's PDF at ≈ 1.7 MB (25 MiB made it
+#: 10.7 MB, ≈ 9.9 MB of it raw captures; issue 22).
+MAX_ATTACHED_BYTES = 1 * 1024 * 1024
 REFERENCE = ("S. Chen, C. Namuduri, S. Mir, Controller-induced parasitic torque ripples in a PM "
              "synchronous motor, IEEE Trans. Ind. Appl. 38(5), 2002")
 

@@ -115,6 +115,13 @@ SELF_CHECK_CURRENT_TOL_PU = 0.02
 #: Speed from the encoder over the DAQ time base vs the dyno setpoint: 0.5 % (a dropped sample in
 #: ten makes 11 %).
 SELF_CHECK_SPEED_TOL_PU = 0.005
+#: The self-check's DAQ rate, Hz: a prime, so no PWM harmonic of a whole-kHz PWM frequency
+#: aliases onto a steady line; at 8 kHz (2.5 samples per 20 kHz period) the capture sees the
+#: switching ripple at only two carrier phases and the current fundamental read 19.46-20.55 A
+#: depending on where in the PWM period the capture started (a bench left running drifted out
+#: of the ±0.4 A limit, issue 22); at 7919 Hz the reading is within ±0.004 A at any phase
+#: (tests/sim/test_daq_clock.py).
+SELF_CHECK_SAMPLE_RATE_HZ = 7919.0
 
 
 def self_check_point(op):
@@ -135,7 +142,8 @@ def self_check_point(op):
                 selfcheck.sampling(capture, plan.capture_duration_s(pole_pairs),
                                    plan.capture_rate_hz(pole_pairs))]
 
-    return point(op, "self_check", {}, None, kind="self_check", checks=checks)
+    return point(op, "self_check", {}, None, kind="self_check", checks=checks,
+                 sample_rate_hz=SELF_CHECK_SAMPLE_RATE_HZ)
 
 
 # ---------------------------------------------------------------------------- ripple map
