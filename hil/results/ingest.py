@@ -113,6 +113,7 @@ class SyncResult:
 def sync(engine, folders: list[Path], *, dut_serial: str | None = None) -> SyncResult:
     """Index each folder not yet in the database; a bad record is listed, the others go on."""
     from sqlalchemy import select
+    from sqlalchemy.exc import SQLAlchemyError
 
     result = SyncResult()
     with engine.connect() as connection:
@@ -123,8 +124,8 @@ def sync(engine, folders: list[Path], *, dut_serial: str | None = None) -> SyncR
             continue
         try:
             outcome = ingest_record(engine, folder, dut_serial=dut_serial)
-        except (HilError, OSError, ValueError) as exc:
-            result.failed.append((str(folder), str(exc)))
+        except (HilError, OSError, ValueError, SQLAlchemyError) as exc:
+            result.failed.append((str(folder), str(exc).strip().splitlines()[0][:300]))
             continue
         if outcome == "indexed":
             result.indexed.append(str(folder))
