@@ -14,7 +14,7 @@ import numpy as np
 from hil.capture import Capture
 
 
-def _capture(n: int = 256, rate_hz: float = 8000.0) -> Capture:
+def _capture(n: int = 3960, rate_hz: float = 8000.0) -> Capture:
     t = np.arange(n) / rate_hz
     return Capture({"time_s": t, "torque_nm": 1.0 + 0.02 * np.sin(2 * np.pi * 50 * t)},
                    meta={"sample_rate_hz": rate_hz, "pole_pairs": 2, "source": "synthetic"})
