@@ -114,25 +114,40 @@ def compare(engine, ref_a: str, ref_b: str) -> dict:
 
 def trend(engine, *, requirement: str | None = None, source: str | None = None,
           point: str | None = None, limit: int = 10_000) -> dict:
-    """One observation per run (oldest first) for a requirement or a source's point, with the
-    control chart, Cp/Cpk and the measured yield (``hil.results.capability``).
+    """One observation per run (the newest ``limit`` runs, oldest first) for a requirement or a
+    source's point, with the control chart, Cp/Cpk and the measured yield
+    (``hil.results.capability``).
 
     Requirement: the run's verdict nearest its limit (the worst margin), accepted when every
     verdict of that requirement in the run was. Source: the measured pk-pk (per unit of the
     nameplate torque) at ``point`` (a test id; default the source's most measured one), limits
-    the model verdict's tolerance zone, accepted when the point's test passed.
+    the model verdict's tolerance zone, accepted when the point's test passed. The fold to one
+    row per run is done by the database (GROUP BY), so a fleet of 10,000 runs returns 10,000 rows.
     """
     if (requirement is None) == (source is None):
         raise InputError("give --requirement ID or --source NAME (one of them)")
-    from sqlalchemy import func, select
+    from sqlalchemy import case, func, select
 
     with engine.connect() as connection:
         if requirement is not None:
-            query = (select(requirement_verdicts, runs.c.created_utc, runs.c.dut_serial)
-                     .join(runs, runs.c.record_id == requirement_verdicts.c.record_id)
-                     .where(requirement_verdicts.c.requirement_id == requirement)
-                     .order_by(runs.c.created_utc, runs.c.record_id).limit(limit * 20))
-            rows = list(connection.execute(query))
+            rv = requirement_verdicts.c
+            big = 1e300
+            above = func.coalesce(rv.limit_max - rv.measured, big)
+            below = func.coalesce(rv.measured - rv.limit_min, big)
+            margin = case((above < below, above), else_=below)
+            ok = case((rv.accepted.is_(True), 1), else_=0)
+            where = (rv.requirement_id == requirement, rv.measured.is_not(None))
+            worst = (select(rv.record_id, func.min(margin).label("margin"),
+                            func.min(ok).label("ok"))
+                     .where(*where).group_by(rv.record_id).subquery())
+            query = (select(rv.record_id, rv.measured.label("value"),
+                            rv.expanded_uncertainty.label("u"), rv.limit_min.label("lower"),
+                            rv.limit_max.label("upper"), rv.unit, worst.c.ok,
+                            runs.c.created_utc, runs.c.dut_serial)
+                     .join(worst, (worst.c.record_id == rv.record_id)
+                           & (worst.c.margin == margin))
+                     .join(runs, runs.c.record_id == rv.record_id)
+                     .where(*where))
             label = f"requirement {requirement}"
         else:
             if point is None:
@@ -141,45 +156,31 @@ def trend(engine, *, requirement: str | None = None, source: str | None = None,
                                                    points.c.pk_pk_pu.is_not(None))
                     .group_by(points.c.test_id).order_by(func.count().desc(), points.c.test_id)
                     .limit(1)).scalar()
-            query = (select(points, runs.c.created_utc, runs.c.dut_serial)
-                     .join(runs, runs.c.record_id == points.c.record_id)
-                     .where(points.c.source == source, points.c.test_id == point,
-                            points.c.pk_pk_pu.is_not(None))
-                     .order_by(runs.c.created_utc, runs.c.record_id).limit(limit))
-            rows = list(connection.execute(query))
+            pc = points.c
+            query = (select(pc.record_id, pc.pk_pk_pu.label("value"), pc.pk_pk_u_pu.label("u"),
+                            pc.lower_limit_pu.label("lower"), pc.upper_limit_pu.label("upper"),
+                            case((pc.outcome == "passed", 1), else_=0).label("ok"),
+                            runs.c.created_utc, runs.c.dut_serial)
+                     .join(runs, runs.c.record_id == pc.record_id)
+                     .where(pc.source == source, pc.test_id == point, pc.pk_pk_pu.is_not(None)))
             label = f"source {source}, point {point}"
+        query = query.order_by(runs.c.created_utc.desc(), runs.c.record_id.desc()).limit(limit)
+        rows, seen = [], set()
+        for row in connection.execute(query):       # two verdicts of one run at the same
+            if row.record_id not in seen:           # margin: one observation
+                seen.add(row.record_id)
+                rows.append(row)
+        rows.reverse()
     if not rows:
         raise InputError(f"no measured value of {label} in the results database")
-    series: dict[str, dict] = {}
-    for row in rows:
-        if requirement is not None:
-            value, u = row.measured, row.expanded_uncertainty
-            lower, upper, ok = row.limit_min, row.limit_max, bool(row.accepted)
-        else:
-            value, u = row.pk_pk_pu, row.pk_pk_u_pu
-            lower, upper, ok = row.lower_limit_pu, row.upper_limit_pu, row.outcome == "passed"
-        if value is None:
-            continue
-        margin = min((upper - value) if upper is not None else math.inf,
-                     (value - lower) if lower is not None else math.inf)
-        seen = series.get(row.record_id)
-        if seen is None:
-            series[row.record_id] = {"record_id": row.record_id, "created_utc": row.created_utc,
-                                     "dut_serial": row.dut_serial, "value": value, "u": u,
-                                     "margin": margin, "accepted": ok, "lower": lower,
-                                     "upper": upper}
-        else:
-            seen["accepted"] = seen["accepted"] and ok
-            if margin < seen["margin"]:
-                seen.update(value=value, u=u, margin=margin, lower=lower, upper=upper)
-    obs = list(series.values())[-limit:]
+    obs = [{"record_id": r.record_id, "created_utc": r.created_utc, "dut_serial": r.dut_serial,
+            "value": r.value, "u": r.u, "accepted": bool(r.ok), "lower": r.lower,
+            "upper": r.upper} for r in rows]
     values = [o["value"] for o in obs]
-    lowers = [o["lower"] for o in obs if o["lower"] is not None]
-    uppers = [o["upper"] for o in obs if o["upper"] is not None]
-    lower = float(sorted(lowers)[len(lowers) // 2]) if lowers else None
-    upper = float(sorted(uppers)[len(uppers) // 2]) if uppers else None
-    for o in obs:
-        o.pop("margin")
+    lowers = sorted(o["lower"] for o in obs if o["lower"] is not None)
+    uppers = sorted(o["upper"] for o in obs if o["upper"] is not None)
+    lower = float(lowers[len(lowers) // 2]) if lowers else None      # median: one limit
+    upper = float(uppers[len(uppers) // 2]) if uppers else None
     return {"what": label, "requirement": requirement, "source": source, "point": point,
             "unit": rows[0].unit if requirement is not None else "pu of the nameplate torque",
             "observations": obs, "lower_limit": lower, "upper_limit": upper,

@@ -16,24 +16,28 @@ from hil.cli import main
 SOURCES = ["--source", "baseline", "--source", "pwm_switching"]
 
 
-def _run(records, *extra: str) -> None:
+def _start(records, *extra: str) -> subprocess.Popen:
     env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
-    done = subprocess.run([sys.executable, "-m", "hil", "run", *SOURCES, "--record-dir",
-                           str(records), "--no-report", *extra], capture_output=True, text=True,
-                          env=env, timeout=300)
-    assert done.returncode in (0, 1), done.stderr[-2000:]
+    return subprocess.Popen([sys.executable, "-m", "hil", "run", *SOURCES, "--record-dir",
+                             str(records), "--no-report", *extra], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
 
 
-pytestmark = pytest.mark.slow      # three `hil run`s of 5 points each (~10 s each)
+pytestmark = pytest.mark.slow      # three `hil run`s of 6 points each, side by side
 
 
 @pytest.fixture(scope="module")
 def three_runs(tmp_path_factory):
-    records = tmp_path_factory.mktemp("records")
-    _run(records, "--seed", "0")
-    _run(records, "--seed", "1")
-    _run(records, "--seed", "0", "--sim-defect", "hidden_ia_offset_a=0.3")
-    return records, sorted(p.name for p in records.iterdir() if p.is_dir())
+    """The three runs at once (each its own simulated bench, ports and CAN channel)."""
+    root = tmp_path_factory.mktemp("records")
+    runs = {"clean": ("--seed", "0"), "reseeded": ("--seed", "1"),
+            "defective": ("--seed", "0", "--sim-defect", "hidden_ia_offset_a=0.3")}
+    procs = {name: _start(root / name, *extra) for name, extra in runs.items()}
+    for proc in procs.values():
+        _, err = proc.communicate(timeout=300)
+        assert proc.returncode in (0, 1), err[-2000:]
+    ids = {name: next(p.name for p in (root / name).iterdir() if p.is_dir()) for name in runs}
+    return root, (ids["clean"], ids["reseeded"], ids["defective"])
 
 
 def _compare(capsys, records, a, b, *extra):
