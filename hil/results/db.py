@@ -2,7 +2,8 @@
 
 The URL, first given wins: ``--results-db URL`` on the command line, the environment variable
 ``RIPPLE_HIL_RESULTS_DB``, ``[results] url`` in the bench file, else the SQLite file
-``<records folder>/results.sqlite`` (default ``records/results.sqlite``). A lab points every
+``<records folder>/results.sqlite`` (default ``records/results.sqlite``); ``off`` (or ``none``)
+turns indexing after a run off. A lab points every
 station at one PostgreSQL (``postgresql://user@host/db``; the driver is psycopg 3).
 
 Opening a database brings its schema to the newest Alembic migration (``migrations/``) under a
@@ -34,9 +35,10 @@ def resolve_url(cli_url: str | None = None, bench_file: str | Path | None = None
                 records_dir: str | Path = "records") -> str:
     """The database URL by the rule in the module docstring."""
     if cli_url:
-        return normalise_url(cli_url)
+        return cli_url if cli_url.lower() in ("off", "none") else normalise_url(cli_url)
     if os.environ.get(ENV_VAR):
-        return normalise_url(os.environ[ENV_VAR])
+        env = os.environ[ENV_VAR]
+        return env if env.lower() in ("off", "none") else normalise_url(env)
     if bench_file is not None:
         url = bench_results_url(bench_file)
         if url:

@@ -23,6 +23,8 @@ from hil.results.schema import (diagnosis_estimates, point_orders, points, requi
 log = logging.getLogger("hil.results")
 #: Seconds ``index_after_run`` lets indexing take before leaving the record to ``hil db sync``.
 AFTER_RUN_TIMEOUT_S = 5.0
+#: ``--results-db`` / ``RIPPLE_HIL_RESULTS_DB`` values that turn indexing after a run off.
+DISABLED = ("off", "none")
 
 
 def record_folder(path: str | Path) -> Path:
@@ -135,12 +137,17 @@ def sync(engine, folders: list[Path], *, dut_serial: str | None = None) -> SyncR
 
 
 def index_after_run(record_dir: str | Path, url: str | None = None, *,
+                    bench_file: str | Path | None = None,
                     timeout_s: float = AFTER_RUN_TIMEOUT_S) -> bool:
     """Index a record just sealed by ``hil run``; never raises, never holds the run longer than
-    ``timeout_s``. True when indexed (or already present); otherwise one warning line (logged
-    and on stderr) and the record stays for ``hil db sync``."""
+    ``timeout_s``. ``url``: the ``--results-db`` value (None: ``hil.results.db.resolve_url``'s
+    rule with ``bench_file`` and the record's parent folder; ``off``: do nothing). True when
+    indexed (or already present); otherwise one warning line (logged and on stderr) and the
+    record stays for ``hil db sync``."""
     import sys
 
+    if url is not None and url.strip().lower() in DISABLED:
+        return False
     outcome: list = []
 
     def work() -> None:
@@ -148,7 +155,10 @@ def index_after_run(record_dir: str | Path, url: str | None = None, *,
             from hil.results.db import engine_for, resolve_url
 
             folder = record_folder(record_dir)
-            target = url or resolve_url(records_dir=folder.parent)
+            target = resolve_url(url, bench_file, folder.parent)
+            if target.strip().lower() in DISABLED:
+                outcome.append("disabled")
+                return
             outcome.append(ingest_record(engine_for(target), folder))
         except BaseException as exc:   # noqa: BLE001 - a sink must never fail the run
             outcome.append(exc)
@@ -157,7 +167,7 @@ def index_after_run(record_dir: str | Path, url: str | None = None, *,
     worker.start()
     worker.join(timeout_s)
     if outcome and isinstance(outcome[0], str):
-        return True
+        return outcome[0] != "disabled"
     reason = (f"took longer than {timeout_s:g} s" if not outcome
               else f"{type(outcome[0]).__name__}: {str(outcome[0]).splitlines()[0][:200]}")
     message = (f"hil: results database: record {record_folder(record_dir).name} not indexed "

@@ -90,6 +90,7 @@ def test_a_database_that_is_down_never_fails_the_run(tmp_path, capsys):
     url = f"sqlite:///{tmp_path / 'records' / 'results.sqlite'}"
     assert sync(engine_for(url), sealed_records(tmp_path / "records")).indexed == [str(folder)]
     assert index_after_run(folder) is True   # default database beside the records: present
+    assert index_after_run(folder, "off") is False and "not indexed" not in capsys.readouterr().err
 
 
 def test_index_after_run_never_raises_on_a_broken_record(tmp_path, capsys):
@@ -128,3 +129,23 @@ def test_export_csv_and_parquet(tmp_path, sqlite_url):
     else:
         assert export_tables(engine, tmp_path / "pq", "parquet")[
             str(tmp_path / "pq" / "runs.parquet")] == 1
+
+
+def test_db_commands(tmp_path, capsys):
+    from hil.cli import main
+
+    root = tmp_path / "records"
+    first = synthetic_record(root, [point_entry(0, 0.03, 0.001)])
+    synthetic_record(root, [point_entry(0, 0.04, 0.001)])
+    db = ["--results-db", str(tmp_path / "r.sqlite"), "--json"]
+    capsys.readouterr()
+    assert main(["db", "import", str(first), *db]) == 0
+    assert len(json.loads(capsys.readouterr().out)["indexed"]) == 1
+    assert main(["db", "sync", "--records", str(root), *db]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["indexed"]) == 1 and out["present"] == 1
+    assert main(["db", "verify", str(first), *db]) == 0
+    assert json.loads(capsys.readouterr().out)["agrees"] is True
+    assert main(["db", "export", "--format", "csv", "-o", str(tmp_path / "x"), *db]) == 0
+    assert json.loads(capsys.readouterr().out)["files"][str(tmp_path / "x" / "runs.csv")] == 2
+    assert main(["db", "import", str(tmp_path), *db]) == 2        # not a record folder

@@ -69,7 +69,7 @@ def _stations(url: str, folders: list[Path], n_processes: int) -> list[list[str]
 def test_n_stations_times_m_runs_nothing_lost_nothing_duplicated(backend, tmp_path, request):
     url = (request.getfixturevalue("pg_url") if backend == "postgresql"
            else request.getfixturevalue("sqlite_url"))
-    n_processes, m_runs = 4, 6
+    n_processes, m_runs = 3, 5
     folders = _records(tmp_path, m_runs)
     outs = _stations(url, folders, n_processes)
     # every record indexed by exactly one station; the others found it present
