@@ -164,12 +164,14 @@ def trend(engine, *, requirement: str | None = None, source: str | None = None,
                      .join(runs, runs.c.record_id == pc.record_id)
                      .where(pc.source == source, pc.test_id == point, pc.pk_pk_pu.is_not(None)))
             label = f"source {source}, point {point}"
-        query = query.order_by(runs.c.created_utc.desc(), runs.c.record_id.desc()).limit(limit)
+        query = query.order_by(runs.c.created_utc.desc(), runs.c.record_id.desc())
         rows, seen = [], set()
         for row in connection.execute(query):       # two verdicts of one run at the same
             if row.record_id not in seen:           # margin: one observation
                 seen.add(row.record_id)
                 rows.append(row)
+                if len(rows) == limit:
+                    break
         rows.reverse()
     if not rows:
         raise InputError(f"no measured value of {label} in the results database")
