@@ -121,7 +121,12 @@ def _from_db(args: argparse.Namespace, spec) -> dict:
 
     engine = engine_from_args(args)
     fits = fit_parameters(engine)
-    req_id = args.measured_requirement or spec.requirement.id
+    req_id = args.measured_requirement or (spec.requirement.id if spec.requirement else None)
+    if req_id is None:
+        from hil.errors import InputError
+
+        raise InputError("--from-db needs a requirement id for the measured yield: "
+                         "--measured-requirement ID")
     return {"spec": fitted_spec(spec, fits), "fits": fits,
             "measured": unit_yield(engine, req_id)}
 
