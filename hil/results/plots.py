@@ -18,7 +18,7 @@ def compare_plot(result: dict, out: str | Path) -> None:
     """Each matched point's pk-pk difference b − a (% of the nameplate torque) with ±U_d."""
     plt = _pyplot()
     rows = [p for p in result["points"] if p["pk_pk_pu"]["difference"] is not None]
-    fig, ax = plt.subplots(figsize=(8, 0.35 * len(rows) + 1.5))
+    fig, ax = plt.subplots(figsize=(10, 0.35 * len(rows) + 1.8))
     for i, p in enumerate(rows):
         d = p["pk_pk_pu"]
         color = "tab:red" if d["changed"] else "tab:green"
@@ -27,9 +27,10 @@ def compare_plot(result: dict, out: str | Path) -> None:
     ax.axvline(0.0, color="black", lw=0.8)
     ax.set_yticks(range(len(rows)), [p["test_id"].split("::")[-1] for p in rows], fontsize=7)
     ax.set_xlabel("pk-pk difference B − A, % of the nameplate torque (bars: ±U_d)")
-    ax.set_title(f"{result['run_b']} − {result['run_a']} (red: changed beyond U_d)", fontsize=9)
+    ax.set_title(f"B {result['run_b']} − A {result['run_a']}\nred: changed beyond U_d, "
+                 "green: not", fontsize=8)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=110, bbox_inches="tight")
     plt.close(fig)
 
 
@@ -59,5 +60,5 @@ def control_chart_plot(result: dict, out: str | Path) -> None:
     ax.set_ylabel(result["unit"])
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=110, bbox_inches="tight")
     plt.close(fig)
