@@ -142,8 +142,8 @@ def format_from_db(d: dict, s: dict) -> list[str]:
     measured = (f"{100 * m['yield']:.1f} % [{100 * m['ci'][0]:.1f}, {100 * m['ci'][1]:.1f}] % "
                 f"({m['passed']}/{m['total']} units, {m['requirement']})" if m["total"]
                 else f"no unit judged against {m['requirement']}")
-    return ["yield        value [95 % Clopper-Pearson interval]",
-            f"  predicted  {predicted}", f"  measured   {measured}"]
+    return lines + ["yield        value [95 % Clopper-Pearson interval]",
+                    f"  predicted  {predicted}", f"  measured   {measured}"]
 
 
 def _yield(value: float, ci: list[float], drives: int) -> str:

@@ -33,9 +33,13 @@ sigma = 0.5
 """
 
 
-@pytest.fixture
-def diagnosed_fleet(tmp_path, sqlite_url):
+@pytest.fixture(scope="module")
+def diagnosed_fleet(tmp_path_factory):
     """24 units: ia offset N(0.05 A, 0.10 A) estimated with u = 0.03 A; 19 accepted REQ-12."""
+    from hil.results.db import dispose_all
+
+    tmp_path = tmp_path_factory.mktemp("fleet")
+    sqlite_url = f"sqlite:///{tmp_path / 'results.sqlite'}"
     rng = np.random.default_rng(11)
     root = tmp_path / "records"
     truth = rng.normal(0.05, 0.10, 24)
@@ -48,7 +52,8 @@ def diagnosed_fleet(tmp_path, sqlite_url):
                                     "ib_offset_a": (float(rng.normal(0, 0.1)), 0.03)})
     engine = engine_for(sqlite_url)
     sync(engine, sealed_records(root))
-    return engine, truth
+    yield engine, truth
+    dispose_all()
 
 
 def test_fit_removes_the_estimates_scatter(diagnosed_fleet):
@@ -77,3 +82,16 @@ def test_yield_from_db_prints_predicted_beside_measured(diagnosed_fleet, tmp_pat
     assert out["from_db"]["fits"]["ia_offset_a"]["units"] == 24
     # the file's sigma 0.5 A is replaced by the fitted ~0.1 A: far fewer drives fail
     assert 0.0 <= out["yield"] <= 1.0 and out["yield"] > 0.9
+
+
+def test_yield_from_db_text_names_the_fits(diagnosed_fleet, tmp_path, capsys):
+    engine, _ = diagnosed_fleet
+    spec = tmp_path / "tol.toml"
+    spec.write_text(TOLERANCES)
+    capsys.readouterr()
+    assert main(["yield", str(spec), "--from-db", "--results-db", engine.url.database,
+                 "--scheduler", "inline", "--sobol-n", "0", "--drives", "2000",
+                 "--out", str(tmp_path / "y"), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "ia_offset_a    24 units" in out and "ib_offset_a    24 units" in out
+    assert "measured   79.2 %" in out and "(19/24 units, REQ-12)" in out
