@@ -14,6 +14,7 @@ import pytest
 from sqlalchemy import create_engine, func, select, text
 
 from hil.record import verify_record
+from hil.results import index_after_run
 from hil.results.db import engine_for, normalise_url, upgrade
 from hil.results.ingest import sealed_records, sync
 from hil.results.schema import point_orders, points, runs
@@ -97,6 +98,11 @@ def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_
     assert proc.returncode == 0, err[-2000:]       # the sync process survived the kill
     indexed, failed = map(int, out.split())
     assert indexed >= 3 and failed >= 1 and indexed + failed == 20
+    # a run that ends while the server is down: its record is sealed, indexing gives up
+    late = synthetic_record(tmp_path / "records", [point_entry(i, 0.05, 0.0007)
+                                                   for i in range(6)])
+    assert index_after_run(late, pg_url, timeout_s=5.0) is False
+    folders.append(late)
     postgres_server.start()
     n_runs, _, n_points, _ = _counts(pg_url)
     assert n_points == 6 * n_runs                # no half-indexed record
@@ -105,8 +111,8 @@ def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_
 
     dispose_all()
     result = sync(engine_for(pg_url), sealed_records(tmp_path / "records"))
-    assert not result.failed and len(result.indexed) == 20 - n_runs
-    assert _counts(pg_url) == (20, 20, 6 * 20, 2 * 6 * 20)
+    assert not result.failed and len(result.indexed) == 21 - n_runs
+    assert _counts(pg_url) == (21, 21, 6 * 21, 2 * 6 * 21)
 
 
 @pytest.mark.parametrize("backend", ["postgresql", "sqlite"])
