@@ -7,8 +7,9 @@ import json
 import time
 
 import pytest
-from sqlalchemy import func, select, text
+from sqlalchemy import func, select
 
+from hil.config import default_sim_bench
 from hil.errors import HilError, InputError
 from hil.record import RunRecord, load_record, verify_record
 from hil.results import index_after_run, verify_row
@@ -53,7 +54,7 @@ def test_sync_indexes_only_what_is_missing_and_refuses_unsealed(tmp_path, sqlite
     engine = engine_for(sqlite_url)
     ingest_record(engine, first)
     second = synthetic_record(root, [point_entry(0, 0.04, 0.001)])
-    unsealed = RunRecord.create(root, __import__("hil.config").config.default_sim_bench(), [])
+    unsealed = RunRecord.create(root, default_sim_bench(), [])
     result = sync(engine, sealed_records(root))
     assert result.indexed == [str(second)] and result.present == 1 and not result.failed
     assert _count(engine, runs) == 2
