@@ -125,6 +125,26 @@ def storage_error_of(error: BaseException | None) -> "RecordWriteError | None":
     return None
 
 
+def check_writable_folder(folder: str | Path) -> None:
+    """RecordWriteError unless files can be created in ``folder`` (or, if it does not exist
+    yet, in its nearest existing parent): probed by creating and removing an empty file, which
+    also catches a read-only mount or a root that ignores permission bits. Leaves nothing."""
+    import errno as _errno
+    import tempfile
+
+    folder = Path(folder).absolute()
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("/"))
+    if not existing.is_dir():
+        raise RecordWriteError(existing, NotADirectoryError(
+            _errno.ENOTDIR, os.strerror(_errno.ENOTDIR)), "create a folder in")
+    try:
+        handle, probe = tempfile.mkstemp(dir=existing, prefix=".ripple-hil-probe-")
+        os.close(handle)
+        os.unlink(probe)
+    except OSError as exc:
+        raise RecordWriteError(existing, exc, "write in") from None
+
+
 def utc_now() -> str:
     """The current UTC time as ISO 8601 with a ``Z`` suffix, to the second."""
     return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
@@ -451,11 +471,16 @@ class RunRecord:
                     target = self.path / seal.SIG_FILE
                     seal.write_seal(self.path, self.record_id, digest, self._chain, key,
                                     atomic_write_bytes)
-                target = self.path / JOURNAL_FILE
-                target.unlink(missing_ok=True)
             except OSError as exc:
+                # not closed: in memory as on disk (header + journal), status running
+                self.data.update(status="running", finished_utc=None)
+                self.data.pop("seal", None)
                 self.write_error = self.write_error or RecordWriteError(target, exc)
                 raise RecordWriteError(target, exc) from exc
+            try:        # a journal left beside a finished record.json is never replayed
+                (self.path / JOURNAL_FILE).unlink(missing_ok=True)
+            except OSError:
+                pass
 
     def verify_captures(self) -> list[str]:
         """Problems with the capture files the record names (missing, altered, outside)."""
