@@ -9,9 +9,10 @@ hypothesis's costs ~1 s of start-up).
 Messages name this command's flags (``--operator``), not the plugin's (``--hil-operator``):
 see :data:`RUN_FLAGS`.
 
-Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C, SIGTERM)
-or bad input (a usage error, a selection that collects no point, a record folder or report
-path that cannot be written: refused before the bench is touched); 6 the bench could not be
+Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
+input (a usage error, a selection that collects no point, a record folder or report path that
+cannot be written: refused before the bench is touched; SIGTERM is an interruption, recorded as
+such); 6 the bench could not be
 opened (nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not
 run); 8 the record could not be written mid-run (full disk, read-only or forbidden folder: the
 drive made safe, the run stopped, the rest recorded as not run if the record can still be
