@@ -223,8 +223,10 @@ class SealCheck:
         if self.state == "unsigned":
             return ("unsigned (sealed before signing): its hashes can be rewritten by anyone, "
                     "so they prove nothing against a re-seal")
-        return f"signature {self.state.replace('-', ' ')}" + (
-            f" (key {self.fingerprint})" if self.fingerprint else "")
+        key = f" (key {self.fingerprint})" if self.fingerprint else ""
+        if self.state == "bad-signature":
+            return f"the signature does NOT match{key}"
+        return f"no valid signature{key}"
 
 
 def check_seal(folder: str | Path, data: dict, record_sha256: str,
