@@ -32,6 +32,7 @@ import hashlib
 import json
 import os
 import stat
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -75,11 +76,17 @@ def station_key(create: bool = True):
                                 serialization.NoEncryption())
         try:
             path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
-            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-            with os.fdopen(fd, "wb") as handle:
-                handle.write(pem)
-                handle.flush()
-                os.fsync(handle.fileno())
+            # written whole under a temporary name, then linked: another process sees either
+            # no key or the complete one, and the first link wins
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{KEY_FILE}.")   # mode 0600
+            try:
+                with os.fdopen(fd, "wb") as handle:
+                    handle.write(pem)
+                    handle.flush()
+                    os.fsync(handle.fileno())
+                os.link(tmp, path)
+            finally:
+                os.unlink(tmp)
         except FileExistsError:           # another process created it meanwhile
             return station_key(create=False)
         except OSError as exc:
