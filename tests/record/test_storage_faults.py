@@ -209,3 +209,27 @@ def test_check_writable_folder_probes_without_leaving_anything(tmp_path):
     (tmp_path / "f").write_text("")
     with pytest.raises(RecordWriteError, match="ENOTDIR"):
         check_writable_folder(tmp_path / "f" / "records")
+
+
+def test_the_session_refuses_unstorable_paths_before_the_bench(tmp_path, monkeypatch):
+    """``HilSession.storage_problem`` (the plugin asks before opening the bench): one line
+    naming the option as the user typed it; None when everything can be written."""
+    from ripple_hil_fixtures.session import HilSession, SessionOptions
+
+    monkeypatch.setenv(KEY_DIR_ENV, str(tmp_path / "keys"))
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    flags = {"--hil-record": "--record-dir", "--hil-report": "-o"}
+
+    def problem(**options):
+        return HilSession(SessionOptions(flags=flags, **options)).storage_problem()
+
+    assert problem(record_root=tmp_path / "records", report_path="auto") is None
+    assert problem(record_root=blocker / "records").startswith(
+        f"--record-dir {blocker / 'records'}: cannot create a folder in {blocker}")
+    assert "the file exists and a report is never overwritten" in problem(
+        record_root=tmp_path / "records", report_path=str(blocker))
+    (tmp_path / "keys" / "station_ed25519").write_text("not a key")     # made by the 1st call
+    (tmp_path / "keys" / "station_ed25519").chmod(0o600)
+    assert "is not a PEM private key" in problem(record_root=tmp_path / "records")
+    assert not (tmp_path / "records").exists()
