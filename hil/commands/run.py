@@ -10,9 +10,13 @@ Messages name this command's flags (``--operator``), not the plugin's (``--hil-o
 see :data:`RUN_FLAGS`.
 
 Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
-input (a usage error, or a selection that collects no point); 6 the bench could not be opened
-(nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not run);
-130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
+input (a usage error, a selection that collects no point, a record folder or report path that
+cannot be written: refused before the bench is touched; SIGTERM is an interruption, recorded as
+such); 6 the bench could not be
+opened (nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not
+run); 8 the record could not be written mid-run (full disk, read-only or forbidden folder: the
+drive made safe, the run stopped, the rest recorded as not run if the record can still be
+written); 130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
 """
 
 from __future__ import annotations
@@ -122,6 +126,7 @@ def build_pytest_args(args) -> list[str]:
     if SELF_CHECK in modules and SELF_CHECK not in selected:
         selected = [SELF_CHECK, *selected]
     _check_report_path(args)
+    _check_record_dir(args)
     if args.bench:
         from hil.config import load_bench
 
@@ -161,6 +166,28 @@ def _check_report_path(args) -> None:
                          "choose another path (or use hil report --reason for a revision)")
     if not target.parent.is_dir():
         raise InputError(f"-o {target}: folder {target.parent} does not exist")
+    _probe(f"-o {target}", target.parent)
+
+
+def _check_record_dir(args) -> None:
+    """A record folder that cannot be written, or a station signing key that cannot be made,
+    is refused before the bench opens (exit 2), not found after the first point."""
+    from hil.seal import StationKeyError, station_key
+
+    _probe(f"--record-dir {args.record_dir}", Path(args.record_dir))
+    try:
+        station_key()
+    except StationKeyError as exc:
+        raise InputError(str(exc)) from None
+
+
+def _probe(option: str, folder: Path) -> None:
+    from hil.record import RecordWriteError, check_writable_folder
+
+    try:
+        check_writable_folder(folder)
+    except RecordWriteError as exc:
+        raise InputError(f"{option}: {exc}") from None
 
 
 def unrelated_plugins() -> list[str]:

@@ -36,6 +36,13 @@ def full_pdf(full_record, tmp_path_factory) -> Path:
     return build_report(full_record, tmp_path_factory.mktemp("pdf") / "report.pdf")
 
 
+def unissued(folder: Path) -> None:
+    """A copied record as before any report was issued: the signed revision lines of
+    record.sig cut off (its seal line kept), so that the test starts at Rev. 1."""
+    sig = folder / "record.sig"
+    sig.write_text(sig.read_text().splitlines(keepends=True)[0])
+
+
 def page_texts(pdf: Path) -> list[str]:
     """Each page's text, without the zero-width spaces that mark break opportunities."""
     return [page.extract_text().replace(ZERO_WIDTH_SPACE, "")
@@ -172,7 +179,7 @@ def test_tampered_record_is_invalid_on_page_one(full_record, tmp_path, capsys):
     page 1 says INVALID and names the files; hil report and hil verify exit 1."""
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    (copy / "reports.jsonl").unlink(missing_ok=True)
+    unissued(copy)
     data = json.loads((copy / "record.json").read_text())
     flipped = copy / data["tests"][0]["capture"]["file"]
     raw = bytearray(flipped.read_bytes())
@@ -214,7 +221,7 @@ def test_disagreeing_reanalysis_is_reported(full_record, tmp_path):
 def test_a_second_report_is_a_new_revision(full_record, tmp_path, capsys):
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    (copy / "reports.jsonl").unlink(missing_ok=True)
+    unissued(copy)
     assert main(["report", str(copy)]) == 0
     first = page_texts(copy / "report.pdf")[0]
     assert main(["report", str(copy)]) == 2                      # no reason: refused
@@ -233,7 +240,7 @@ def test_cli_writes_the_report(full_record, tmp_path, capsys):
     out = tmp_path / "cli.pdf"
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    (copy / "reports.jsonl").unlink(missing_ok=True)
+    unissued(copy)
     assert main(["report", str(copy), "-o", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["pdf"] == str(out) and out.is_file() and summary["overall"] == "FAIL"
