@@ -211,8 +211,11 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
          else "not stated"),
         ("Tested (UTC)", f"{record.get('created_utc')} to "
                          f"{record.get('finished_utc') or 'not finished'}"),
-        ("Report date", f"{_record_date(record).date().isoformat()} (the record's last date)"),
+        ("Report date", f"{(revision.issued_utc or utc_now())[:10]} (date of issue; the run's "
+                        "dates: Tested, above)"),
         ("Method", f"ripple-hil test plans; reference: {REFERENCE}"),
+        ("Seal", "Ed25519, key " + ((record.get("seal") or {}).get("fingerprint")
+                                    or "none (sealed before signing)")),
         ("Operator", f"{operator} (given on the command line)" if operator else
          f"{lab.get('operator')} (bench file; none given on the command line)"
          if lab.get("operator") else "not given"),

@@ -75,17 +75,18 @@ STATUS_TEXT = {
     "stopped": "stopped early by pytest (-x / --maxfail)",
     "partial-selection": "partial selection: some collected points were deselected",
     "failed": "the test session itself failed (internal error)",
+    "storage-error": "stopped: the record could not be written (the run section's storage_error "
+                     "names the file and errno)",
 }
 
 
 def run_status_text(record: dict) -> str:
     """Statement 4's run part: the status's meaning, and for an interrupted run the signal the
-    record names (``run.interruption.signal``): "interrupted (Ctrl-C)" only for SIGINT or when
-    no signal is recorded."""
+    record's ``interruption`` section names (``fixtures.session``): "interrupted (Ctrl-C)" only
+    for SIGINT or when no signal is recorded."""
     status = record.get("status")
-    run = record.get("run") or {}
-    signal = (run.get("interruption") or {}).get("signal") if isinstance(
-        run.get("interruption"), dict) else run.get("signal")
+    interruption = record.get("interruption")
+    signal = interruption.get("signal") if isinstance(interruption, dict) else None
     if status in ("interrupted", "terminated") and signal not in (None, "SIGINT"):
         return (STATUS_TEXT["terminated"] if signal == "SIGTERM" else
                 f"interrupted by {signal}: the bench was left safe")

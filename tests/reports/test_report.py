@@ -93,6 +93,20 @@ def test_page_one_states_the_four_verdicts_apart(full_pdf):
     assert "Signature:" in first and "Date:" in first and "Rev. 1" in first
 
 
+def test_page_one_dates_the_report_by_its_issue_and_names_the_seal(full_record, full_pdf):
+    """Issue 22 item 8: the report date is the date of issue (the revision's), not the record's
+    last date; the seal line names the signing key or says there was none."""
+    from ripple_hil_reports.revisions import issued
+
+    first = flat_lines(page_texts(full_pdf)[0])
+    printed = re.search(r"Report date (\d{4}-\d{2}-\d{2}) \(date of issue", first)
+    assert printed, first
+    logged = [entry for entry in issued(full_record) if entry.get("revision") == 1]
+    assert logged and printed.group(1) == logged[0]["issued_utc"][:10]
+    assert printed.group(1) != "2026-11-21"          # the record's own (test) dates
+    assert "Seal Ed25519, key " in first
+
+
 def flat_lines(text: str) -> str:
     return re.sub(r"\s+", " ", text)
 

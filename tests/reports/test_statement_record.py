@@ -109,11 +109,12 @@ def test_a_requirement_that_judged_no_point_is_not_stated_beside_one_that_passed
 def test_a_sigterm_is_not_called_ctrl_c():
     interrupted = {"status": "interrupted", "tests": []}
     assert run_status_text(interrupted) == "interrupted (Ctrl-C)"
-    assert run_status_text(interrupted | {"run": {"interruption": {"signal": "SIGINT"}}}) \
+    # the record's "interruption" section, as fixtures.session writes it
+    assert run_status_text(interrupted | {"interruption": {"signal": "SIGINT"}}) \
         == "interrupted (Ctrl-C)"
-    text = run_status_text(interrupted | {"run": {"interruption": {"signal": "SIGTERM"}}})
+    text = run_status_text(interrupted | {"interruption": {"signal": "SIGTERM"}})
     assert text.startswith("terminated (SIGTERM)") and "Ctrl-C" not in text
     assert run_status_text({"status": "terminated"}).startswith("terminated (SIGTERM)")
     stated = overall_statement(record(point("b", "baseline"), status="interrupted",
-                                      run={"interruption": {"signal": "SIGTERM"}}), None)
+                                      interruption={"signal": "SIGTERM"}), None)
     assert stated.run.startswith("terminated (SIGTERM)") and "Ctrl-C" not in stated.reason
