@@ -44,7 +44,8 @@ def plan_modules() -> dict[str, Path]:
 #: pytest plugins (entry-point names) that ``hil run`` keeps; every other one is not loaded.
 KEPT_PLUGINS = ("ripple_hil", "timeout")
 #: ``hil run`` option → the plugin option it fills in (each also accepted as ``--hil-...``).
-PLUGIN_OPTIONS = {"operator": "--hil-operator",
+PLUGIN_OPTIONS = {"operator": "--hil-operator", "results_db": "--hil-results-db",
+                  "dut_serial": "--hil-dut-serial",
                   "allow_expired_calibration": "--hil-allow-expired-calibration",
                   "customer": "--hil-customer", "authorizer": "--hil-authorizer",
                   "authorizer_function": "--hil-authorizer-function",
@@ -80,6 +81,12 @@ def register(subparsers) -> None:
     parser.add_argument("--allow-expired-calibration", metavar="REASON",
                         help="run although an instrument is past its calibration due date "
                              "(recorded with --operator, stated on page 1)")
+    parser.add_argument("--results-db", metavar="URL",
+                        help="results database the sealed record is indexed in (SQLAlchemy URL "
+                             "or 'off'; default: RIPPLE_HIL_RESULTS_DB, the bench file's [results] "
+                             "url, else results.sqlite in the record folder's parent)")
+    parser.add_argument("--dut-serial", metavar="SN",
+                        help="serial number of the unit under test (recorded and indexed)")
     parser.add_argument("--customer", metavar="TEXT", help="customer named on the report")
     parser.add_argument("--authorizer", metavar="NAME",
                         help="person authorizing the report (default: the bench file's [lab])")
