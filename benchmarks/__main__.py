@@ -150,6 +150,18 @@ BENCHMARKS: tuple[Benchmark, ...] = (
          Pattern(r"N=(?P<n>\d+):\s*" + _v(r"h"), "projected_1e6_twin_drives_N{n}_h", "h",
                  required=False)),
         "yield campaigns: closed-form drives/s, twin drive-s per wall s on 1 and 2 Dask workers"),
+    Benchmark(
+        "results_db", "results_bench.py", (), ("--quick",),
+        (Pattern(r"ingest of a 53-test run, (?P<db>\w+):\s*" + _v(r"s"), "ingest_53_tests_{db}_s",
+                 "s"),
+         Pattern(r"hil history \(newest 50 of \d+ runs\), (?P<db>\w+):\s*" + _v(r"s"),
+                 "history_{db}_s", "s"),
+         Pattern(r"hil trend --requirement over \d+ runs, (?P<db>\w+):\s*" + _v(r"s"),
+                 "trend_requirement_{db}_s", "s"),
+         Pattern(r"hil trend --source over \d+ runs, (?P<db>\w+):\s*" + _v(r"s"),
+                 "trend_source_{db}_s", "s")),
+        "results database: ingest of a 53-test run, history/trend over 10,000 synthetic runs "
+        "(goal: ingest <= 0.2 s, queries <= 1 s)"),
 )
 
 

@@ -304,9 +304,19 @@ class RequirementsRef:
     file: Path | None = _key(None, "path")
 
 
+@dataclass(frozen=True)
+class ResultsRef:
+    """``[results]``: where the results database indexes this bench's sealed records
+    (:mod:`hil.results`): an SQLAlchemy URL, e.g. ``postgresql://user@host/ripple`` or
+    ``sqlite:///records/results.sqlite``; ``"off"`` indexes nothing. None: the default (an SQLite
+    file beside the records), unless ``--results-db`` or ``RIPPLE_HIL_RESULTS_DB`` says otherwise."""
+
+    url: str | None = _key(None, "str")
+
+
 _SECTIONS: dict[str, type] = {"drive": DriveConfig, "daq": DaqConfig, "torque": TorqueConfig,
                               "limits": Limits, "operating_point": OperatingPoint, "lab": LabInfo,
-                              "requirements": RequirementsRef}
+                              "requirements": RequirementsRef, "results": ResultsRef}
 _TOP_KEYS = ("simulated", "motor", *_SECTIONS, "instrument", "simulation")
 
 
@@ -327,6 +337,7 @@ class BenchConfig:
     instruments: tuple[InstrumentEntry, ...]
     lab: LabInfo
     requirements: RequirementsRef = field(default_factory=RequirementsRef)
+    results: ResultsRef = field(default_factory=ResultsRef)
     source: str | None = field(default=None, compare=False)  # bench file path, or a label
     sha256: str | None = field(default=None, compare=False)  # of the file bytes (or canonical JSON)
     raw: dict = field(default_factory=dict, repr=False, compare=False)

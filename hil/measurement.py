@@ -15,10 +15,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 from hil.analysis import ANALYSES, DecisionRule, RippleResult, Verdict, decide, run_analysis
+from hil.analysis.decision import with_phase
 from hil.bench import Bench
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, predict
 from hil.model.core import MEAN_TORQUE_BASE
+from hil.outcome_kinds import MEASURED
 from hil.record import RunRecord, utc_now
 
 #: The source name of a point with nothing injected (the bench's own ripple).
@@ -61,6 +63,11 @@ class PointPlan:
     #: ``checks(capture, result, plan, bench) -> list[dict]``: bench self-checks on this point's
     #: capture (:mod:`hil.selfcheck`); recorded as the entry's ``checks``, any failure fails it.
     checks: Callable | None = field(default=None, compare=False)
+    #: ``phase(result, prediction, plan, bench) -> PhaseVerdict | None``: the order phase judged
+    #: against the model's (design.md §9, :func:`hil.analysis.decision.decide_phase`); recorded
+    #: in the entry's ``verdict`` as ``phase``; the verdict's decision is the worse of magnitude
+    #: and phase (:func:`hil.analysis.decision.with_phase`), so a wrong phase fails the point.
+    phase: Callable | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -114,6 +121,7 @@ class PointOutcome:
     entry: dict
     requirements: list = field(default_factory=list)
     checks: list = field(default_factory=list)
+    phase_verdict: object | None = None
 
     @property
     def failed_requirements(self) -> list[dict]:
@@ -128,6 +136,7 @@ class PointOutcome:
         """The model verdict (if any) passes, every requirement is accepted, every self-check
         holds."""
         return ((self.verdict is None or self.verdict.guarded_pass)
+                and (self.phase_verdict is None or self.phase_verdict.guarded_pass)
                 and not self.failed_requirements and not self.failed_checks)
 
     def summary(self) -> str:
@@ -150,6 +159,10 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                   nodeid: str | None = None, requirements=()) -> PointOutcome:
     """Run one point on ``bench`` and record it; raises after recording if anything fails.
 
+    A point that nothing judges — no model rule (``plan.rule`` None), no requirement that
+    applies, no self-check — is recorded "measured, no verdict" (``hil.outcome_kinds.MEASURED``,
+    design.md §9), never "passed"; the plugin keeps that outcome when the test passes.
+
     The model verdict compares pk-pk per unit of the *nameplate* mean torque K_t·I·cos φ (the
     paper's base, :attr:`hil.model.OperatingPoint.mean_torque_nm`) on both sides, so that a weak
     drive or a transducer scale error cannot move the prediction; the variant per unit of the
@@ -169,7 +182,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     chosen = applicable(tuple(requirements) + tuple(plan.requirements), source=plan.source,
                         speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                         injection=plan.injection)
-    prediction = verdict = predicted_pu = nameplate_nm = None
+    prediction = verdict = predicted_pu = nameplate_nm = phase_verdict = None
     try:
         check_unique(chosen)
         bench.check_command(current_a=plan.current_a, speed_rpm=plan.speed_rpm)
@@ -192,6 +205,9 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
             verdict = decide(result, predicted_pu, order, plan.rule,
                              base_scale=abs(result.mean_torque_nm) / nameplate_nm,
                              expected_range_pu=expected_range)
+            if plan.phase is not None:
+                phase_verdict = plan.phase(result, prediction, plan, bench)
+                verdict = with_phase(verdict, phase_verdict)
         judged = [judge(req, result, torque_accuracy_nm=_torque_accuracy_nm(bench))
                   for req in chosen]
         checks = plan.checks(capture, result, plan, bench) if plan.checks else None
@@ -199,17 +215,22 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         entry.update(outcome="error", error=f"{type(exc).__name__}: {exc}")
         _add_safely(record, entry)
         raise
-    accepted = ((verdict is None or verdict.guarded_pass) and all(r["accepted"] for r in judged)
+    accepted = ((verdict is None or verdict.guarded_pass)
+                and (phase_verdict is None or phase_verdict.guarded_pass)
+                and all(r["accepted"] for r in judged)
                 and all(c["passed"] for c in checks or ()))
     if checks is not None:
         entry["checks"] = checks
     entry.update(
-        outcome="passed" if accepted else "failed",
+        outcome=(MEASURED if verdict is None and not judged and checks is None else
+                 "passed" if accepted else "failed"),
         measured=result.to_dict() | {"analysis_settings": settings},
         uncertainty=result.uncertainty.to_dict(),
         requirements=judged,
         verdict=verdict.to_dict() if verdict is not None else None,
     )
+    if phase_verdict is not None:
+        entry["verdict"]["phase"] = phase_verdict.to_dict()
     if prediction is not None:
         entry["prediction"] = _thinned(prediction.to_dict()) | {
             "pk_pk_pu_of_nameplate_mean": predicted_pu,
@@ -217,7 +238,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
             "pk_pk_pu_of_measured_mean": prediction.pk_pk_nm / abs(result.mean_torque_nm)}
     record.add_test(entry)
     return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry, judged,
-                        checks or [])
+                        checks or [], phase_verdict)
 
 
 def _torque_accuracy_nm(bench: Bench) -> float | None:

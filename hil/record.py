@@ -13,7 +13,16 @@ an edited line — or an edited header — is found by :func:`load_record` (``jo
 :func:`verify_record`. Without a secret key this is evidence of careless or partial edits, not a
 signature: whoever rewrites every later line can forge the chain, and lines cut from the end
 leave no trace. An unsealed record (a run killed before :meth:`RunRecord.finish`) is never
-"intact": ``hil verify`` says it is not sealed.
+"intact": ``hil verify`` says it is not sealed. The seal is signed with the station's Ed25519 key
+(``record.sig``, :mod:`hil.seal`), which a user who re-hashes an edited record cannot redo.
+
+Storage faults (issue 22 item 6): any ``OSError`` writing the record (a full disk, a read-only
+or forbidden folder) raises :class:`RecordWriteError`, one line naming the file and the errno.
+The journal is then abandoned (a torn line may end it: :func:`load_record` drops it), later
+events are kept in memory only, and :meth:`RunRecord.finish` tries once to write the whole
+record and its seal; if that fails too, the folder keeps what was written (header and journal,
+status ``running``) and the error says so. A run stopped by a storage fault ends with status
+``storage-error`` and exit code :data:`EXIT_STORAGE`.
 
 A test's raw capture is saved *before* it is analysed (:meth:`RunRecord.save_capture`); until its
 test entry is added, the capture is listed under ``pending_captures`` so its SHA-256 is never lost.
@@ -45,6 +54,10 @@ import hil
 from hil.capture import Capture, atomic_write_bytes
 from hil.config import BenchConfig
 from hil.errors import HilError, InputError
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
+
+#: ``hil run`` / pytest exit code of a run stopped because its record could not be written.
+EXIT_STORAGE = 8
 
 FORMAT = "ripple-hil-record/2"
 #: Formats :func:`load_record` reads (version 1: record.json rewritten per test, no seal).
@@ -56,11 +69,14 @@ CAPTURE_DIR = "captures"
 #: ``complete``: every selected test ran to its end on a live bench; ``interrupted``: Ctrl-C;
 #: ``aborted``: the bench was lost (``run.abort`` says which instrument and when); ``stopped``:
 #: pytest stopped early (-x / --maxfail); ``partial-selection``: some collected points were
-#: deselected (-k, -m, --deselect); ``failed``: the session itself failed (internal error).
+#: deselected (-k, -m, --deselect); ``failed``: the session itself failed (internal error);
+#: ``storage-error``: the record could not be written (``run.storage_error`` says which file
+#: and errno) and the run was stopped there.
 STATUSES = ("running", "complete", "interrupted", "aborted", "stopped", "partial-selection",
-            "failed")
+            "failed", "storage-error")
 FINAL_STATUSES = STATUSES[1:]
-OUTCOMES = ("passed", "failed", "error", "skipped", "xfailed", "xpassed", "not run")
+OUTCOMES = ("passed", "failed", "error", "skipped", "xfailed", "xpassed", "not run",
+            NOT_DETERMINABLE, MEASURED)
 #: Outcomes that make a statement of conformity impossible to give as PASS.
 BAD_OUTCOMES = ("failed", "error")
 KINDS = ("measurement", "self_check", "ripple_map", "diagnosis", "other")
@@ -77,9 +93,58 @@ _UPDATABLE_KEYS = ("outcome", "phase", "message", "kind", "requirements", "check
 #: Top-level keys that :meth:`RunRecord.set_section` must not replace.
 _RESERVED = ("format", "record_id", "created_utc", "finished_utc", "status", "software", "bench",
              "instruments", "tests", "pending_captures", "calibration_overrides",
-             "decision_rule")
+             "decision_rule", "seal")
 _INSTRUMENT_KEYS = ("role", "model", "serial_number", "range", "accuracy_class", "resolution",
                     "calibration_date", "calibration_due")
+
+
+class RecordWriteError(HilError):
+    """The run record could not be written: ``path`` (the file), ``errno`` and ``strerror`` of
+    the operating system's error (ENOSPC, EROFS, EACCES, ...)."""
+
+    def __init__(self, path: str | Path, error: OSError, what: str = "write") -> None:
+        import errno as _errno
+
+        self.path = str(path)
+        self.errno = error.errno
+        self.errno_name = _errno.errorcode.get(error.errno or 0, "no errno")
+        self.strerror = error.strerror or str(error)
+        super().__init__(f"cannot {what} {self.path}: {self.strerror} ({self.errno_name})")
+
+    def to_dict(self) -> dict:
+        return {"path": self.path, "errno": self.errno, "errno_name": self.errno_name,
+                "strerror": self.strerror}
+
+
+def storage_error_of(error: BaseException | None) -> "RecordWriteError | None":
+    """The :class:`RecordWriteError` behind ``error`` (itself, its cause or context), if any."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, RecordWriteError):
+            return error
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return None
+
+
+def check_writable_folder(folder: str | Path) -> None:
+    """RecordWriteError unless files can be created in ``folder`` (or, if it does not exist
+    yet, in its nearest existing parent): probed by creating and removing an empty file, which
+    also catches a read-only mount or a root that ignores permission bits. Leaves nothing."""
+    import errno as _errno
+    import tempfile
+
+    folder = Path(folder).absolute()
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("/"))
+    if not existing.is_dir():
+        raise RecordWriteError(existing, NotADirectoryError(
+            _errno.ENOTDIR, os.strerror(_errno.ENOTDIR)), "create a folder in")
+    try:
+        handle, probe = tempfile.mkstemp(dir=existing, prefix=".ripple-hil-probe-")
+        os.close(handle)
+        os.unlink(probe)
+    except OSError as exc:
+        raise RecordWriteError(existing, exc, "write in") from None
 
 
 def utc_now() -> str:
@@ -201,6 +266,8 @@ class RunRecord:
         self._lock = threading.RLock()
         self._journal = None
         self._chain: str | None = None
+        #: the first storage fault (journal abandoned: later events kept in memory only)
+        self.write_error: RecordWriteError | None = None
 
     # ------------------------------------------------------------------ create / open
     @classmethod
@@ -217,7 +284,10 @@ class RunRecord:
         folder = Path(root) / (safe_test_name(name) if name else record_id)
         if (folder / RECORD_FILE).exists():
             raise InputError(f"record folder {str(folder)!r} already holds a {RECORD_FILE}")
-        (folder / CAPTURE_DIR).mkdir(parents=True, exist_ok=True)
+        try:
+            (folder / CAPTURE_DIR).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RecordWriteError(exc.filename or folder / CAPTURE_DIR, exc, "create") from exc
         data = {
             "format": FORMAT,
             "record_id": record_id,
@@ -239,7 +309,10 @@ class RunRecord:
             _check_section_name(key)
             data[key] = to_jsonable(value)
         record = cls(folder, data)
-        _write_json(folder / RECORD_FILE, data)
+        try:
+            _write_json(folder / RECORD_FILE, data)
+        except OSError as exc:
+            raise RecordWriteError(folder / RECORD_FILE, exc) from exc
         return record
 
     @classmethod
@@ -323,7 +396,11 @@ class RunRecord:
             if target.exists():
                 raise HilError(f"record: a capture for test {test_id!r} already exists "
                                f"({relative}); test ids must be unique within a run")
-            sha256 = capture.save(target)
+            try:
+                sha256 = capture.save(target)
+            except OSError as exc:
+                self.write_error = self.write_error or RecordWriteError(target, exc)
+                raise RecordWriteError(target, exc) from exc
             info = {"file": relative, "sha256": sha256, "n_samples": len(capture),
                     "sample_rate_hz": to_jsonable(capture.meta.get("sample_rate_hz",
                                                                    _rate_from_time(capture)))}
@@ -373,17 +450,39 @@ class RunRecord:
         if status not in FINAL_STATUSES:
             raise InputError(f"record: finish status = {status!r}; allowed: "
                              f"{', '.join(FINAL_STATUSES)}")
+        from hil import seal
+
         with self._lock:
             self._require_running()
+            try:
+                key, unsigned = seal.station_key(), None
+            except seal.StationKeyError as exc:
+                key, unsigned = None, str(exc)
+            self.data["seal"] = (seal.seal_section(key, self._chain) if key is not None
+                                 else {"unsigned_reason": unsigned})
             self.data["status"] = status
             self.data["finished_utc"] = utc_now()
-            raw = _write_json(self.path / RECORD_FILE, self.data)
-            atomic_write_bytes(self.path / SEAL_FILE,
-                               f"{hashlib.sha256(raw).hexdigest()}  {RECORD_FILE}\n".encode())
-            self._close_journal()
-            journal = self.path / JOURNAL_FILE
-            if journal.exists():
-                journal.unlink()
+            target = self.path / RECORD_FILE
+            try:
+                self._close_journal()
+                raw = _write_json(target, self.data)
+                digest = hashlib.sha256(raw).hexdigest()
+                target = self.path / SEAL_FILE
+                atomic_write_bytes(target, f"{digest}  {RECORD_FILE}\n".encode())
+                if key is not None:
+                    target = self.path / seal.SIG_FILE
+                    seal.write_seal(self.path, self.record_id, digest, self._chain, key,
+                                    atomic_write_bytes)
+            except OSError as exc:
+                # not closed: in memory as on disk (header + journal), status running
+                self.data.update(status="running", finished_utc=None)
+                self.data.pop("seal", None)
+                self.write_error = self.write_error or RecordWriteError(target, exc)
+                raise RecordWriteError(target, exc) from exc
+            try:        # a journal left beside a finished record.json is never replayed
+                (self.path / JOURNAL_FILE).unlink(missing_ok=True)
+            except OSError:
+                pass
 
     def verify_captures(self) -> list[str]:
         """Problems with the capture files the record names (missing, altered, outside)."""
@@ -398,22 +497,35 @@ class RunRecord:
     def _apply(self, event: dict) -> None:
         """Append ``event`` to the journal (flushed and fsynced, chained to the line before),
         then apply it in memory."""
-        if self._chain is None:
-            self._chain = _journal_tail(self.path)
-        self._chain = chain_hash(self._chain, event)
-        line = json.dumps(event | {"chain": self._chain}, allow_nan=False,
-                          separators=(",", ":")) + "\n"
-        if self._journal is None:
-            self._journal = open(self.path / JOURNAL_FILE, "a", encoding="utf-8")
-        self._journal.write(line)
-        self._journal.flush()
-        os.fsync(self._journal.fileno())
+        if self.write_error is not None:      # journal abandoned: finish() writes it all
+            apply_event(self.data, event)
+            return
+        try:
+            if self._chain is None:
+                self._chain = _journal_tail(self.path)
+            chain = chain_hash(self._chain, event)
+            line = json.dumps(event | {"chain": chain}, allow_nan=False,
+                              separators=(",", ":")) + "\n"
+            if self._journal is None:
+                self._journal = open(self.path / JOURNAL_FILE, "a", encoding="utf-8")
+            self._journal.write(line)
+            self._journal.flush()
+            os.fsync(self._journal.fileno())
+        except OSError as exc:
+            self.write_error = RecordWriteError(self.path / JOURNAL_FILE, exc)
+            apply_event(self.data, event)
+            try:
+                self._close_journal()
+            except OSError:
+                pass
+            raise self.write_error from exc
+        self._chain = chain
         apply_event(self.data, event)
 
     def _close_journal(self) -> None:
-        if self._journal is not None:
-            self._journal.close()
-            self._journal = None
+        journal, self._journal = self._journal, None
+        if journal is not None:
+            journal.close()
 
 
 def chain_hash(previous: str, event: dict) -> str:
@@ -564,30 +676,47 @@ def _replay_journal(folder: Path, data: dict) -> None:
         data["journal_problems"] = problems
 
 
-def verify_record(folder: str | Path, data: dict | None = None) -> list[str]:
+def verify_record(folder: str | Path, data: dict | None = None,
+                  trusted: dict[str, str] | None = None) -> list[str]:
     """Every integrity problem of a record: its seal (a finished record's ``record.json`` must
-    hash to ``record.sha256``) and every capture it names (:func:`verify_captures`)."""
+    hash to ``record.sha256`` and carry a valid signature by a trusted key, :mod:`hil.seal`)
+    and every capture it names (:func:`verify_captures`). A record sealed before signing has no
+    signature problem here (:func:`seal_check` says "unsigned")."""
     folder = _record_folder(folder)
     data = data if data is not None else load_record(folder)
-    return (list(data.get("journal_problems") or []) + verify_seal(folder, data)
+    return (list(data.get("journal_problems") or []) + verify_seal(folder, data, trusted)
             + verify_captures(folder, data))
 
 
-def verify_seal(folder: str | Path, data: dict) -> list[str]:
-    """Problems with the seal of a finished record (none for a running or format-1 record)."""
+def verify_seal(folder: str | Path, data: dict, trusted: dict[str, str] | None = None
+                ) -> list[str]:
+    """Problems with the seal of a finished record (none for a running or format-1 record):
+    the SHA-256 of ``record.sha256`` and the signature of ``record.sig``."""
     folder = _record_folder(folder)
     if data.get("status") == "running" or data.get("format") != FORMAT:
         return []
-    seal = folder / SEAL_FILE
+    problems = []
     try:
-        expected = seal.read_text(encoding="ascii").split()[0]
+        expected = (folder / SEAL_FILE).read_text(encoding="ascii").split()[0]
     except (OSError, UnicodeDecodeError, IndexError):
-        return [f"{RECORD_FILE} is not sealed: {SEAL_FILE} is missing or unreadable"]
+        problems.append(f"{RECORD_FILE} is not sealed: {SEAL_FILE} is missing or unreadable")
+        expected = None
     digest = _sha256_file(folder / RECORD_FILE)
-    if digest != expected:
-        return [f"{RECORD_FILE} has SHA-256 {digest}, its seal {SEAL_FILE} says {expected}: "
-                f"the record was changed after the run finished"]
-    return []
+    if expected is not None and digest != expected:
+        problems.append(f"{RECORD_FILE} has SHA-256 {digest}, its seal {SEAL_FILE} says "
+                        f"{expected}: the record was changed after the run finished")
+    return problems + seal_check(folder, data, trusted).problems
+
+
+def seal_check(folder: str | Path, data: dict, trusted: dict[str, str] | None = None):
+    """The signature state of a finished record (:class:`hil.seal.SealCheck`); None for a
+    running or format-1 record (nothing is sealed)."""
+    from hil.seal import check_seal
+
+    folder = _record_folder(folder)
+    if data.get("status") == "running" or data.get("format") != FORMAT:
+        return None
+    return check_seal(folder, data, _sha256_file(folder / RECORD_FILE), trusted)
 
 
 def verify_captures(folder: str | Path, data: dict | None = None) -> list[str]:

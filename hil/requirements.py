@@ -9,10 +9,12 @@ A requirement is the customer's specification line, e.g. "REQ-12: total ripple �
   of the mean torque), ``rms_pct`` (RMS of the AC part in % of the mean torque), ``mean_torque_nm``;
 * ``limit`` — ``{max = …}``, ``{min = …}`` or both, in the quantity's ``unit``;
 * where it applies — ``source`` (plan names, default every plan), ``speed_rpm`` and ``current_a``
-  as a value or an inclusive ``[low, high]`` range, ``injected`` (``"none"``: only points with
-  nothing injected, the drive as it is; ``"any"``), ``injection`` (a table of knob = value that
-  the point's injection must contain, e.g. ``{encoder_decimation = 100}`` for the production
-  encoder);
+  as a value or an inclusive ``[low, high]`` range, ``injected`` (``"none"``, the default: only
+  points with nothing injected — the drive as it is, not the faults the plans inject on purpose;
+  ``"any"``: every point, injected or not), ``injection`` (a table of knob = value that the
+  point's injection must contain, e.g. ``{encoder_decimation = 100}`` for the production
+  encoder; a line that names an injection wants injected points, so its default is ``"any"``
+  and ``injected = "none"`` beside it is refused as a contradiction);
 * ``rule`` — ``"guarded"`` (ILAC-G8 guarded acceptance, guard band w = U, the default) or
   ``"simple"`` (ILAC-G8 simple acceptance: measured value against the limit, U reported);
 * ``demonstration`` — true for a line that exists to show the FAIL path (labelled in the report).
@@ -28,7 +30,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -60,7 +62,9 @@ class Requirement:
     sources: tuple[str, ...] = ()
     speed_rpm: tuple[float, float] | None = None
     current_a: tuple[float, float] | None = None
-    injected: str = "any"
+    #: "none" | "any"; None: "any" when ``injection`` names knobs, else "none" (the drive as
+    #: it is)
+    injected: str | None = None
     injection: tuple[tuple[str, Any], ...] = ()
     rule: str = "guarded"
     demonstration: bool = False
@@ -91,9 +95,14 @@ class Requirement:
             raise InputError(f"{where}: order is only used with quantity = order_amplitude_pct")
         if self.rule not in RULES:
             raise InputError(f"{where}: rule = {self.rule!r}; allowed: {', '.join(RULES)}")
+        if self.injected is None:
+            object.__setattr__(self, "injected", "any" if self.injection else "none")
         if self.injected not in INJECTED:
             raise InputError(f"{where}: injected = {self.injected!r}; allowed: "
                              f"{', '.join(INJECTED)}")
+        if self.injected == "none" and self.injection:
+            raise InputError(f"{where}: injected = \"none\" contradicts injection = "
+                             f"{dict(self.injection)}; drop one of them")
 
     @property
     def unit(self) -> str:
@@ -117,8 +126,10 @@ class Requirement:
                 parts.append(f"{low:g} {unit}" if low == high else f"{low:g}…{high:g} {unit}")
         if self.injected == "none":
             parts.append("nothing injected")
+        elif not self.injection:
+            parts.append("injected or not")
         parts += [f"{knob} = {value}" for knob, value in self.injection]
-        return ", ".join(parts) or "every point"
+        return ", ".join(parts)
 
     def applies(self, *, source: str, speed_rpm: float, current_a: float,
                 injection: dict) -> bool:
@@ -172,7 +183,7 @@ def requirement_from_dict(table: Any, *, origin: str = "plan") -> Requirement:
         order=table.get("order"), sources=sources,
         speed_rpm=_span(table.get("speed_rpm"), f"{where}: speed_rpm", magnitude=True),
         current_a=_span(table.get("current_a"), f"{where}: current_a", magnitude=True),
-        injected=table.get("injected", "any"),
+        injected=table.get("injected"),
         injection=_knobs(table.get("injection", {}), f"{where}: injection"),
         rule=table.get("rule", "guarded"),
         demonstration=_flag(table.get("demonstration", False), f"{where}: demonstration"),
@@ -318,3 +329,45 @@ def _flag(value: Any, where: str) -> bool:
     if not isinstance(value, bool):
         raise InputError(f"{where} = {value!r} must be true or false")
     return value
+
+
+def scope_problems(requirements, points: dict, *, selected: set[str], known: set[str],
+                   measured_elsewhere: set[str] = frozenset()) -> list[str]:
+    """Requirement lines that would silently judge nothing (issue 22 item 2), one line each:
+
+    - a ``source`` that is no test plan (``known``: every plan name; e.g. ``"basline"``);
+    - a line whose plans are selected in this run (``selected``) but that applies to none of
+      their points (``points``: ``{test id: PointPlan}`` built from the bench file; e.g. a
+      speed no point runs at, or injected points with the default ``injected = "none"``).
+
+    A line whose plans are all not selected is not refused here (the run's statement 1 names it
+    as applied to no measured point); nor is one whose selected plans include one whose points
+    the pre-flight cannot build (``measured_elsewhere``: sources with tests outside ``points``)."""
+    problems = []
+    for req in requirements:
+        unknown = [name for name in req.sources if name not in known]
+        if unknown:
+            problems.append(f"requirement {req.id}: source {', '.join(map(repr, unknown))} is "
+                            f"not a test plan; allowed: {', '.join(sorted(known))}")
+            continue
+        scope = (set(req.sources) or set(selected)) & set(selected)
+        if not scope or scope & set(measured_elsewhere):
+            continue
+        plans = [plan for plan in points.values() if plan.source in scope]
+        if any(req.applies(source=p.source, speed_rpm=p.speed_rpm, current_a=p.current_a,
+                           injection=p.injection) for p in plans):
+            continue
+        speeds = sorted({abs(p.speed_rpm) for p in plans})
+        currents = sorted({p.current_a for p in plans})
+        hint = ""
+        anywhere = replace(req, injected="any")
+        if req.injected == "none" and any(
+                anywhere.applies(source=p.source, speed_rpm=p.speed_rpm, current_a=p.current_a,
+                                 injection=p.injection) for p in plans):
+            hint = ("; it would judge injected points: give injected = \"any\" or name the "
+                    "injection if it should")
+        problems.append(f"requirement {req.id} ({req.applies_to_text()}) applies to no point "
+                        f"of the selected plan(s) {', '.join(sorted(scope))} (their points: "
+                        f"{', '.join(f'{v:g}' for v in speeds)} rpm; "
+                        f"{', '.join(f'{v:g}' for v in currents)} A){hint}")
+    return problems

@@ -9,7 +9,10 @@ Run on one capture with nothing injected, at a point where the drive regulates i
   channel or a drive that does not deliver what it is told;
 * **speed** — the speed from the encoder counts against the dyno setpoint: catches a wrong time
   base (dropped or duplicated samples) or encoder scaling;
-* **sampling** — the number of samples against the capture length × rate, uniform time base.
+* **sampling** — the number of samples against the capture length × rate, uniform time base;
+* **transducer dynamics** — one injected ripple order measured at two speeds: the ratio of the
+  two phasors against the bench file's first-order transducer bandwidth (amplitude and phase;
+  :func:`transducer_response`): catches a transducer that lags more than the bench file states.
 
 Each check is a dict ``{name, measured, expected, unit, tolerance, passed, detail}`` (the record
 contract). A failed self-check voids every other verdict of the run.
@@ -92,3 +95,66 @@ def sampling(capture: Capture, duration_s: float, rate_hz: float) -> dict:
     return check("sampling", len(time_s) if uniform else math.nan, expected, "samples", 0.0,
                  f"samples received vs {duration_s:.4g} s × {rate_hz:g} Hz; time base "
                  + ("uniform" if uniform else "NOT uniform"))
+
+
+def order_phasor(result, order: int) -> tuple[complex, float]:
+    """(A_k·e^{jφ_k} per unit of the mean torque, the expanded relative U of A_k, k = 2) of an
+    analysed capture (``hil.analysis.RippleResult``)."""
+    amplitude = float(result.amplitude_nm[order - 1])
+    phasor = amplitude * complex(math.cos(result.phase_rad[order - 1]),
+                                 math.sin(result.phase_rad[order - 1])) / result.mean_torque_nm
+    u_rel = 2.0 * float(result.amplitude_u_nm[order - 1]) / amplitude if amplitude > 0 \
+        else math.inf
+    return phasor, u_rel
+
+
+def signal_resolved(result, order: int, speed_rpm: float) -> dict:
+    """The dynamics check's test signal (an injected order) is resolved: A_k > 10·U(A_k), so
+    that its phase is known to better than ≈ 0.1 rad. Fails when the drive did not produce it
+    (then the transducer's dynamics cannot be checked)."""
+    _, u_rel = order_phasor(result, order)
+    return check(f"transducer dynamics: order-{order} test signal at {speed_rpm:g} rpm",
+                 u_rel, 0.0, "1 (U(A)/A)", 0.1,
+                 f"expanded U of the order-{order} amplitude per unit of the amplitude "
+                 f"(≤ 0.1: the injected test signal is resolved)")
+
+
+def transducer_response(reference, response, order: int, *, reference_hz: float,
+                        response_hz: float, direction: int, bandwidth_hz: float,
+                        loop_bound_rad: float) -> list[dict]:
+    """The transducer's amplitude and phase response against the bench file's first-order
+    bandwidth (issue 21 item 7), from one torque-ripple order measured at two speeds.
+
+    The injected ripple is a function of the electrical angle only (eq 25: the gain mismatch's
+    order 2 under current regulation), so the same order at two speeds differs only by what
+    depends on frequency: the transducer H(f) = 1/(1 + j·f/f_t) and the current loop. The ratio
+    of the two phasors (per unit of each capture's mean torque) must therefore be
+    |H(f₂)|/|H(f₁)| in amplitude and −direction·(atan(f₂/f_t) − atan(f₁/f_t)) in phase (a lag
+    in time is a shift back along the angle the rotor travels). Tolerances: the measured U of
+    both phasors (k = 2, root-sum-square) plus the current loop's lag bound at f₂
+    (``loop_bound_rad``, atan(f/f_c) + 2π·f·τ_d of the stated loop: the loop's lags at both
+    speeds have one sign, so their difference is within the larger), which also bounds its
+    relative amplitude effect. A transducer lagging 1 ms more than stated moves the phase by
+    ≈ 2π·(f₂ − f₁)·1 ms.
+    """
+    c1, u1 = order_phasor(reference, order)
+    c2, u2 = order_phasor(response, order)
+    ratio = c2 / c1
+    u_rel = math.hypot(u1, u2)
+    h1 = 1.0 / complex(1.0, reference_hz / bandwidth_hz)
+    h2 = 1.0 / complex(1.0, response_hz / bandwidth_hz)
+    expected_phase = -direction * (math.atan(response_hz / bandwidth_hz)
+                                   - math.atan(reference_hz / bandwidth_hz))
+    measured_phase = math.remainder(math.atan2(ratio.imag, ratio.real), 2.0 * math.pi)
+    stated = f"the bench file's first-order {bandwidth_hz:g} Hz"
+    return [
+        check("transducer dynamics: amplitude", abs(ratio), abs(h2) / abs(h1), "1",
+              u_rel + loop_bound_rad,
+              f"order-{order} amplitude at {response_hz:.4g} Hz / at {reference_hz:.4g} Hz vs "
+              f"{stated}"),
+        check("transducer dynamics: phase", measured_phase, expected_phase, "rad",
+              u_rel + loop_bound_rad,
+              f"order-{order} phase at {response_hz:.4g} Hz − at {reference_hz:.4g} Hz vs "
+              f"{stated} (a 1 ms longer lag moves it by "
+              f"{2 * math.pi * (response_hz - reference_hz) * 1e-3:.3f} rad)"),
+    ]

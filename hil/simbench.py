@@ -60,6 +60,39 @@ def twin_config(bench: BenchConfig):
                        transducer=transducer)
 
 
+#: the addresses a simulated DAQ may be told to serve on (every server here binds loopback)
+LOOPBACK_HOSTS = (None, "127.0.0.1", "localhost")
+
+
+def check_fixed_addresses(config: BenchConfig) -> None:
+    """Refuse, in one line, an address the simulated instruments cannot honour (issue 22.8: it
+    was silently ignored). A fixed TCP ``daq.port`` is honoured (the DAQ binds 127.0.0.1 on it);
+    a non-loopback ``daq.host``, a ``daq.serial_port`` (the pty path is the system's choice),
+    a ``drive.channel`` or a ``torque.serial_port`` without the full set of addresses (with all
+    of them, ``hil run`` connects to instruments served elsewhere and starts none) are refused.
+    """
+    daq = config.daq
+    where = f"{config.source}: " if getattr(config, "source", None) else ""
+    if daq.transport == "tcp" and daq.host not in LOOPBACK_HOSTS:
+        raise InputError(f"{where}daq.host = {daq.host!r}: the simulated DAQ serves only on "
+                         f"127.0.0.1; leave daq.host out (daq.port may be fixed)")
+    fixed = [(name, value) for name, value in (
+        ("daq.serial_port", daq.serial_port if daq.transport == "rtu" else None),
+        ("drive.channel", config.drive.channel), ("torque.serial_port", config.torque.serial_port))
+        if value]
+    if len(fixed) == 3 or (fixed and daq.transport == "tcp" and len(fixed) == 2
+                           and daq.port is not None):
+        raise InputError(f"{where}names instruments served elsewhere (e.g. written by `hil "
+                         f"sim-bench`); simulated instruments are started only from a file "
+                         f"without their addresses")
+    if fixed:
+        name, value = fixed[0]
+        raise InputError(f"{where}{name} = {value!r} in a simulated bench file without the "
+                         f"other instruments' addresses: the simulated instruments started "
+                         f"here choose their own (only daq.port can be fixed); give every "
+                         f"address (a bench served by `hil sim-bench`) or none")
+
+
 class SimulatedBench:
     """Start and stop the simulated drive, DAQ and torque transducer for ``config``.
 
@@ -74,6 +107,7 @@ class SimulatedBench:
         from hil.sim import DriveTwin
         from hil.sim.defects import DriveDefects
 
+        check_fixed_addresses(config)
         self.config = config
         self.cross_process = cross_process
         self.twin = DriveTwin(twin_config(config), seed=seed,
@@ -87,6 +121,9 @@ class SimulatedBench:
         from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
         from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
 
+        from hil.sim.warmup import prepare_twin_engine
+
+        prepare_twin_engine()     # compile (if needed) before any instrument is served
         try:
             drive_table = self._start_drive()
             daq_table = self._start_daq(SimulatedDaq)
@@ -128,7 +165,8 @@ class SimulatedBench:
             self.daq.start()
             self._started.append(self.daq)
             return {"serial_port": self.daq.port, "baudrate": daq.baudrate or 115200}
-        self.daq = simulated_daq_class(self.twin, host="127.0.0.1", port=0, unit_id=daq.unit_id)
+        self.daq = simulated_daq_class(self.twin, host="127.0.0.1", port=daq.port or 0,
+                                       unit_id=daq.unit_id)
         self.daq.start()
         self._started.append(self.daq)
         host, port = self.daq.address

@@ -26,12 +26,13 @@ from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_r
 from ripple_hil_reports import figures, revisions
 from ripple_hil_reports.angle_view import angle_view
 from ripple_hil_reports.bench_kind import bench_text
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
 from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
                              VOIDED, ReportContent,
-                             SourceSection, fmt, fmt_pct, report_content, status_text)
+                             SourceSection, fmt, fmt_pct, report_content)
 from ripple_hil_reports.document import ReportPDF
 from ripple_hil_reports.revisions import Revision
-from ripple_hil_reports.statement import accepted, plan_checks
+from ripple_hil_reports.statement import NOT_RUN, accepted, plan_checks, run_status_text
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
@@ -41,27 +42,61 @@ BUDGET_LABELS = {"sensitivity": "sens. coeff.", "sensitivity_unit": "sens. unit"
                  "distribution": "distribution"}
 BUDGET_WIDTHS = {"value": 16, "unit": 11, "distribution": 24, "divisor": 12, "sensitivity": 15,
                  "sensitivity_unit": 16, "contribution_pu": 18, "combination": 16}
-#: Captures larger than this in total are listed with their hashes but not attached.
-MAX_ATTACHED_BYTES = 25 * 1024 * 1024
+#: Captures larger than this in total are listed with their hashes but not attached (they stay
+#: in the record folder, hashed). 1 MiB keeps a default run's PDF at ≈ 1.7 MB (25 MiB made it
+#: 10.7 MB, ≈ 9.9 MB of it raw captures; issue 22).
+MAX_ATTACHED_BYTES = 1 * 1024 * 1024
 REFERENCE = ("S. Chen, C. Namuduri, S. Mir, Controller-induced parasitic torque ripples in a PM "
              "synchronous motor, IEEE Trans. Ind. Appl. 38(5), 2002")
 
 STATEMENTS = {
-    "pass": "PASS: every point meets its acceptance limits with the guard band w = U "
-            "(ILAC-G8).",
+    "pass": "PASS: every point meets its acceptance limits under the decision rule recorded "
+            "with its verdict: {rule}.",
     "conditional pass": "CONDITIONAL PASS: every point is within its limits, but at least one "
                         "lies inside the guard band; agreement cannot be stated with 95 % "
-                        "confidence.",
+                        "confidence (rule recorded: {rule}).",
     "conditional fail": "CONDITIONAL FAIL: at least one point lies outside its limits but "
-                        "within the guard band; disagreement is likely, not certain.",
-    "fail": "FAIL: at least one point lies outside its limits beyond the guard band, or shows "
-            "a ripple order other than the predicted one.",
-    NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped or not run, or has no verdict.",
+                        "within the guard band; disagreement is likely, not certain (rule "
+                        "recorded: {rule}).",
+    "fail": "FAIL: at least one point lies outside its limits (rule recorded: {rule}), shows "
+            "a ripple order other than the predicted one, or a check across the sweep "
+            "rejected the drive.",
+    NOT_DETERMINED: "NOT DETERMINED: a test errored, was skipped, not run or not determinable "
+                    "here, so the points that ran cannot state the source (see below).",
+    NOT_RUN: "NOT RUN: no test of this source ran.",
     VOIDED: "NOT STATED: the bench self-check failed or did not complete, which voids this "
             "run's model-validation verdicts (the points' decisions below are not a statement).",
     NO_VERDICT: "NO MODEL VERDICT: these tests judge no prediction (their outcomes and any "
                 "requirement verdicts are stated elsewhere).",
+    MEASURED: "MEASURED, NO VERDICT: these points are measured and recorded; nothing judges "
+              "them (their requirement verdicts, if any, are stated under Requirements).",
 }
+
+
+def rule_text(rules: list) -> str:
+    """The decision rule(s) the verdicts recorded (``verdict.rule``), in words: ILAC-G8 simple
+    acceptance where the guard band factor is 0, guarded acceptance w = factor·U otherwise."""
+    texts = []
+    for rule in rules:
+        if not isinstance(rule, dict):
+            continue
+        factor = rule.get("guard_band_factor")
+        if not isinstance(factor, (int, float)):
+            text = str(rule.get("name") or "not recorded")
+        elif factor == 0:
+            text = "ILAC-G8 simple acceptance (w = 0; U reported beside each point)"
+        else:
+            text = ("guard band w = U (ILAC-G8 guarded acceptance)" if factor == 1 else
+                    f"guard band w = {factor:g}·U (ILAC-G8 guarded acceptance)")
+        if text not in texts:
+            texts.append(text)
+    return "; ".join(texts) or "no rule recorded"
+
+
+def source_statement(section: SourceSection) -> str:
+    """A source page's statement, with the decision rule its points recorded."""
+    rules = [(p.entry.get("verdict") or {}).get("rule") for p in section.points]
+    return STATEMENTS[section.statement].replace("{rule}", rule_text(rules))
 
 
 @dataclass
@@ -176,14 +211,17 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
          else "not stated"),
         ("Tested (UTC)", f"{record.get('created_utc')} to "
                          f"{record.get('finished_utc') or 'not finished'}"),
-        ("Report date", f"{_record_date(record).date().isoformat()} (the record's last date)"),
+        ("Report date", f"{(revision.issued_utc or utc_now())[:10]} (date of issue; the run's "
+                        "dates: Tested, above)"),
         ("Method", f"ripple-hil test plans; reference: {REFERENCE}"),
+        ("Seal", "Ed25519, key " + ((record.get("seal") or {}).get("fingerprint")
+                                    or "none (sealed before signing)")),
         ("Operator", f"{operator} (given on the command line)" if operator else
          f"{lab.get('operator')} (bench file; none given on the command line)"
          if lab.get("operator") else "not given"),
         ("Environment", environment_text(record, lab)),
         ("Bench", bench_text(record)),
-        ("Run", f"{status_text(record.get('status'))}; exit status "
+        ("Run", f"{run_status_text(record)}; exit status "
                 f"{fmt(run.get('exit_status'))}; tests: "
                 + (", ".join(f"{n} {o}" for o, n in _outcome_counts(record).items() if n)
                    or "none recorded")),
@@ -303,7 +341,7 @@ def _statements_pages(pdf: ReportPDF, content: ReportContent) -> None:
                      section.statement.upper()])
     pdf.grid(["source", "points", "decisions", "statement"], rows, widths=(38, 14, 0, 36))
     for section in content.sources:
-        pdf.para(f"{section.name}: {STATEMENTS[section.statement]}", size=7.5)
+        pdf.para(f"{section.name}: {source_statement(section)}", size=7.5)
 
     pdf.heading("Bench self-check", 2)
     if content.self_checks:
@@ -342,7 +380,8 @@ def _limit(requirement: dict) -> str:
 
 
 def _outcome_counts(record: dict) -> dict[str, int]:
-    counts = {outcome: 0 for outcome in ("passed", "failed", "error", "skipped")}
+    counts = {outcome: 0 for outcome in ("passed", "failed", "error", "skipped", MEASURED,
+                                         NOT_DETERMINABLE)}
     for test in record.get("tests", []):
         counts[test.get("outcome")] = counts.get(test.get("outcome"), 0) + 1
     return counts
@@ -470,7 +509,10 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
                   checks: list[tuple[str, dict]] = ()) -> None:
     pdf.add_page()
     pdf.heading(f"Source: {section.name}")
-    pdf.para(f"Statement: {STATEMENTS[section.statement]}", style="B")
+    pdf.para(f"Statement: {source_statement(section)}", style="B")
+    if section.reasons:
+        pdf.bullets(section.reasons[:20] + ([f"... and {len(section.reasons) - 20} more"]
+                                            if len(section.reasons) > 20 else []), size=7.5)
     if sensitivity:
         pdf.para(_sensitivity_text(sensitivity), size=8)
     for name, check in checks:
@@ -489,9 +531,9 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
              widths=(34, 0, 17, 15, 17, 12, 15, 22))
     pdf.para("Ripple figures in % of the mean torque at the operating point; the full test ids "
              "and capture hashes are in the traceability table.", size=7, style="I")
-    unfinished = [f"{p.test_id.split('::')[-1]}: {p.outcome}: "
-                  f"{p.entry.get('error') or '; '.join(p.entry.get('notes') or []) or 'no reason'}"
-                  for p in section.points if p.outcome in ("error", "skipped")]
+    unfinished = [f"{p.test_id.split('::')[-1]}: {p.outcome}: {reason_of(p.entry)}"
+                  for p in section.points
+                  if p.outcome in ("error", "skipped", NOT_DETERMINABLE, "not run")]
     if unfinished:
         pdf.bullets(unfinished, size=7.5)
     worst = section.worst
@@ -518,6 +560,13 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
         if view.mismatch:
             pdf.para(f"Warning: {view.mismatch}", style="B")
     _budget(pdf, worst.entry)
+
+
+def reason_of(entry: dict) -> str:
+    """Why a test did not run to a verdict, as recorded: its message (a skip's reason), its
+    error, its notes."""
+    return (entry.get("message") or entry.get("error") or "; ".join(entry.get("notes") or [])
+            or "no reason recorded")
 
 
 def _sensitivity_text(fit: dict) -> str:

@@ -16,13 +16,15 @@ from typing import Any
 
 from hil.record import RECORD_FILE
 from ripple_hil_reports.revisions import Revision
-from ripple_hil_reports.statement import (STATUS_TEXT, Statement, overall_statement,
-                                          rejected_checks)
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
+from ripple_hil_reports.statement import (NOT_DETERMINED, NOT_RUN, SourceState,
+                                          Statement, overall_statement, run_status_text,
+                                          source_of)
 
-#: ILAC-G8 decisions from best to worst; a source's statement is the worst of its points.
+#: ILAC-G8 decisions from best to worst.
 DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
-NOT_DETERMINED = "not determined"
-#: A passed test that records no model verdict: it does not enter its source's statement.
+#: A point that records no model verdict (a passed sweep check, a point measured with no
+#: verdict): it does not enter its source's statement.
 NO_VERDICT = "no model verdict"
 #: A source's statement when a failed or unfinished bench self-check voids it (§7).
 VOIDED = "not stated"
@@ -57,8 +59,9 @@ class SourceSection:
     name: str
     swept: list[str]                # injection knobs varied across the sweep
     points: list[Point]
-    statement: str                  # worst decision of the points, or "not determined"
+    statement: str                  # the source's state (reports.statement.source_states)
     worst: Point | None             # the point with the largest measured ripple
+    reasons: list[str] = field(default_factory=list)    # why it is not a plain pass
 
 
 @dataclass
@@ -99,7 +102,7 @@ def report_content(record: dict, record_dir: Path, capture_problems: list[str],
         if entry.get("kind") in own:
             continue
         groups.setdefault(source_of(entry), []).append(entry)
-    sources = [_section(name, entries, rejected_checks(record, name))
+    sources = [_section(name, entries, statement.sources.get(name))
                for name, entries in groups.items()]
     if statement.voided:        # the points' decisions stay listed; the statement is void
         sources = [replace(section, statement=VOIDED) for section in sources]
@@ -145,26 +148,14 @@ def self_checks(record: dict) -> list[dict]:
     return rows
 
 
-def source_of(entry: dict) -> str:
-    """The ripple source a test belongs to: its ``source`` field, else its test-plan module."""
-    if entry.get("source"):
-        return str(entry["source"])
-    if (entry.get("prediction") or {}).get("source"):
-        return str(entry["prediction"]["source"])
-    nodeid = entry.get("nodeid") or ""
-    module = Path(nodeid.split("::")[0]).stem
-    return module.removeprefix("test_") or "unspecified"
+def _section(name: str, entries: list[dict], state: SourceState | None = None
+             ) -> SourceSection:
+    """One source's points, and its statement as ``reports.statement.source_states`` derived it
+    (the one derivation; ``state`` None: derived here from these entries alone)."""
+    if state is None:
+        from ripple_hil_reports.statement import source_states
 
-
-def worst_decision(decisions: list[str]) -> str:
-    if not decisions or any(d not in DECISIONS for d in decisions):
-        return NOT_DETERMINED
-    return max(decisions, key=DECISIONS.index)
-
-
-def _section(name: str, entries: list[dict], rejected: list[str] = ()) -> SourceSection:
-    """One source's points and statement; ``rejected``: its checks across the sweep that did
-    not accept the drive (the statement is then FAIL whatever the points say)."""
+        state = source_states({"tests": [e | {"source": name} for e in entries]}).get(name)
     injections = [e.get("injection") or {} for e in entries]
     swept = swept_knobs(injections)
     displays = {k: knob_display(k, [_number(i.get(k)) or 0.0 for i in injections]) for k in swept}
@@ -172,12 +163,9 @@ def _section(name: str, entries: list[dict], rejected: list[str] = ()) -> Source
     points.sort(key=lambda p: (_sort_key(p.entry.get("injection") or {}, swept), p.test_id))
     measured = [p for p in points if p.measured_pu is not None]
     worst = max(measured, key=lambda p: p.measured_pu) if measured else None
-    judged = [p.decision for p in points if p.outcome != "skipped" and p.decision != NO_VERDICT]
-    if rejected:
-        judged = [d for d in judged if d != NOT_DETERMINED] + ["fail"]
-    statement = worst_decision(judged) if judged or not points \
-        or any(p.decision != NO_VERDICT for p in points) else NO_VERDICT
-    return SourceSection(name=name, swept=swept, points=points, statement=statement, worst=worst)
+    statement = state.state if state is not None else NOT_RUN
+    return SourceSection(name=name, swept=swept, points=points, statement=statement, worst=worst,
+                         reasons=list(state.reasons) if state is not None else [])
 
 
 def swept_knobs(injections: list[dict]) -> list[str]:
@@ -206,9 +194,10 @@ def point_from_entry(entry: dict, swept: list[str],
     displays = displays or {k: knob_display(k, [_number(injection.get(k)) or 0.0]) for k in swept}
     label = ", ".join(f"{displays[k][0]} = {_knob_text(injection.get(k), displays[k][1])}"
                       for k in swept) or "—"
-    if not verdict and entry.get("outcome") in ("passed", "xfailed"):
+    if not verdict and entry.get("outcome") in ("passed", "xfailed", MEASURED):
         decision = NO_VERDICT           # a test that judges no model (e.g. a sensitivity check)
-    elif entry.get("outcome") in ("error", "skipped", "not run") or decision not in DECISIONS:
+    elif entry.get("outcome") in ("error", "skipped", "not run", NOT_DETERMINABLE) \
+            or decision not in DECISIONS:
         decision = NOT_DETERMINED
     return Point(
         test_id=str(entry.get("test_id")),
@@ -239,7 +228,7 @@ def deviations(record: dict, sources: list[SourceSection],
     status = record.get("status")
     run = record.get("run") or {}
     if status != "complete":
-        out.append(f"INCOMPLETE RUN: {status_text(status)}; this report covers only the "
+        out.append(f"INCOMPLETE RUN: {run_status_text(record)}; this report covers only the "
                    f"{sum(t.get('outcome') != 'not run' for t in record.get('tests', []))} "
                    f"test(s) that ran and makes no overall statement of conformity.")
     abort = run.get("abort")
@@ -268,7 +257,8 @@ def deviations(record: dict, sources: list[SourceSection],
         out.append("Simulated drive with test-only defects: " + ", ".join(
             f"{k} = {v}" for k, v in record["sim_defects"].items()) + ".")
     for test in record.get("tests", []):
-        if test.get("outcome") in ("error", "failed", "xpassed", "not run", "skipped"):
+        if test.get("outcome") in ("error", "failed", "xpassed", "not run", "skipped",
+                                   NOT_DETERMINABLE):
             reason = test.get("message") or test.get("error") or \
                 "; ".join(test.get("notes") or []) or "no reason recorded"
             out.append(f"Test '{test.get('test_id')}' {test.get('outcome')}"
@@ -314,7 +304,7 @@ def _expectations(sources) -> list[str]:
     out = []
     for section in sources:
         for point in section.points:
-            if point.outcome in ("error", "skipped"):
+            if point.outcome in ("error", "skipped", NOT_DETERMINABLE, "not run"):
                 continue
             for note in point.entry.get("notes") or []:
                 users = notes.setdefault(str(note), [])
@@ -330,12 +320,6 @@ def _expectations(sources) -> list[str]:
                            f"{fmt_pct(paper)} (its per-unit base), measured "
                            f"{fmt_pct(point.measured_pu)}.")
     return [f"Plan's expectation ({', '.join(users)}): {note}" for note, users in notes.items()] + out
-
-
-def status_text(status: str | None) -> str:
-    """What a record's status means, for a reader."""
-    text = STATUS_TEXT.get(status, f"unknown status {status!r}")
-    return text if text.startswith(str(status).replace("-", " ")) else f"{status}: {text}"
 
 
 def fmt_pct(value: float | None, digits: int = 2) -> str:

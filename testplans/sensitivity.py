@@ -14,10 +14,20 @@ value) the check is on *scaling* instead (``mode="scaling"``): the exponent e of
 measured ∝ expected^e, fitted on logarithms, must be 1 within tolerance — the ripple must halve
 when the model says it halves (per halving of the PWM counter), whatever its level.
 
-A check whose expanded uncertainty is wider than its tolerance cannot tell a right drive from a
-wrong one (simple acceptance would then accept or reject on noise): it is not judged, the test
-is skipped with the fitted value and its U, and the record says "not resolved" (PWM resolution's
-pk-pk exponent at the default point, 1.2 ± 0.8 against ±0.5; its noise check is the verdict).
+The slope's interval [s − U, s + U] is judged against the band [1 − tol, 1 + tol]:
+
+* wholly outside the band → FAIL, however wide U is (2.519 ± 0.324 against ±0.30 is a drive
+  whose real loop is half its stated bandwidth, not "unresolved");
+* straddling a band edge with U wider than the tolerance → **not determinable here**
+  (``hil.outcome_kinds``): the sweep cannot tell a right drive from a wrong one, so simple
+  acceptance would accept or reject on noise. The test is skipped with
+  ``not_determinable(statement)``, the record keeps the outcome "not determinable" with the
+  fitted value and U, and the source's statement is NOT DETERMINED (page 1 included) — never
+  PASS (PWM resolution's pk-pk exponent at the default point, 1.2 ± 0.8 against ±0.5);
+* otherwise ILAC-G8 simple acceptance: inside the band, or straddling an edge with U within the
+  tolerance, is accepted when the slope itself lies in the band.
+
+Too few measured points, or expectations that hardly vary, are not determinable either.
 
 The result goes to the record's ``sensitivity`` section, per source, with the fitted line, the
 points used, and — where the sweep varies one scalar knob — the slope per unit of that knob,
@@ -32,6 +42,7 @@ import numpy as np
 import pytest
 
 from hil.analysis.decision import classify
+from hil.outcome_kinds import not_determinable
 
 #: Results of this session, per source (the record section is rewritten whole each time).
 _RESULTS: dict[str, dict] = {}
@@ -94,29 +105,32 @@ def check_sensitivity(record, source: str, rel_tol: float, *, mode: str = "linea
     (``mode="scaling"``); ``pytest.skip`` when too few points ran."""
     points = sweep_points(record, source)
     if len(points) < MIN_POINTS:
-        pytest.skip(f"{source}: {len(points)} measured point(s) of the sweep (deselected or "
-                    f"failed to measure); the slope needs {MIN_POINTS}")
+        pytest.skip(not_determinable(
+            f"{source}: {len(points)} measured point(s) of the sweep (deselected or failed to "
+            f"measure); the slope needs {MIN_POINTS}"))
     expected = np.array([t["verdict"]["predicted_pk_pk_pu"] for t in points])
     measured = np.array([t["verdict"]["measured_pk_pk_pu"] for t in points])
     expanded = np.array([t["verdict"]["expanded_uncertainty_pu"] for t in points])
     if np.ptp(expected) <= 0.1 * float(np.max(expected)):
-        pytest.skip(f"{source}: the measured points' expectations do not vary enough for a slope")
+        pytest.skip(not_determinable(
+            f"{source}: the measured points' expectations do not vary enough for a slope"))
     fit = (fit_slope if mode == "linear" else fit_exponent)(expected, measured, expanded)
     kind = "slope" if mode == "linear" else "scaling exponent"
-    if 2.0 * fit["slope_u"] > rel_tol:
-        # U wider than the tolerance: the sweep cannot tell a right drive from a wrong one here,
-        # and simple acceptance would reject or accept on noise: not judged, and said so
+    limits = [1.0 - rel_tol, 1.0 + rel_tol]
+    decision = classify(fit["slope"], 2.0 * fit["slope_u"], *limits)
+    if decision != "fail" and 2.0 * fit["slope_u"] > rel_tol:
+        # the interval straddles a band edge and is wider than the tolerance: the sweep cannot
+        # tell a right drive from a wrong one here; not determinable, and said so
         statement = (f"{source}: measured/expected {kind} {fit['slope']:.3f} ± "
-                     f"{2 * fit['slope_u']:.3f} (k=2): its U exceeds the tolerance "
-                     f"±{rel_tol:.2f}, not judged (the sweep does not resolve it)")
-        _RESULTS[source] = fit | {"decision": "not resolved", "accepted": None,
-                                  "limits": [1.0 - rel_tol, 1.0 + rel_tol],
-                                  "points": [t["test_id"] for t in points],
+                     f"{2 * fit['slope_u']:.3f} (k=2) straddles the band [{limits[0]:.2f}, "
+                     f"{limits[1]:.2f}] and its U exceeds the tolerance ±{rel_tol:.2f}: the "
+                     f"sweep does not resolve it")
+        _RESULTS[source] = fit | {"decision": "not determinable", "accepted": None,
+                                  "limits": limits, "points": [t["test_id"] for t in points],
                                   "per_knob": knob_slopes(points), "mode": mode,
                                   "statement": statement}
         record.set_section("sensitivity", dict(_RESULTS))
-        pytest.skip(statement)
-    decision = classify(fit["slope"], 2.0 * fit["slope_u"], 1.0 - rel_tol, 1.0 + rel_tol)
+        pytest.skip(not_determinable(statement))
     result = fit | {"decision": decision, "accepted": decision in ("pass", "conditional pass"),
                     "limits": [1.0 - rel_tol, 1.0 + rel_tol],
                     "points": [t["test_id"] for t in points],

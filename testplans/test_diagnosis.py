@@ -3,11 +3,15 @@ attribute its ripple to the sources (sensor offsets, gain mismatch, dead time, e
 state the calibration that would remove it (hil.diagnosis; design in diagnosis_design.py).
 
 The points carry no model verdict (nothing is injected, so there is no prediction to judge); they
-are recorded with ``kind = "diagnosis"`` and judged only by the run's requirements, if any. The
-last test fits the forward models to all of them and stores the result as the record's
-``diagnosis`` section; it fails when a point is missing or when the design cannot separate the
-controller's parameters (then the design, not the drive, is wrong).
+are recorded with ``kind = "diagnosis"`` and outcome "measured, no verdict" (design.md §9), unless
+one of the run's requirements judges them. The last test fits the forward models to all of them
+and stores the result as the record's ``diagnosis`` section; it fails when a point is missing,
+when the design cannot separate the controller's parameters (then the design, not the drive, is
+wrong), or when the fit cannot state a controller parameter: not identifiable, or an estimate
+or standard uncertainty that is not a finite number (:func:`unstated_parameters`).
 """
+
+import math
 
 import pytest
 
@@ -55,6 +59,33 @@ def test_diagnosis(bench, record):
     result.notes.extend(check_setup_known(setup))
     record.set_section("diagnosis", result.to_dict())
     print("\n" + result.table())
-    controller = {"ia_offset_a", "ib_offset_a", "gain_k_diff", "dead_time_us"}
-    unseparated = [w for w in result.weak if controller & set(w["parameters"])]
+    unseparated = [w for w in result.weak if set(CONTROLLER) & set(w["parameters"])]
     assert not unseparated, f"the design cannot separate: {unseparated}"
+    unstated = unstated_parameters(result)
+    assert not unstated, f"the diagnosis cannot state: {'; '.join(unstated)}"
+
+
+#: The controller's parameters the diagnosis exists to state (hil.diagnosis.parameters); the
+#: offsets and the gain difference are always fitted, the dead time unless it is a nuisance.
+CONTROLLER = ("ia_offset_a", "ib_offset_a", "gain_k_diff", "dead_time_us")
+REQUIRED = CONTROLLER[:3]
+
+
+def unstated_parameters(result) -> list[str]:
+    """The controller parameters the fit does not state: missing (offsets, gain difference),
+    not identifiable, or with an estimate or standard uncertainty that is not a finite number
+    (a standard uncertainty must also be > 0: a fit that claims zero uncertainty has not
+    propagated its noise)."""
+    fitted = {item.name: item for item in result.parameters}
+    problems = [f"{name}: not fitted" for name in REQUIRED if name not in fitted]
+    for name in CONTROLLER:
+        item = fitted.get(name)
+        if item is None:
+            continue
+        if not item.identifiable:
+            problems.append(f"{name}: not identifiable")
+        elif not (math.isfinite(item.estimate) and math.isfinite(item.standard_uncertainty)
+                  and item.standard_uncertainty > 0):
+            problems.append(f"{name}: {item.estimate!r} ± {item.standard_uncertainty!r} "
+                            f"{item.unit} (standard uncertainty) is not a finite statement")
+    return problems

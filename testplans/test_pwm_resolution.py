@@ -5,8 +5,11 @@ Eq 28 is the torque change of one voltage step with the voltage applied open loo
 closes a current loop around the PWM, which turns the step into a disturbance it rejects. Both
 eq 28 and the closed-loop bound are one-sided (a drive ignoring the injection meets them), so the
 plan judges against the derived duty-quantisation model of hil.model.pwm_resolution (two-sided,
-its own stated range; simple acceptance — see conditions.DERIVED_RANGE_SIMPLE_RULE) and checks
-that the ripple scales with the counter as the model says; the bound and eq 28 are recorded.
+its own stated range; simple acceptance — see conditions.DERIVED_RANGE_SIMPLE_RULE); the bound
+and eq 28 are recorded. There is no pk-pk scaling-exponent check: its U (±0.7 to ±1.6 at every
+point of the calibration and holdout sets, hil/model/README.md) is always wider than any useful
+tolerance, so it could never judge (it was "not determinable" at every point, leaving the source
+NOT DETERMINED on every run); the noise check below judges the scaling with the counter.
 
 Neither catches a drive that applies the counter scaled (1.5× or 0.7× the commanded counts):
 the pk-pk of a ripple that is not synchronous with the rotor has U ≈ its value, the derived
@@ -22,7 +25,6 @@ import math
 import pytest
 
 from ripple_hil_testplans import conditions as c
-from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_resolution")
 
@@ -65,16 +67,11 @@ def test_pwm_resolution(measure, bench, injection):
     assert outcome.passed, outcome.summary()
 
 
-def test_pwm_resolution_sensitivity(record):
-    """The sweep's measured ripple scales with the counter as the derived model says."""
-    result = check_sensitivity(record, "pwm_resolution", c.DERIVED_RANGE_SLOPE_TOL,
-                               mode="scaling")
-    assert result["accepted"], result["statement"]
-
-
 def test_pwm_resolution_noise_reference(measure, bench):
     """The bench's own non-synchronous floor: the drive's default counter, no model verdict
-    (after the sweep, so that the sweep's points run as they did before the noise check)."""
+    (after the sweep, so that the sweep's points run as they did before the noise check).
+    Nothing judges it: recorded "measured, no verdict" (hil.outcome_kinds.MEASURED), never a
+    pass; a requirement that applies to it still judges it."""
     outcome = measure(c.point(bench.config.operating_point, "pwm_resolution",
                               {"pwm_period_counts": NOISE_REFERENCE_COUNTS}, None,
                               revolutions=c.PWM_RESOLUTION_REVOLUTIONS, max_order=MAX_ORDER,
@@ -92,11 +89,12 @@ def test_pwm_resolution_noise(record, bench):
     from hil.model import OperatingPoint
     from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
     from hil.model.pwm_noise import predict_noise
+    from hil.outcome_kinds import MEASURED
 
     config = bench.config
     entries = {t["injection"].get("pwm_period_counts"): t for t in record.tests
                if t.get("source") == "pwm_resolution" and t.get("capture")
-               and t.get("outcome") in ("passed", "failed")}
+               and t.get("outcome") in ("passed", "failed", MEASURED)}
     if NOISE_REFERENCE_COUNTS not in entries or len(entries) < 2:
         pytest.skip("pwm_resolution noise: the reference point and at least one counter must "
                     f"have been measured (got counters {sorted(entries)})")

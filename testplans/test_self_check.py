@@ -2,15 +2,29 @@
 
 Nothing injected, at the bench's operating point: the transducer's mean torque against the
 nameplate K_t·I·cos φ, the DAQ's current channels against the commanded current, the encoder
-speed against the dyno setpoint, the sample count and time base (hil.selfcheck). A failed
-self-check voids every other verdict of the run (the report says so on page 1).
+speed against the dyno setpoint, the sample count and time base (hil.selfcheck). Then the
+transducer's dynamics (issue 21 item 7): a known-shape ripple order (the gain mismatch's order 2,
+a function of the angle only) measured at the operating point's speed and at a fifth of it; the
+ratio of the two phasors against the bench file's ``[torque] bandwidth_hz``. A failed self-check
+voids every other verdict of the run (the report says so on page 1).
 """
 
 import pytest
 
+from hil import selfcheck
+from hil.outcome_kinds import not_determinable
+from hil.measurement import measure_point
 from ripple_hil_testplans import conditions as c
 
 pytestmark = pytest.mark.ripple_source("self_check")
+
+#: The dynamics check's test signal: opposite 5 % sensor gain errors give an order-2 ripple of
+#: ≈ 11.5 % pk-pk (eq 26), well above the bench floor at any current the self-check runs.
+DYNAMICS_INJECTION = {"ia_gain_error_pu": 0.05, "ib_gain_error_pu": -0.05}
+DYNAMICS_ORDER = 2
+#: The reference speed, a fraction of the operating point's (same sign): the transducer's and
+#: the loop's lags there are a fifth of those at the operating point.
+DYNAMICS_REFERENCE_SPEED_FRACTION = 0.2
 
 
 def plan(config):
@@ -19,4 +33,49 @@ def plan(config):
 
 def test_bench_self_check(measure, bench):
     outcome = measure(plan(bench.config))
+    assert outcome.passed, outcome.summary()
+
+
+def dynamics_point(op, speed_rpm, checks):
+    return c.point(op, "self_check", dict(DYNAMICS_INJECTION), None, kind="self_check",
+                   speed_rpm=speed_rpm, checks=checks)
+
+
+def test_transducer_dynamics(request, measure, bench, record):
+    """The transducer's amplitude/phase response against the bench file's stated bandwidth."""
+    from hil.model.order_phase import chain_phase
+
+    config = bench.config
+    if config.torque.bandwidth_hz is None:
+        pytest.skip(not_determinable(
+            "the bench file states no [torque] bandwidth_hz to check the transducer's dynamics "
+            "against (the phase verdicts then apply no transducer correction either)"))
+    op = config.operating_point
+    pole_pairs = config.motor.pole_pairs
+    reference_rpm = op.speed_rpm * DYNAMICS_REFERENCE_SPEED_FRACTION
+
+    def resolved(capture, result, plan, bench):
+        return [selfcheck.signal_resolved(result, DYNAMICS_ORDER, plan.speed_rpm)]
+
+    reference = measure_point(bench, record, request.node.nodeid + "-reference",
+                              dynamics_point(op, reference_rpm, resolved),
+                              nodeid=request.node.nodeid)
+
+    def response(capture, result, plan, bench):
+        drive = bench.config.drive
+        loop_hz = (drive.current_loop_equivalent_bandwidth_hz()
+                   if drive.current_loop_bandwidth_hz is not None else None)
+        hz = [abs(DYNAMICS_ORDER * n / 60.0 * pole_pairs) for n in (reference_rpm, plan.speed_rpm)]
+        bounds = chain_phase(DYNAMICS_ORDER, plan.speed_rpm, pole_pairs,
+                             transducer_bandwidth_hz=None, loop_bandwidth_hz=loop_hz,
+                             loop_delay_s=drive.current_loop_delay_s,
+                             angle_counts_per_rev=None).model_u_rad
+        return [selfcheck.signal_resolved(result, DYNAMICS_ORDER, plan.speed_rpm),
+                *selfcheck.transducer_response(
+                    reference.result, result, DYNAMICS_ORDER, reference_hz=hz[0],
+                    response_hz=hz[1], direction=1 if plan.speed_rpm > 0 else -1,
+                    bandwidth_hz=bench.config.torque.bandwidth_hz, loop_bound_rad=bounds)]
+
+    outcome = measure(dynamics_point(op, op.speed_rpm, response))
+    assert reference.passed, reference.summary()
     assert outcome.passed, outcome.summary()

@@ -10,25 +10,81 @@ from ripple_hil_testplans.sensitivity import check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("word_length")
 
+#: Tolerance of the sweep's slope (measured/expected, 1 for a correct drive). Calibrated out of
+#: sample (studies/pwm_calibration.py; hil/model/README.md): on the calibration set (Table I,
+#: 4 points incl. reverse, 2 seeds) the slopes were 0.980–1.186 with U ≤ 0.096, so
+#: max(|s − 1| + U) = 0.28, rounded up to ±0.30; checked on the holdout set (two other motors,
+#: other points and seeds). It replaces the ±0.5 derived-range slope tolerance of session 3 (set
+#: from the models' stated ranges, not from data), which a drive applying half the word-length
+#: effect passed (0.538 ± 0.017); that drive now fails.
+SLOPE_TOL = 0.30
+#: Validity region of the derived model, from the same study: within its range on Table I
+#: (L/R = 0.70 ms) and on an 8-pole 48 V motor (L/R = 2.5 ms), but 1.1–1.41× its value on a
+#: 2-pole 24 V motor with L/R = 0.30 ms (4 of 12 points beyond its +20 %; cause not found). A
+#: motor whose electrical time constant is below the smallest validated one is not determinable
+#: here.
+MIN_TIME_CONSTANT_S = 0.7e-3
+
+
+def outside_region(config) -> str | None:
+    """Why the word-length model is not validated for this bench's motor, or None."""
+    motor = config.motor
+    tau = motor.phase_inductance_h / motor.phase_resistance_ohm
+    if tau < MIN_TIME_CONSTANT_S * (1 - 1e-6):
+        return (f"word_length: the motor's L/R = {1e3 * tau:.2g} ms is below the "
+                f"{1e3 * MIN_TIME_CONSTANT_S:.2g} ms down to which the derived model is "
+                "validated (hil/model/README.md)")
+    return None
+
+
+#: Below this predicted pk-pk (pu of the mean torque) the order is not judged, only the
+#: magnitude: 3 x the rule's bench-floor allowance (0.001 pu), since the drive's own floor has
+#: orders of its own that dominate a ripple this small (1500 rpm, 30 A, 12 bits: 0.25 % measured
+#: vs 0.26 % predicted, dominant order 3 from the floor near the voltage limit, order 1 13.7 %).
+SIGNATURE_FLOOR_PU = 3 * c.DERIVED_RANGE_RULE.abs_tol_pu
+PREDICTION = {"model": "derived", "max_order": 48, **c.WORD_LENGTH_FIRMWARE}
+
+
+def rule_at(config, injection):
+    """The decision rule at this point: the derived-range rule, its order check dropped where
+    the predicted ripple is below SIGNATURE_FLOOR_PU."""
+    import dataclasses
+
+    from hil.model import OperatingPoint, predict
+
+    op = config.operating_point
+    point = OperatingPoint(speed_rpm=op.speed_rpm, current_a=op.current_a,
+                           current_angle_rad=op.current_angle_rad, motor=config.motor)
+    predicted = predict("word_length", point, **injection, **PREDICTION).pk_pk_pu
+    if predicted < SIGNATURE_FLOOR_PU:
+        return dataclasses.replace(c.DERIVED_RANGE_RULE, check_signature=False)
+    return c.DERIVED_RANGE_RULE
+
 
 def plan(config, injection):
-    return c.point(config.operating_point, "word_length", injection, c.DERIVED_RANGE_RULE,
-                   prediction_params={"model": "derived", "max_order": 48,
-                                      **c.WORD_LENGTH_FIRMWARE},
+    return c.point(config.operating_point, "word_length", injection, rule_at(config, injection),
+                   prediction_params=PREDICTION,
                    expectation="judged against the derived truncation-bias model (two-sided, its "
                                "own stated range): two's-complement truncation is biased by "
                                "-1/2 LSB, which acts like a dc offset on both current sensors "
-                               "(order-1 ripple); the paper's worst-case bound 10/2^(n-1) is "
-                               "recorded beside it (prediction.extras.paper_pk_pk_pu)")
+                               "(order-1 ripple; the order is judged where the ripple is at "
+                               "least 3x the bench floor); the paper's worst-case bound "
+                               "10/2^(n-1) is recorded beside it "
+                               "(prediction.extras.paper_pk_pk_pu)")
 
 
 @pytest.mark.parametrize("injection", c.WORD_LENGTH_SWEEP, ids=c.sweep_id)
 def test_word_length(measure, bench, injection):
+    reason = outside_region(bench.config)
+    if reason:
+        from hil.outcome_kinds import not_determinable
+
+        pytest.skip(not_determinable(reason))
     outcome = measure(plan(bench.config, injection))
     assert outcome.passed, outcome.summary()
 
 
 def test_word_length_sensitivity(record):
     """The sweep's measured ripple scales with the word length as the derived model says."""
-    result = check_sensitivity(record, "word_length", c.DERIVED_RANGE_SLOPE_TOL)
+    result = check_sensitivity(record, "word_length", SLOPE_TOL)
     assert result["accepted"], result["statement"]

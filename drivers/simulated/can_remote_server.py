@@ -8,11 +8,43 @@ drive with only the bench-file settings ``interface = "remote"``, ``channel =
 
 from __future__ import annotations
 
+import logging
 import os
 import uuid
 
+import can_remote.server
+
 from ripple_hil_drivers.canopen_transport import BusServer, CanBusSettings
 from ripple_hil_drivers.simulated.drive_node import SimulatedDrive
+
+log = logging.getLogger(__name__)
+
+
+def use_client_safe_sessions() -> None:
+    """End a python-can-remote client session quietly when its client goes away.
+
+    The library's per-client send thread (``RemoteServerProtocol._send_to_client``) dies with a
+    ``BrokenPipeError`` traceback when a client process is killed mid-session (issue 22.8) and
+    never shuts its bus down, so a long-lived ``hil sim-bench`` would keep one more virtual bus
+    queueing every CAN frame per dead client. Wrapped here (once per process; the library
+    creates the session class itself, so it cannot be handed a subclass): a connection error
+    (``OSError``) in that thread logs one line, stops the session and shuts its bus down.
+    """
+    protocol = can_remote.server.RemoteServerProtocol
+    if getattr(protocol._send_to_client, "client_safe", False):
+        return
+    send_to_client = protocol._send_to_client
+
+    def _send_to_client(self):
+        try:
+            send_to_client(self)
+        except OSError as exc:
+            log.info("CAN remote client gone (%s): session closed", exc)
+            self.running = False
+            self.bus.shutdown()
+
+    _send_to_client.client_safe = True
+    protocol._send_to_client = _send_to_client
 
 
 class RemoteSimulatedDrive:
@@ -23,6 +55,7 @@ class RemoteSimulatedDrive:
         channel = f"sim-bench-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         self.local_settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
         self.drive = SimulatedDrive(twin, self.local_settings, node_id, **drive_options)
+        use_client_safe_sessions()
         self.server = BusServer(self.local_settings, host=host, port=port)
         self.node_id = node_id
 

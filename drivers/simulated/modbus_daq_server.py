@@ -9,10 +9,23 @@ auto-increment (``buffer_read_mode``), in the full or packed ``capture_format``.
 ``DaqDevice.handle`` (the tests serve it with modbus-tk).
 
 A capture runs in simulated time in a worker thread: under the twin's lock it calls
-``twin.advance(settle_s, rate, channels=())`` (nothing recorded) then ``twin.advance(n / rate,
-rate, channels=...)`` asking only for the enabled channels, and stores their scaled int16 /
-uint32 words, and the sample-clock tick of each sample in
-the ``sample_counter`` channel. Asking for more samples than ``buffer_capacity_samples`` stores a
+``twin.advance(settle_s, rate, channels=())`` (nothing recorded), waits for the drive's next PWM
+counter valley (``twin.advance_to_carrier_valley``, less than one PWM period) and then calls
+``twin.advance(n / rate, rate, channels=...)`` asking only for the enabled channels, and stores
+their scaled int16 / uint32 words, and the sample-clock tick of each sample in
+the ``sample_counter`` channel.
+
+Sample clock and PWM carrier: the simulated DAQ's first sample falls on a PWM counter valley
+(its sample clock is synchronised to the drive's carrier, as with a DAQ triggered from the
+drive's PWM sync output). The phase of the samples within the PWM period matters wherever the
+sample rate is commensurate with f_pwm (8 kHz against 20 kHz hits only two phases): the
+switching ripple then aliases into the phase currents' fundamental by up to ±2.7 % at 500 rpm
+20 A, depending on that phase. Started at the trigger instant instead, the phase was set by the
+simulated time the bench had run (captures and settles that are not whole PWM periods, PWM
+frequency changes), so a long-lived ``hil sim-bench`` drifted from run to run (issue 22.1).
+``pwm_synchronous=False`` gives that free-running behaviour of a software-triggered DAQ on a
+real bench, whose phase is arbitrary: a measurement that must not depend on it samples at a
+rate incommensurate with f_pwm. Asking for more samples than ``buffer_capacity_samples`` stores a
 full buffer and raises the overrun flag. The twin's test-only defect ``daq_drop_every_nth``
 (``hil.sim.defects``) makes the DAQ silently lose every n-th sample (see :func:`stored_ticks`). The holding
 register pair ``dyno_speed_setpoint_rpm`` is the DAQ's analog output to the dyno: writing it sets
@@ -116,8 +129,10 @@ class DaqDevice:
     and any other server implementation (the tests use modbus-tk) call it.
     """
 
-    def __init__(self, twin, register_map: RegisterMap, serial_number: str) -> None:
+    def __init__(self, twin, register_map: RegisterMap, serial_number: str, *,
+                 pwm_synchronous: bool = True) -> None:
         self.twin = twin
+        self.pwm_synchronous = bool(pwm_synchronous)
         self.map = register_map
         self.device = register_map.device
         self._lock = threading.Lock()
@@ -355,6 +370,8 @@ class DaqDevice:
             with self.twin.lock:
                 if config["settle_ms"]:
                     self.twin.advance(config["settle_ms"] / 1000.0, rate, channels=())
+                if self.pwm_synchronous and hasattr(self.twin, "advance_to_carrier_valley"):
+                    self.twin.advance_to_carrier_valley()
                 slots = int(ticks[-1]) + 1
                 data = self.twin.advance(slots / rate, rate, channels=asked)
                 with self._lock:
@@ -419,11 +436,12 @@ class SimulatedDaq:
     """A Modbus DAQ server backed by a DriveTwin; TCP by default, ``SimulatedDaq.rtu`` for RTU."""
 
     def __init__(self, twin, host: str = "127.0.0.1", port: int = 0, *, unit_id: int = 1,
-                 register_map=None, serial_number: str = "SIM-DAQ-0001") -> None:
+                 register_map=None, serial_number: str = "SIM-DAQ-0001",
+                 pwm_synchronous: bool = True) -> None:
         self.twin = twin
         self.map = register_map if isinstance(register_map, RegisterMap) \
             else load_register_map(register_map)
-        self.device = DaqDevice(twin, self.map, serial_number)
+        self.device = DaqDevice(twin, self.map, serial_number, pwm_synchronous=pwm_synchronous)
         self.unit_id = unit_id
         self._host, self._port = host, port
         self._serial: dict | None = None

@@ -23,7 +23,7 @@ eq 14) or a ceiling (the baseline), the zone is one-sided, ``[0, p_pred + T]``: 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from hil.analysis.metrics import RippleResult
 from hil.errors import InputError
@@ -173,3 +173,83 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
                    predicted_order=predicted_order, dominant_order=measured.dominant_order,
                    predicted_order_share=share, signature_ok=signature_ok, reason=reason,
                    rule=rule)
+
+
+# ------------------------------------------------------------------------------ order phase
+@dataclass(frozen=True)
+class PhaseVerdict:
+    """Outcome of :func:`decide_phase` (an order's phase against the model's), rad."""
+
+    decision: str
+    guarded_pass: bool
+    order: int
+    measured_phase_rad: float
+    measured_u_rad: float
+    predicted_phase_rad: float
+    difference_rad: float
+    tolerance_rad: float
+    guard_band_rad: float
+    reason: str
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def measured_order_phase(measured: RippleResult, order: int, *,
+                         coverage_k: float = 2.0) -> tuple[float, float, float]:
+    """(phase per unit of the mean torque, expanded U of the phase, amplitude/U_amplitude) of
+    ``order``, rad. The phase is the analysis' φ_k, turned by π when the mean torque is negative
+    (the prediction is per unit of the mean); U = k·u(A_k)/A_k, the type-A scatter of the
+    phasor across its own direction (small-angle form, valid for A_k ≫ u(A_k))."""
+    if not isinstance(order, int) or not 1 <= order <= measured.max_order:
+        raise InputError(f"order must be an integer in 1..{measured.max_order}, got {order!r}")
+    amplitude = float(measured.amplitude_nm[order - 1])
+    u_amplitude = float(measured.amplitude_u_nm[order - 1])
+    phase = float(measured.phase_rad[order - 1]) + (math.pi if measured.mean_torque_nm < 0
+                                                     else 0.0)
+    phase = math.remainder(phase, 2.0 * math.pi)
+    resolved = amplitude / (coverage_k * u_amplitude) if u_amplitude > 0 else math.inf
+    u_phase = coverage_k * u_amplitude / amplitude if amplitude > 0 else math.inf
+    return phase, u_phase, resolved
+
+
+def decide_phase(measured: RippleResult, order: int, predicted_phase_rad: float, *,
+                 tolerance_rad: float, guard_band_factor: float = 1.0,
+                 coverage_k: float = 2.0) -> PhaseVerdict:
+    """ILAC-G8 on the phase difference d = wrap(φ_measured − φ_predicted) against the zone
+    [−T, T] (``tolerance_rad``: the model's phase bounds plus the closed form's own tolerance),
+    guard band w = ``guard_band_factor``·U_phase.
+
+    A phase needs its order resolved: an order whose amplitude is not above its own expanded U
+    (amplitude ≤ k·u) has no phase and the decision is "fail" with that reason (the model
+    predicts a phasor the measurement does not show)."""
+    if not (math.isfinite(tolerance_rad) and 0 < tolerance_rad < math.pi):
+        raise InputError(f"tolerance_rad must be in (0, pi), got {tolerance_rad!r}")
+    phase, u_phase, resolved = measured_order_phase(measured, order, coverage_k=coverage_k)
+    difference = math.remainder(phase - predicted_phase_rad, 2.0 * math.pi)
+    guard = guard_band_factor * u_phase
+    if resolved <= 1.0:
+        decision = "fail"
+        reason = (f"order {order} not resolved (amplitude {resolved:.2g} x its expanded U): "
+                  f"no phase to compare with the predicted {predicted_phase_rad:.3f} rad")
+    else:
+        decision = classify(difference, guard, -tolerance_rad, tolerance_rad)
+        reason = (f"order-{order} phase {phase:.3f} rad ± {guard:.2g} vs predicted "
+                  f"{predicted_phase_rad:.3f} rad: difference {difference:+.3f} rad, zone "
+                  f"±{tolerance_rad:.3f} rad: {decision}")
+    return PhaseVerdict(decision=decision, guarded_pass=decision == "pass", order=order,
+                        measured_phase_rad=phase, measured_u_rad=u_phase,
+                        predicted_phase_rad=float(predicted_phase_rad),
+                        difference_rad=difference, tolerance_rad=float(tolerance_rad),
+                        guard_band_rad=guard, reason=reason)
+
+
+def with_phase(verdict: Verdict, phase: PhaseVerdict | None) -> Verdict:
+    """The point's verdict once its order phase is judged too: the decision is the worse of the
+    two (as a wrong signature overrides the magnitude), ``magnitude_decision`` keeps the
+    magnitude's own, and the reason names the phase. ``phase`` None leaves ``verdict`` as is."""
+    if phase is None:
+        return verdict
+    decision = max(verdict.decision, phase.decision, key=DECISIONS.index)
+    return replace(verdict, decision=decision, guarded_pass=decision == "pass",
+                   reason=f"{verdict.reason}; phase: {phase.reason}")

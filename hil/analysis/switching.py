@@ -47,9 +47,12 @@ Fields of the returned :class:`~hil.analysis.metrics.RippleResult` (same type as
 * ``angle_grid_rad``/``sync_average_nm``/``revolution_matrix_nm``: the envelope's synchronous
   average and its per-revolution angle bins;
 * ``uncertainty``: type A and noise bias as in :mod:`hil.analysis.uncertainty`; the sampling
-  bias (extremes falling between sample phases read low by at most slope·gap/2 each), bounded by
-  the largest sample-to-sample slope of T̂ times the largest phase gap and added linearly (a
-  secant slope can understate a very short steep segment, so it is an estimated bound); and the
+  bias (extremes falling between sample phases read low), bounded in each window by the corner
+  where the lines through the samples on either side of its largest (and smallest) sample meet
+  — T̂ is piecewise linear within a PWM period — on the window's samples folded onto one period,
+  averaged over the windows of each angle bin as the envelope is, the largest bin kept, added
+  linearly (an estimated bound: a segment shorter than the
+  sample spacing near an extreme escapes it); and the
   current channels' DAQ resolution (meta ``daq_lsb``). The notes give G and the effective
   samples per period.
 """
@@ -151,9 +154,9 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
     peak_nm = float(_band_limited_max(coefficients[None, :])[0])
     pk_pk_pu = peak_nm / abs(mean_nm) if mean_nm != 0 else math.nan
     amplitude, phase = np.abs(coefficients[1:]), np.angle(coefficients[1:])
-    # extremes between sample phases: each reads low by at most (slope)·(largest gap)/2
-    slope_nm_s = float(np.max(np.abs(np.diff(used) / np.diff(time_s[:windows.stop]))))
-    sampling_bias_nm = slope_nm_s * windows.largest_gap_s
+    # extremes between sample phases read low: bounded per window from the neighbouring slopes
+    sampling_bias_nm = _sampling_bias_bound_nm(used, time_s[:windows.stop], windows, centres,
+                                               n_bins)
     budget = _budget(per_rev, per_rev_mean, pk_pk_pu, mean_nm, sampling_bias_nm, windows,
                      capture, motor, instruments)
     named = ENVELOPE_ORDER if ENVELOPE_ORDER <= max_order else None
@@ -166,6 +169,99 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
         angle_grid_rad=env_revs.angle_grid_rad,
         sync_average_nm=reconstruct(coefficients, env_revs.samples_per_rev, centred=True),
         revolution_matrix_nm=env_revs.matrix_nm, uncertainty=budget)
+
+
+def window_periods(elec_speed_rad_s: float, pwm_frequency_hz: float) -> int:
+    """G: PWM periods per analysis window, the most whose span stays within
+    :data:`MAX_WINDOW_ANGLE_RAD` of electrical angle at ``elec_speed_rad_s`` (at least 1)."""
+    return max(1, int(MAX_WINDOW_ANGLE_RAD * pwm_frequency_hz / abs(elec_speed_rad_s) + 1e-6))
+
+
+def effective_samples_per_period(sample_rate_hz: float, pwm_frequency_hz: float,
+                                 periods: int, windows: int = 24) -> float:
+    """T_s over the largest gap between sample phases (mod T_s) in a window of ``periods`` PWM
+    periods, worst over the first ``windows`` windows of a capture sampled at ``sample_rate_hz``
+    from t = 0 (what :func:`analyze_switching` finds on such a capture)."""
+    period_s = 1.0 / pwm_frequency_hz
+    window_s = periods * period_s
+    time_s = np.arange(int(math.ceil(windows * window_s * sample_rate_hz)) + 1) / sample_rate_hz
+    index = np.floor(time_s / window_s + 1e-9).astype(np.int64)
+    keep = index < windows
+    gap = _largest_phase_gap(np.mod(time_s[keep], period_s), index[keep], period_s)
+    return period_s / gap
+
+
+@dataclass(frozen=True)
+class CaptureSettings:
+    """A DAQ rate and record length for the switching analysis at one speed and PWM frequency."""
+
+    sample_rate_hz: float
+    revolutions: int
+    window_periods: int             # G at the nominal speed
+    effective_samples_per_period: float   # worst over the window lengths the analysis may take
+
+
+#: Relative speed error (measured against nominal) for which the analysis may take G ± 1: the
+#: rate must then suit those windows as well.
+SPEED_MARGIN = 0.005
+#: Largest denominator K of the fractions q = j/K of f_s = f_pwm·(n + q) tried.
+MAX_FRACTION_DENOMINATOR = 40
+
+
+def capture_settings(speed_rpm: float, pole_pairs: int, pwm_frequency_hz: float, *,
+                     max_sample_rate_hz: float, buffer_samples: int, max_order: int,
+                     revolutions: int = 8, min_revolutions: int = 4) -> CaptureSettings | str:
+    """The DAQ rate and revolutions for :func:`analyze_switching` at this speed and PWM frequency,
+    or the reason (a string) why this DAQ cannot capture it.
+
+    Rates f_s = f_pwm·(n + j/K) ≤ ``max_sample_rate_hz``, rounded to whole Hz
+    (K ≤ MAX_FRACTION_DENOMINATOR, never an integer multiple, so the sample phases walk through the PWM period from one period to the
+    next), each with as many revolutions (≤ ``revolutions``, ≥ ``min_revolutions``) as
+    ``buffer_samples`` holds for the capture of revolutions + ¼. The rate kept has the most
+    effective samples per period in windows of G periods — and of G ± 1 where a speed error of
+    SPEED_MARGIN moves the analysis there — more revolutions breaking ties. Refused (the reason
+    returned): fewer than MIN_EFFECTIVE_SAMPLES_PER_PERIOD at every rate, too few windows per
+    revolution for ``max_order``, or a buffer too small for ``min_revolutions``.
+    """
+    elec_hz = abs(speed_rpm) * pole_pairs / 60.0
+    if elec_hz <= 0.0:
+        return "speed 0: the switching analysis needs whole electrical revolutions"
+    omega_e = 2.0 * math.pi * elec_hz
+    periods = window_periods(omega_e, pwm_frequency_hz)
+    per_revolution = pwm_frequency_hz / (elec_hz * periods)
+    if per_revolution <= 2 * max_order:
+        return (f"{per_revolution:.3g} PWM windows per electrical revolution at {speed_rpm:g} rpm "
+                f"and {pwm_frequency_hz:g} Hz; max_order {max_order} needs more than "
+                f"{2 * max_order}")
+    lengths = sorted({window_periods(omega_e * (1.0 + e), pwm_frequency_hz)
+                      for e in (-SPEED_MARGIN, 0.0, SPEED_MARGIN)})
+    fractions = sorted({j / k for k in range(2, MAX_FRACTION_DENOMINATOR + 1)
+                        for j in range(1, k) if math.gcd(j, k) == 1})
+    best, best_key = None, None
+    for n in range(int(max_sample_rate_hz // pwm_frequency_hz), 0, -1):
+        if best is not None and best.effective_samples_per_period >= (n + 1) * lengths[0]:
+            break                   # no slower rate can give more samples per window
+        for q in fractions:
+            rate = float(round(pwm_frequency_hz * (n + q)))   # a DAQ takes whole Hz
+            revs = min(revolutions, int(buffer_samples * elec_hz / rate - 0.25))
+            if rate > max_sample_rate_hz or revs < min_revolutions:
+                continue
+            effective = min(effective_samples_per_period(rate, pwm_frequency_hz, g, windows=8)
+                            for g in lengths)
+            key = (round(effective, 6), revs)
+            if best_key is None or key > best_key:
+                best, best_key = CaptureSettings(rate, revs, periods, effective), key
+        if best is not None and best.effective_samples_per_period >= 4 * \
+                MIN_EFFECTIVE_SAMPLES_PER_PERIOD:
+            break                   # slower rates only lose samples per period
+    if best is None:
+        return (f"the DAQ buffer ({buffer_samples} samples) cannot hold {min_revolutions} "
+                f"electrical revolutions at {speed_rpm:g} rpm above {pwm_frequency_hz:g} Hz")
+    if best.effective_samples_per_period < MIN_EFFECTIVE_SAMPLES_PER_PERIOD:
+        return (f"at most {best.effective_samples_per_period:.3g} effective samples per PWM period "
+                f"of {pwm_frequency_hz:g} Hz at {speed_rpm:g} rpm with the DAQ's "
+                f"{max_sample_rate_hz:g} S/s (at least {MIN_EFFECTIVE_SAMPLES_PER_PERIOD} needed)")
+    return best
 
 
 @dataclass(frozen=True)
@@ -190,7 +286,7 @@ def _windows(time_s: np.ndarray, travel: TravelAngle, pwm_frequency_hz: float) -
     period_s = 1.0 / pwm_frequency_hz
     duration_s = time_s[-1] - time_s[0]
     speed = (travel.travel_rad[-1] - travel.travel_rad[0]) / duration_s     # electrical rad/s
-    periods = max(1, int(MAX_WINDOW_ANGLE_RAD / (speed * period_s) + 1e-6))
+    periods = window_periods(speed, pwm_frequency_hz)
     window_s = periods * period_s
     elapsed = time_s - time_s[0]
     index = np.floor(elapsed / window_s + 1e-9).astype(np.int64)
@@ -222,6 +318,50 @@ def _largest_phase_gap(phase_s: np.ndarray, window: np.ndarray, period_s: float)
     gaps[np.diff(window) != 0] = 0.0
     wrap = period_s - phase_s[last] + phase_s[first]
     return max(float(gaps.max(initial=0.0)), float(wrap.max()))
+
+
+def _corner_excess(phase_s: np.ndarray, value: np.ndarray) -> float:
+    """How far the true maximum of a piecewise-linear periodic waveform may lie above its largest
+    sample: the two lines through the samples on either side of the largest one meet at the
+    corner, which lies between the largest sample and one of its neighbours (both cases taken,
+    the larger kept; a line that does not rise towards the corner bounds nothing and counts 0)."""
+    order = np.argsort(phase_s)
+    p, v = phase_s[order], value[order]
+    m = int(np.argmax(v))
+    period = p[-1] - p[0] + (p[1] - p[0]) if p.size > 1 else 1.0
+    idx = np.arange(m - 2, m + 3)
+    pp = p[idx % p.size] + np.floor_divide(idx, p.size) * period
+    vv = v[idx % p.size]
+
+    def meet(rise_slope, fall_slope, gap, step):
+        if not (rise_slope > 0 and fall_slope > 0 and gap > 0):
+            return 0.0
+        return float(rise_slope * np.clip((step + fall_slope * gap) / (rise_slope + fall_slope),
+                                          0.0, gap))
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slopes = np.diff(vv) / np.diff(pp)            # between m-2, m-1, m, m+1, m+2
+    after = meet(slopes[1], -slopes[3], pp[3] - pp[2], vv[3] - vv[2])
+    before = meet(-slopes[2], slopes[0], pp[2] - pp[1], vv[1] - vv[2])
+    return max(after, before)
+
+
+def _sampling_bias_bound_nm(torque_nm: np.ndarray, time_s: np.ndarray, windows: _Windows,
+                            centres: TravelAngle, n_bins: int) -> float:
+    """How far the synchronously averaged envelope's maximum may read below the true one: each
+    window's pk-pk reads low by at most the corner excess (:func:`_corner_excess`) of its maximum
+    plus that of its minimum, on its samples folded onto one PWM period (equivalent time); the
+    average of the windows in an angle bin by at most their bounds' average; the largest bin
+    average over the revolutions' bins is kept."""
+    phase = np.mod(time_s - time_s[0], windows.period_s)
+    bounds = np.append(windows.starts, windows.stop)
+    per_window = np.zeros(windows.starts.size)
+    for k, (start, stop) in enumerate(zip(bounds[:-1], bounds[1:])):
+        if stop - start >= 5:
+            p, v = phase[start:stop], torque_nm[start:stop]
+            per_window[k] = _corner_excess(p, v) + _corner_excess(p, -v)
+    binned = resample_revolutions(centres, per_window, n_bins).matrix_nm.mean(axis=0)
+    return float(max(binned.max(), 0.0))
 
 
 def _envelope_revolutions(torque_nm, windows, centres, n_bins, max_order, response):
@@ -274,7 +414,8 @@ def _budget(per_rev, per_rev_mean, pk_pk_pu, mean_nm, sampling_bias_nm, windows,
                       "pu", "bias (added linearly)", 1.0, 1.0, "1", abs(scatter.bias_pu),
                       combination="linear")]
     rows.append(BudgetRow(f"sampling: extremes between sample phases (largest gap "
-                          f"{windows.largest_gap_s:.3g} s x largest sample-to-sample slope)",
+                          f"{windows.largest_gap_s:.3g} s; corner of the neighbouring slopes, "
+                          "worst angle bin)",
                           sampling_bias_nm, "N*m", "bias bound (reads low; added linearly)", 1.0,
                           1.0 / mean_abs, "1/(N*m)", sampling_bias_nm / mean_abs,
                           combination="linear"))

@@ -105,10 +105,13 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
     SourceOption("--model", "model",
                  ("pwm_switching", "dead_time", "pwm_resolution", "word_length"),
                  "paper (default) or a physically derived form: switched_torque "
-                 "(pwm_switching), average_voltage (dead_time), closed_loop or derived "
-                 "(pwm_resolution), derived (word_length)",
+                 "(pwm_switching), average_voltage or current_clamping (dead_time), "
+                 "closed_loop or derived (pwm_resolution), derived (word_length)",
                  str, kind=str, choices=("paper", "switched_torque", "average_voltage",
-                                         "closed_loop", "derived")),
+                                         "current_clamping", "closed_loop", "derived")),
+    SourceOption("--transducer-bandwidth-hz", "transducer_bandwidth_hz", ("dead_time",),
+                 "model=current_clamping: the torque transducer's stated first-order bandwidth "
+                 "(default: air-gap torque, no transducer)", float, 0.0, 1e6, True),
 )
 
 

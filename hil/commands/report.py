@@ -3,7 +3,10 @@
 Every hash is checked again first: a record or capture that does not verify makes page 1 say
 INVALID, names the files, and the command exits 1 (the PDF is still written). A report is never
 overwritten: the first report of a record is Rev. 1; a later one is a new revision, needs
-``--reason`` and goes to a new file (default ``RECORD_DIR/report-rev<N>.pdf``).
+``--reason`` and goes to a new file (default ``RECORD_DIR/report-rev<N>.pdf``). The revision
+number comes from the signed revision lines of ``record.sig`` (``reports.revisions``), so
+deleting a side file cannot issue a second "Rev. 1". The seal's signature and the signing key's
+fingerprint are printed (``--json``: ``signature``, ``key_fingerprint``).
 """
 
 from __future__ import annotations
@@ -35,13 +38,13 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from hil.errors import InputError
-    from hil.record import load_record
+    from hil.record import load_record, seal_check
     from ripple_hil_reports import issue_report  # fpdf2 loads only for this command
     from ripple_hil_reports.revisions import issued
 
     record_dir = args.record_dir.parent if args.record_dir.name == "record.json" \
         else args.record_dir
-    load_record(record_dir)                 # an unreadable record: one line, exit 2
+    data = load_record(record_dir)          # an unreadable record: one line, exit 2
     number = len(issued(record_dir)) + 1
     output = args.output or record_dir / ("report.pdf" if number == 1
                                           else f"report-rev{number}.pdf")
@@ -56,12 +59,16 @@ def run(args) -> int:
                "self_check": statement.self_check,
                "sources": {s.name: s.statement for s in content.sources},
                "integrity_problems": content.capture_problems}
+    check = seal_check(record_dir, data)
+    summary |= {"signature": None if check is None else check.state,
+                "key_fingerprint": None if check is None else check.fingerprint}
     if args.json:
         print(json.dumps(summary))
     else:
         print(f"wrote {output}: report {content.report_id} (Rev. {content.revision.number}), "
               f"{rendered.pages} pages, overall {content.overall}"
               + (f" (run {content.record.get('status')})" if content.partial else ""))
+        print(f"seal: {check.text() if check is not None else 'none (the run never finished)'}")
     if content.capture_problems:
         print(f"hil report: INVALID record: {'; '.join(content.capture_problems)}",
               file=sys.stderr)

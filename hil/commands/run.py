@@ -10,9 +10,13 @@ Messages name this command's flags (``--operator``), not the plugin's (``--hil-o
 see :data:`RUN_FLAGS`.
 
 Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
-input (a usage error, or a selection that collects no point); 6 the bench could not be opened
-(nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not run);
-130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
+input (a usage error, a selection that collects no point, a record folder or report path that
+cannot be written: refused before the bench is touched; SIGTERM is an interruption, recorded as
+such); 6 the bench could not be
+opened (nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not
+run); 8 the record could not be written mid-run (full disk, read-only or forbidden folder: the
+drive made safe, the run stopped, the rest recorded as not run if the record can still be
+written); 130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
 """
 
 from __future__ import annotations
@@ -27,17 +31,21 @@ AUTO_REPORT = "auto"
 
 def plan_modules() -> dict[str, Path]:
     """Ripple source name → test-plan module file, from the installed ``ripple_hil_testplans``
-    package (the testplans/ folder)."""
-    import ripple_hil_testplans
+    package (the testplans/ folder). Found without importing it: pytest marks the packages of
+    an installed plugin's distribution for assertion rewriting, and one imported before
+    ``pytest.main`` cannot be (a PytestAssertRewriteWarning on every run, issue 22.9)."""
+    import importlib.util
 
-    folder = Path(ripple_hil_testplans.__file__).parent
+    spec = importlib.util.find_spec("ripple_hil_testplans")
+    folder = Path(next(iter(spec.submodule_search_locations)))
     return {path.stem.removeprefix("test_"): path for path in sorted(folder.glob("test_*.py"))}
 
 
 #: pytest plugins (entry-point names) that ``hil run`` keeps; every other one is not loaded.
 KEPT_PLUGINS = ("ripple_hil", "timeout")
 #: ``hil run`` option → the plugin option it fills in (each also accepted as ``--hil-...``).
-PLUGIN_OPTIONS = {"operator": "--hil-operator",
+PLUGIN_OPTIONS = {"operator": "--hil-operator", "results_db": "--hil-results-db",
+                  "dut_serial": "--hil-dut-serial",
                   "allow_expired_calibration": "--hil-allow-expired-calibration",
                   "customer": "--hil-customer", "authorizer": "--hil-authorizer",
                   "authorizer_function": "--hil-authorizer-function",
@@ -73,6 +81,12 @@ def register(subparsers) -> None:
     parser.add_argument("--allow-expired-calibration", metavar="REASON",
                         help="run although an instrument is past its calibration due date "
                              "(recorded with --operator, stated on page 1)")
+    parser.add_argument("--results-db", metavar="URL",
+                        help="results database the sealed record is indexed in (SQLAlchemy URL "
+                             "or 'off'; default: RIPPLE_HIL_RESULTS_DB, the bench file's [results] "
+                             "url, else results.sqlite in the record folder's parent)")
+    parser.add_argument("--dut-serial", metavar="SN",
+                        help="serial number of the unit under test (recorded and indexed)")
     parser.add_argument("--customer", metavar="TEXT", help="customer named on the report")
     parser.add_argument("--authorizer", metavar="NAME",
                         help="person authorizing the report (default: the bench file's [lab])")
@@ -119,6 +133,7 @@ def build_pytest_args(args) -> list[str]:
     if SELF_CHECK in modules and SELF_CHECK not in selected:
         selected = [SELF_CHECK, *selected]
     _check_report_path(args)
+    _check_record_dir(args)
     if args.bench:
         from hil.config import load_bench
 
@@ -158,6 +173,28 @@ def _check_report_path(args) -> None:
                          "choose another path (or use hil report --reason for a revision)")
     if not target.parent.is_dir():
         raise InputError(f"-o {target}: folder {target.parent} does not exist")
+    _probe(f"-o {target}", target.parent)
+
+
+def _check_record_dir(args) -> None:
+    """A record folder that cannot be written, or a station signing key that cannot be made,
+    is refused before the bench opens (exit 2), not found after the first point."""
+    from hil.seal import StationKeyError, station_key
+
+    _probe(f"--record-dir {args.record_dir}", Path(args.record_dir))
+    try:
+        station_key()
+    except StationKeyError as exc:
+        raise InputError(str(exc)) from None
+
+
+def _probe(option: str, folder: Path) -> None:
+    from hil.record import RecordWriteError, check_writable_folder
+
+    try:
+        check_writable_folder(folder)
+    except RecordWriteError as exc:
+        raise InputError(f"{option}: {exc}") from None
 
 
 def unrelated_plugins() -> list[str]:

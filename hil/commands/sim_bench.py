@@ -3,11 +3,14 @@
 The drive is served over CAN-over-TCP on 127.0.0.1 (python-can-remote), the DAQ over Modbus TCP on
 127.0.0.1 and the transducer on a pseudo-terminal. Another process runs against it with only the
 printed file: ``pytest testplans --bench sim.toml`` or ``hil run --bench sim.toml``. It serves until
-Ctrl-C / SIGTERM, or for ``--duration-s`` seconds.
+Ctrl-C / SIGTERM, or for ``--duration-s`` seconds, then removes its ``-o`` file (the addresses die
+with it). A client killed mid-session ends its session quietly; a closed standard output is not
+an error while the ``-o`` file carries the addresses.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -71,16 +74,47 @@ def run(args) -> int:
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     simulated = SimulatedBench(config, seed=args.seed, cross_process=True)
     served = simulated.start()
+    output = Path(args.output) if args.output else None
+    text = ""
     try:
         text = bench_file_text(served.to_dict())
-        if args.output:
-            atomic_write_bytes(Path(args.output), text.encode())
-        sys.stdout.write(text)
-        sys.stdout.flush()
-        try:
-            stop.wait(args.duration_s)
-        except KeyboardInterrupt:
-            pass
+        if output is not None:
+            atomic_write_bytes(output, text.encode())
+        if print_bench_file(text) or output is not None:
+            try:
+                stop.wait(args.duration_s)
+            except KeyboardInterrupt:
+                pass
+        else:
+            sys.stderr.write("ripple-hil: sim-bench: standard output closed and no -o file: "
+                             "nobody has the bench file, stopping\n")
     finally:
         simulated.stop()
+        if output is not None:
+            remove_bench_file(output, text)
     return 0
+
+
+def print_bench_file(text: str) -> bool:
+    """Write the bench file to standard output; False if its reader has gone (a closed pipe:
+    stdout is then pointed at /dev/null, so the exit flush raises nothing either)."""
+    try:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return True
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return False
+
+
+def remove_bench_file(path: Path, text: str) -> None:
+    """Remove the ``-o`` bench file on exit: its addresses die with this process, and a stale
+    file would send a later ``hil run --bench`` to ports nobody serves (issue 22.8). A file
+    rewritten meanwhile by someone else is left alone."""
+    try:
+        if text and path.read_text(encoding="utf-8") == text:
+            path.unlink()
+    except OSError:
+        pass

@@ -1,10 +1,14 @@
 """``hil verify RECORD_DIR``: check a run record's integrity (exit 0 intact, 1 otherwise).
 
-Re-hashes ``record.json`` against its seal (``record.sha256``, written when the run finished)
-and every capture the record names against the SHA-256 recorded when it was written; names each
-file that is missing, altered or outside the record folder, and each journal line that breaks
-its hash chain. A record that was never sealed (status ``running``: the run was killed before it
-could finish) is not intact: exit 1, with the captures' check still printed.
+Re-hashes ``record.json`` against its seal (``record.sha256``, written when the run finished),
+checks the seal's Ed25519 signature (``record.sig``, :mod:`hil.seal`) and whether its key is
+trusted here (this station's key, ``$RIPPLE_HIL_TRUSTED_KEYS``, ``--trusted-key``), and every
+capture the record names against the SHA-256 recorded when it was written; names each file
+that is missing, altered or outside the record folder, and each journal line that breaks its
+hash chain; prints the signing key's fingerprint. A record edited and re-hashed (``sha256sum``)
+fails: its signature does not match. Exit 1 also for a record that was never sealed (status
+``running``: the run was killed before it could finish) and for one sealed before signing
+existed ("unsigned": anyone could have re-sealed it).
 """
 
 from __future__ import annotations
@@ -14,38 +18,53 @@ from pathlib import Path
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser("verify", help="check a run record's hashes (record.json and "
-                                                  "every capture)",
+    parser = subparsers.add_parser("verify", help="check a run record's hashes and signature "
+                                                  "(record.json and every capture)",
                                    description=__doc__.splitlines()[0].replace("``", ""))
     parser.add_argument("record_dir", metavar="RECORD_DIR", type=Path,
                         help="record folder (or its record.json)")
+    parser.add_argument("--trusted-key", action="append", default=[], metavar="HEX|FILE",
+                        help="also trust this Ed25519 public key (64 hex digits, or a file of "
+                             "them, one a line), e.g. another station's; repeatable")
     parser.add_argument("--json", action="store_true",
-                        help="print one JSON object (record, status, intact, problems)")
+                        help="print one JSON object (record, status, intact, signature, "
+                             "key_fingerprint, problems)")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from hil.record import load_record, verify_record
+    from hil.record import load_record, seal_check, verify_record
+    from hil.seal import trusted_keys
 
     folder = args.record_dir.parent if args.record_dir.name == "record.json" else args.record_dir
     data = load_record(folder)
-    problems = verify_record(folder, data)
+    trusted = trusted_keys(args.trusted_key)
+    problems = verify_record(folder, data, trusted)
+    check = seal_check(folder, data, trusted)
     captures = sum(1 for t in data["tests"] if t.get("capture")) + len(data["pending_captures"])
     sealed = data["status"] != "running"
+    signed = check is not None and check.state == "signed"
+    intact = sealed and signed and not problems
     if args.json:
         print(json.dumps({"record": str(folder), "record_id": data["record_id"],
-                          "status": data["status"], "sealed": sealed,
-                          "intact": sealed and not problems, "captures": captures,
-                          "problems": problems}))
+                          "status": data["status"], "sealed": sealed, "intact": intact,
+                          "signature": None if check is None else check.state,
+                          "key_fingerprint": None if check is None else check.fingerprint,
+                          "captures": captures, "problems": problems}))
     elif problems:
         print(f"{folder}: INVALID ({len(problems)} problem(s))"
               + ("; not sealed (the run never finished)" if not sealed else "") + ":")
         for problem in problems:
             print(f"  {problem}")
+        if check is not None:
+            print(f"  signature: {check.text()}")
     elif not sealed:
         print(f"{folder}: not sealed (the run never finished: status running, no "
               f"record.sha256); {captures} capture(s) match their SHA-256")
+    elif not signed:
+        print(f"{folder}: NOT VERIFIED: {check.text() if check else 'format 1, no seal'}; "
+              f"record.json matches record.sha256 and {captures} capture(s) match their SHA-256")
     else:
-        print(f"{folder}: intact (record.json sealed, {captures} capture(s) match their "
-              f"SHA-256; status {data['status']})")
-    return 0 if sealed and not problems else 1
+        print(f"{folder}: intact (record.json sealed and {check.text()}; {captures} capture(s) "
+              f"match their SHA-256; status {data['status']})")
+    return 0 if intact else 1

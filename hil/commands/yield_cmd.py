@@ -75,6 +75,9 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--seed {args.seed} must be >= 0")
         changes["seed"] = args.seed
     spec = dataclasses.replace(spec, **changes)
+    from_db = _from_db(args, spec) if args.from_db else None
+    if from_db is not None:
+        spec = from_db.pop("spec")
     for flag, value in (("--workers", args.workers), ("--chunk-size", args.chunk_size)):
         if value is not None and value < 1:
             raise InputError(f"{flag} {value} must be >= 1")
@@ -99,11 +102,48 @@ def run(args: argparse.Namespace) -> int:
         from hil.campaign.store import write_atomic
         from pathlib import Path
         write_atomic(Path(args.out) / "yield.json", json.dumps(summary, indent=2).encode())
+    if from_db is not None:
+        summary["from_db"] = from_db
     if args.json:
         print(json.dumps(summary))
     else:
         print("\n".join(format_summary(summary)))
+        if from_db is not None:
+            print("\n".join(format_from_db(from_db, summary)))
     return 0
+
+
+def _from_db(args: argparse.Namespace, spec) -> dict:
+    """Tolerances fitted to the diagnosed units in the results database, and their measured
+    yield (hil/results/fleet_yield.py states the method)."""
+    from hil.results.cli_options import engine_from_args
+    from hil.results.fleet_yield import fit_parameters, fitted_spec, unit_yield
+
+    engine = engine_from_args(args)
+    fits = fit_parameters(engine)
+    req_id = args.measured_requirement or (spec.requirement.id if spec.requirement else None)
+    if req_id is None:
+        from hil.errors import InputError
+
+        raise InputError("--from-db needs a requirement id for the measured yield: "
+                         "--measured-requirement ID")
+    return {"spec": fitted_spec(spec, fits), "fits": fits,
+            "measured": unit_yield(engine, req_id)}
+
+
+def format_from_db(d: dict, s: dict) -> list[str]:
+    lines = ["tolerances fitted to the diagnosed units (σ: spread less the estimates' u):"]
+    for name, f in d["fits"].items():
+        lines.append(f"  {name:<14} {f['units']} units: mean {f['mean']:+.4g}, s {f['s']:.3g}, "
+                     f"mean u {f['mean_u']:.3g} -> sigma {f['sigma']:.3g}")
+    m = d["measured"]
+    predicted = f"{100 * s['yield']:.2f} % [{100 * s['yield_ci95'][0]:.2f}, " \
+                f"{100 * s['yield_ci95'][1]:.2f}] % ({s['drives']:,} simulated drives)"
+    measured = (f"{100 * m['yield']:.1f} % [{100 * m['ci'][0]:.1f}, {100 * m['ci'][1]:.1f}] % "
+                f"({m['passed']}/{m['total']} units, {m['requirement']})" if m["total"]
+                else f"no unit judged against {m['requirement']}")
+    return lines + ["yield        value [95 % Clopper-Pearson interval]",
+                    f"  predicted  {predicted}", f"  measured   {measured}"]
 
 
 def _yield(value: float, ci: list[float], drives: int) -> str:
@@ -216,5 +256,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--cost-weight", action="append", metavar="NAME=W",
                         help="inverse design: cost weight of a tolerance (default 1 each)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--from-db", action="store_true",
+                        help="fit offsets, gain mismatch and dead time to the diagnosed units in "
+                             "the results database; print predicted beside measured yield")
+    parser.add_argument("--measured-requirement", metavar="ID",
+                        help="--from-db: requirement whose verdicts give the measured yield "
+                             "(default: the tolerance file's requirement id)")
+    from hil.results.cli_options import add_database_options
+
+    add_database_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.set_defaults(func=run)

@@ -12,6 +12,11 @@ so per unit of the mean torque the ripple is (eq 19, a waveform, not a pk-pk as 
 (2/√3)·[Δ_a·cos(θ − 2π/3) − Δ_b·cos θ]/cos φ, order 1, with pk-pk
 (4/√3)·sqrt(Δ_a² + Δ_b² + Δ_a·Δ_b)/cos φ. Worst case |Δ| ≤ Δ, same sign (eq 20): 2Δ·sin(θ − π/3),
 pk-pk 4Δ (the paper's "1 % → 4 %").
+
+Which sensor and which sign (issue 21 item 4): written as an order-1 phasor,
+ripple = Re(c₁·e^{jθ}) with c₁ = (2/√3)·(Δ_a·e^{−j2π/3} − Δ_b)/cos φ (:func:`order1_phasor`),
+an offset on sensor a alone puts the order-1 phase at π/3 (offset > 0) or −2π/3 (< 0), one on
+sensor b alone at 0 or π: the phase names the sensor and the sign, the magnitude cannot.
 """
 
 from __future__ import annotations
@@ -56,6 +61,15 @@ def ripple_pu(theta: np.ndarray, offset_a_pu: float, offset_b_pu: float,
                                      - delta_b * np.cos(theta)) / math.cos(current_angle_rad)
 
 
+def order1_phasor(offset_a_pu: float, offset_b_pu: float,
+                  current_angle_rad: float = 0.0) -> complex:
+    """c₁ of eq 19 with ripple_pu(θ) = Re(c₁·e^{jθ}) = |c₁|·cos(θ + arg c₁): the analysis'
+    convention τ = c₀ + Σ A_k·cos(kθ + φ_k), so arg c₁ is the predicted order-1 phase."""
+    delta_a, delta_b = -offset_a_pu, -offset_b_pu
+    return complex((2.0 / math.sqrt(3.0)) * (delta_a * np.exp(-2j * math.pi / 3) - delta_b)
+                   / math.cos(current_angle_rad))
+
+
 def pk_pk_pu(offset_a_pu: float, offset_b_pu: float, current_angle_rad: float = 0.0) -> float:
     """Pk-pk of eq 19 per unit of the mean torque: (4/√3)·sqrt(Δa² + Δb² + Δa·Δb)/cos φ."""
     amplitude = math.sqrt(offset_a_pu**2 + offset_b_pu**2 + offset_a_pu * offset_b_pu)
@@ -85,4 +99,6 @@ def predict_dc_offset(op: OperatingPoint, *, ia_offset_a: float | None = None,
             "two sensors (a, b), i_c = -(i_a + i_b) (isolated neutral)",
             "offset per unit of the current amplitude I at the operating point"],
         angle_rad=theta, waveform_pu=ripple_pu(theta, da, db, phi),
-        extras={"worst_case_pk_pk_pu": worst_case_pk_pk_pu(max(abs(da), abs(db)), phi)})
+        extras={"worst_case_pk_pk_pu": worst_case_pk_pk_pu(max(abs(da), abs(db)), phi),
+                "order_phase_rad": float(np.angle(order1_phasor(da, db, phi))),
+                "order_amplitude_pu": float(abs(order1_phasor(da, db, phi)))})

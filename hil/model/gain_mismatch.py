@@ -12,6 +12,11 @@ At φ = 0 this is eq 24: 3/2 + (3/4)(k1 + k2) + (√3/2)(k1 − k2)·sin(2θ −
 (changed) mean torque: eq 25, (2/√3)·(k1 − k2)/(2 + k1 + k2)·sin(2θ − 2π/3), order 2; pk-pk twice
 that. Worst case k1 = −k2 = Δk (eq 26): (4/√3)·Δk, the paper's "1 % → 2.31 %"; with sensor gain
 errors g = ±Δk the physical ratio is exactly (4/√3)·Δk as well.
+
+The sign of k1 − k2 (issue 21 item 4): as an order-2 phasor, ripple = Re(c₂·e^{j2θ}) with
+c₂ = (√3/2)·(k1 − k2)·e^{−j(φ + 7π/6)}/mean (:func:`order2_phasor`; sin x = cos(x − π/2)):
+k1 > k2 puts the order-2 phase at −φ − 7π/6, k1 < k2 half a period (π) away. The magnitude is
+the same either way.
 """
 
 from __future__ import annotations
@@ -39,6 +44,15 @@ def torque_coefficients(k1: float, k2: float, current_angle_rad: float) -> tuple
     mean = 1.5 * math.cos(phi) + SQRT3 / 2 * (k1 * math.sin(phi + math.pi / 3)
                                               + k2 * math.sin(phi + 2 * math.pi / 3))
     return mean, SQRT3 / 2 * (k1 - k2)
+
+
+def order2_phasor(ia_gain_error_pu: float, ib_gain_error_pu: float,
+                  current_angle_rad: float = 0.0) -> complex:
+    """c₂ of eq 25 (generalised to φ) per unit of the mean torque, with ripple_pu(θ) =
+    Re(c₂·e^{j2θ}) = |c₂|·cos(2θ + arg c₂) — the analysis' phase convention."""
+    mean, amplitude = torque_coefficients(*current_errors(ia_gain_error_pu, ib_gain_error_pu),
+                                          current_angle_rad)
+    return complex(amplitude / mean * np.exp(-1j * (current_angle_rad + 7 * math.pi / 6)))
 
 
 def pk_pk_pu(ia_gain_error_pu: float, ib_gain_error_pu: float,
@@ -78,4 +92,6 @@ def predict_gain_mismatch(op: OperatingPoint, *, ia_gain_error_pu: float = 0.0,
             "two sensors (a, b), i_c = -(i_a + i_b) (isolated neutral)"],
         angle_rad=theta,
         waveform_pu=amplitude * np.sin(2 * theta - phi - 2 * math.pi / 3) / mean,
-        extras={"worst_case_pk_pk_pu": worst_case_pk_pk_pu(max(abs(ga), abs(gb)), phi)})
+        extras={"worst_case_pk_pk_pu": worst_case_pk_pk_pu(max(abs(ga), abs(gb)), phi),
+                "order_phase_rad": float(np.angle(order2_phasor(ga, gb, phi))),
+                "order_amplitude_pu": float(abs(order2_phasor(ga, gb, phi)))})

@@ -66,7 +66,8 @@ NOISE_TRIALS = 8
 SETTLE_S = 0.01
 #: Expected range of ``predict_noise``'s value, (low, high) factors: the simulated drive lay at
 #: 0.77-1.20× it over the validation grid (250-1500 rpm, 10-40 A, C = 22-256, R = 8: 66 points;
-#: hil/model/README.md, ``studies/pwm_noise_vs_twin.py``), rounded outward.
+#: hil/model/README.md, ``studies/pwm_noise_vs_twin.py``), rounded outward. Checked out of
+#: sample (``studies/pwm_calibration.py``): 0.79-1.14x on two other motors, points and seeds.
 NOISE_RANGE_FACTORS = (0.75, 1.25)
 
 # state vector of the loop model, per PWM period k (complex, rotor frame, deviations)

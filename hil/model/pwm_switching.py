@@ -35,9 +35,19 @@ import numpy as np
 from hil.errors import InputError
 from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
                             angle_grid, check_range)
-from hil.model.pwm_resolution import voltage_phasor
+from hil.model.pwm_resolution import forward_phasor_peak_v
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
+#: The switched-torque form names the envelope's order 6 only where its envelope varies by at
+#: least this fraction of its maximum; a flatter envelope's dominant order is below what a
+#: capture resolves (calibration set, studies/pwm_calibration.py: the twin's envelope was
+#: dominated by order 6 at every PWM frequency where the predicted variation was >= 0.083 and
+#: by another order at some frequency where it was <= 0.033; hil/model/README.md).
+ENVELOPE_ORDER_MIN_VARIATION = 0.05
+#: ... and by at least this much per unit of the mean torque: the closed-form rule's absolute
+#: allowance (0.002 pu, the transducer class), the smallest ripple feature the plans judge
+#: (calibration: order 6 dominated where the variation was >= 0.0024 pu, not at <= 0.0012 pu).
+ENVELOPE_ORDER_MIN_VARIATION_PU = 0.002
 MODELS = ("paper", "switched_torque")
 MODULATIONS = ("svpwm", "sine")
 
@@ -63,6 +73,13 @@ def angle_from_zero_crossing(theta: np.ndarray, voltage_angle_rad: float) -> np.
     return np.abs(np.mod(theta + voltage_angle_rad + sixth / 2, sixth) - sixth / 2)
 
 
+def forward_voltage_rms(op: OperatingPoint) -> complex:
+    """RMS phase-voltage phasor (angle from the EMF) of the forward-rotating problem equivalent to
+    ``op``: at negative speed the drive brakes (``pwm_resolution.forward_phasor_peak_v``), so the
+    switching pattern is that of a current at π − φ behind the EMF, not of mirrored motoring."""
+    return forward_phasor_peak_v(op) / math.sqrt(2.0)
+
+
 def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: float,
                               modulation: str = "svpwm") -> np.ndarray:
     """Pk-pk torque ripple within one centre-aligned PWM period at each angle θ.
@@ -72,7 +89,7 @@ def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: f
     Per unit of the mean torque; the fundamental's change within the period and the ripple's own
     resistive drop are neglected (the tests check it against a switched-circuit torque sum).
     """
-    phasor = voltage_phasor(op)
+    phasor = forward_voltage_rms(op)
     v_peak, delta = math.sqrt(2.0) * abs(phasor), math.atan2(phasor.imag, phasor.real)
     shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])          # e_x / E
     reference = v_peak * np.sin(theta[None, :] + delta - PHASE_OFFSETS_RAD[:, None])
@@ -108,7 +125,7 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
     if modulation not in MODULATIONS:
         raise InputError(f"modulation={modulation!r} is not one of {', '.join(MODULATIONS)}")
     period = 1.0 / f_sw
-    phasor = voltage_phasor(op)
+    phasor = forward_voltage_rms(op)
     v_peak = math.sqrt(2.0) * abs(phasor)
     delta = math.atan2(phasor.imag, phasor.real)
     theta = angle_grid()
@@ -131,17 +148,28 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
               "modulation_index": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
     pk_pk = peak / op.current_a
     equations = "eqs 29-31"
+    order = 6.0
     if model == "switched_torque":
         equations = "switching-state torque slopes (not in the paper; eqs 29-31 for the paper's)"
         envelope = switched_torque_ripple_pu(theta, op, period, modulation)
         pk_pk = float(np.max(envelope))
+        variation = float(np.ptp(envelope)) / pk_pk
+        extras["envelope_variation_pu"] = variation
+        if variation < ENVELOPE_ORDER_MIN_VARIATION \
+                or variation * pk_pk < ENVELOPE_ORDER_MIN_VARIATION_PU:
+            order = None
         assumptions[:4] = [
             f"centre-aligned {modulation} carrier, ideal switches; pk-pk within one PWM period",
             "ripple from the switching states only: fundamental slope and ripple's R drop neglected",
             "waveform_pu is the envelope of the switching-frequency torque ripple (order 6)"]
+        if order is None:
+            assumptions.append(f"envelope varies by {100 * variation:.1f} % of its maximum, "
+                               f"{variation * pk_pk:.2g} pu (order 6 named from "
+                               f"{100 * ENVELOPE_ORDER_MIN_VARIATION:g} % and "
+                               f"{ENVELOPE_ORDER_MIN_VARIATION_PU:g} pu): no order named")
     return Prediction(
         source="pwm_switching", pk_pk_pu=pk_pk, base=MEAN_TORQUE_BASE,
-        base_nm=op.mean_torque_nm, order=6.0,
+        base_nm=op.mean_torque_nm, order=order,
         inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
                 "modulation": modulation, **op.to_dict()},
         equations=equations, assumptions=assumptions,

@@ -4,7 +4,11 @@ A real bench has none of these. Each one makes the simulated bench misbehave in 
 ought to notice (issue 13 item 3): the drive acknowledges an injection but does not apply it, or
 applies it mis-scaled; a current sensor carries an offset nobody injected; the firmware's word is
 shorter or longer than commanded; the torque transducer (and the DAQ's torque channel) reads
-scaled; the DAQ drops samples. ``DriveTwin(defects=...)`` applies them (see :meth:`applied`), the
+scaled; the DAQ drops samples; (issue 21 item 8) the sensor injections land on the other phase,
+a gain injection is applied as 1/(1 + g), the drive's encoder index is offset from the rotor's
+electrical zero, the firmware compensates the dead time, the transducer lags more than the bench
+file states, the current loop is slower than the bench file states. ``DriveTwin(defects=...)``
+applies them (see :meth:`applied` and :meth:`applied_config`), the
 simulated DAQ server reads ``daq_drop_every_nth``; the bench file states them in
 ``[simulation.defects]`` (allowed only with ``simulated = true``).
 """
@@ -41,6 +45,23 @@ class DriveDefects:
     transducer_scale: float = 1.0
     #: simulated DAQ silently drops every n-th sample (0 = never)
     daq_drop_every_nth: int = 0
+    #: the a-sensor injections (offset, gain error) land on the b sensor and vice versa
+    sensor_injection_swapped: bool = False
+    #: a commanded sensor gain error g is applied as 1/(1 + g) − 1 (the reciprocal: for small g
+    #: the sign of g flips, so the sign of k_a − k_b and the order-2 phase flip, eqs 21-25)
+    gain_applied_inverse: bool = False
+    #: the drive's encoder index sits this far (electrical rad) ahead of the rotor's electrical
+    #: zero: the firmware's Park angle is θe + this, so the current sits at φ − this
+    encoder_index_offset_rad: float = 0.0
+    #: fraction (0..1) of the dead time's average-voltage error the firmware compensates; the
+    #: twin runs with an effective dead time of (1 − this)·t_d (the average-voltage reading of a
+    #: compensation, eqs 32-35: what is left near the current zero crossings is not modelled)
+    dead_time_compensation_pu: float = 0.0
+    #: the transducer's first-order time constant is this much longer than the bench file's
+    #: ``[torque] bandwidth_hz`` says (s): its low-frequency lag grows by this
+    transducer_extra_lag_s: float = 0.0
+    #: the current loop's bandwidth is this × what the bench file states (< 1: slower)
+    current_loop_bandwidth_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if isinstance(self.ignore_injection, (list, str)):
@@ -66,12 +87,16 @@ class DriveDefects:
         if "ignore_injection" in values:
             values["ignore_injection"] = _knob_names(values["ignore_injection"])
         for name in ("injection_scale", "hidden_ia_offset_a", "hidden_ib_offset_a",
-                     "transducer_scale"):
+                     "transducer_scale", "encoder_index_offset_rad", "dead_time_compensation_pu",
+                     "transducer_extra_lag_s", "current_loop_bandwidth_scale"):
             if name in values:
                 values[name] = _number(name, values[name])
         for name in ("word_length_offset_bits", "daq_drop_every_nth"):
             if name in values:
                 values[name] = _integer(name, values[name])
+        for name in ("sensor_injection_swapped", "gain_applied_inverse"):
+            if name in values:
+                values[name] = _boolean(name, values[name])
         return cls(**values)
 
     def to_dict(self) -> dict:
@@ -123,7 +148,39 @@ class DriveDefects:
         if values["word_length_bits"] and self.word_length_offset_bits:
             values["word_length_bits"] = int(min(max(
                 values["word_length_bits"] + self.word_length_offset_bits, 6), 32))
+        if self.sensor_injection_swapped:
+            for a, b in (("ia_offset_a", "ib_offset_a"), ("ia_gain_error_pu", "ib_gain_error_pu")):
+                values[a], values[b] = values[b], values[a]
+        if self.gain_applied_inverse:
+            for name in ("ia_gain_error_pu", "ib_gain_error_pu"):
+                low, high, _, _ = ranges[name]
+                values[name] = min(max(1.0 / (1.0 + values[name]) - 1.0, low), high)
+        if self.encoder_index_offset_rad:
+            low, high, _, _ = ranges["current_angle_rad"]
+            values["current_angle_rad"] = min(max(
+                values["current_angle_rad"] - self.encoder_index_offset_rad, low), high)
+        if self.dead_time_compensation_pu:
+            values["dead_time_s"] *= 1.0 - self.dead_time_compensation_pu
         return replace(commanded, **values)
+
+    def applied_config(self, config):
+        """The :class:`hil.sim.config.DriveConfig` the defective drive runs: the injection by
+        :meth:`applied`; the transducer's bandwidth lowered so that its time constant
+        1/(2π·f_c) grows by ``transducer_extra_lag_s``; the loop bandwidth (per PWM frequency)
+        × ``current_loop_bandwidth_scale`` (clipped to the firmware model's 0.005..0.15)."""
+        if not self.active:
+            return config
+        changes = {"injection": self.applied(config.injection)}
+        if self.transducer_extra_lag_s:
+            tau_s = 1.0 / (2.0 * math.pi * config.transducer.bandwidth_hz)
+            changes["transducer"] = replace(
+                config.transducer,
+                bandwidth_hz=1.0 / (2.0 * math.pi * (tau_s + self.transducer_extra_lag_s)))
+        if self.current_loop_bandwidth_scale != 1.0:
+            scaled = config.firmware.bandwidth_per_pwm * self.current_loop_bandwidth_scale
+            changes["firmware"] = replace(config.firmware,
+                                          bandwidth_per_pwm=min(max(scaled, 0.005), 0.15))
+        return replace(config, **changes)
 
     # ---- checks ------------------------------------------------------------------------------
     def _validate(self) -> None:
@@ -144,6 +201,24 @@ class DriveDefects:
         if not -16 <= self.word_length_offset_bits <= 16:
             raise InputError(f"simulation.defects.word_length_offset_bits = "
                              f"{self.word_length_offset_bits!r} is out of range; allowed -16..16")
+        if not -math.pi <= self.encoder_index_offset_rad <= math.pi:
+            raise InputError(f"simulation.defects.encoder_index_offset_rad = "
+                             f"{self.encoder_index_offset_rad!r} is out of range; allowed "
+                             f"-pi..pi electrical rad")
+        if not 0.0 <= self.dead_time_compensation_pu <= 1.0:
+            raise InputError(f"simulation.defects.dead_time_compensation_pu = "
+                             f"{self.dead_time_compensation_pu!r} is out of range; allowed 0..1")
+        if not 0.0 <= self.transducer_extra_lag_s <= 0.1:
+            raise InputError(f"simulation.defects.transducer_extra_lag_s = "
+                             f"{self.transducer_extra_lag_s!r} s is out of range; allowed 0..0.1 s")
+        if not 0.05 <= self.current_loop_bandwidth_scale <= 2.0:
+            raise InputError(f"simulation.defects.current_loop_bandwidth_scale = "
+                             f"{self.current_loop_bandwidth_scale!r} is out of range; allowed "
+                             f"0.05..2")
+        for name in ("sensor_injection_swapped", "gain_applied_inverse"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"simulation.defects.{name} = {getattr(self, name)!r} must be "
+                                 f"true or false")
         if self.daq_drop_every_nth != 0 and not 2 <= self.daq_drop_every_nth <= 1_000_000:
             raise InputError(f"simulation.defects.daq_drop_every_nth = "
                              f"{self.daq_drop_every_nth!r} is out of range; allowed 0 (never) "
@@ -182,6 +257,12 @@ def _number(name: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise InputError(f"simulation.defects.{name} = {value!r} must be a finite number")
     return float(value)
+
+
+def _boolean(name: str, value) -> bool:
+    if not isinstance(value, bool):
+        raise InputError(f"simulation.defects.{name} = {value!r} must be true or false")
+    return value
 
 
 def _integer(name: str, value) -> int:

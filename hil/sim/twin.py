@@ -30,7 +30,8 @@ class DriveTwin:
     """Simulated drive under test on a speed-holding dyno (see COMMON.md for the contract).
 
     ``defects`` (test-only, ``hil.sim.defects``): the drive reads back the commanded injection
-    (``injection``) but simulates ``defects.applied(injection)``; the transducer reading
+    (``injection``) but simulates ``defects.applied_config(config)`` (the applied injection, a
+    slower transducer or current loop than stated); the transducer reading
     ``torque_nm`` (which the DAQ and the serial transducer both serve) is scaled by
     ``defects.transducer_scale``.
     """
@@ -119,8 +120,7 @@ class DriveTwin:
             names, rows = select_channels(channels)
             simulated = self._config
             if self.defects.active:
-                simulated = replace(simulated,
-                                    injection=self.defects.applied(simulated.injection))
+                simulated = self.defects.applied_config(simulated)
             params = pack_params(simulated)
             dt = 1.0 / sample_rate_hz
             if settle_s > 0:
@@ -139,6 +139,39 @@ class DriveTwin:
             if n:
                 self._remember_latest(latest, channels)
             return channels
+
+    def next_carrier_valley_s(self) -> float:
+        """Simulated time (s) of the first PWM counter valley (period start) at or after
+        ``time_s``, at the PWM frequency the drive runs now.
+
+        The engine keeps the start of the period containing ``time_s`` (``run_drive`` returns
+        it and the next call re-runs that period, at the frequency then in force), so the
+        valleys ahead are that start + k/f_pwm.
+        """
+        with self.lock:
+            start_s = float(self._state[L.S_TIME])
+            period_s = 1.0 / self._config.injection.pwm_frequency_hz
+            if self._state[L.S_INITIALISED] == 0.0 or start_s >= self.time_s:
+                return max(start_s, self.time_s)
+            periods = math.ceil((self.time_s - start_s) / period_s - 1e-9)
+            return start_s + periods * period_s
+
+    def advance_to_carrier_valley(self) -> float:
+        """Run unrecorded up to ``next_carrier_valley_s()`` (less than one PWM period) and
+        return the time offset this added (s).
+
+        A DAQ whose sample clock is synchronised to the drive's PWM carrier (first sample at a
+        counter valley) captures through this: the phase of its samples within the PWM period,
+        and so what a sample rate commensurate with f_pwm aliases of the switching ripple, no
+        longer depends on how much simulated time the bench has run (issue 22.1).
+        """
+        with self.lock:
+            valley_s = self.next_carrier_valley_s()
+            gap_s = valley_s - self.time_s
+            if gap_s > 0.0:
+                self.advance(gap_s, 0.5 / gap_s, channels=())   # no sample
+            self.time_s = valley_s
+            return gap_s
 
     def _remember_latest(self, latest: np.ndarray, channels: dict[str, np.ndarray]) -> None:
         """``status()``'s scalars from the engine's every-channel values at the last sample

@@ -15,7 +15,7 @@ def budget(*args):
 def test_an_unattainable_limit_is_stated_and_exits_1():
     done = budget("--limit-pct", "2")
     assert done.returncode == 1, done.stderr
-    assert done.stdout.splitlines()[-1].startswith("LIMIT NOT ATTAINABLE: 2 % is not met")
+    assert done.stdout.splitlines()[-1].startswith("LIMIT NOT ATTAINABLE: 2 % of the air-gap torque is not met")
     data = json.loads(budget("--limit-pct", "2", "--json").stdout)
     assert data["attainable"] is False and data["not_met"]
 

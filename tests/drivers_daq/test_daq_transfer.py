@@ -100,11 +100,13 @@ def test_the_packed_encoder_is_the_32_bit_counter(daq):
     assert counts[-1] - counts[0] > 65536
     assert np.all(np.diff(counts) > 0)
     assert speed_rpm(capture) == pytest.approx(SPEED_RPM, rel=0.01)
-    # the next capture starts where this one ended (the twin only runs while capturing): its
-    # absolute counts come from encoder_counts_first, not from the low word
+    # the next capture starts where this one ended (the twin only runs while capturing), at the
+    # next PWM counter valley (< 1/20 kHz later: the simulated DAQ's sample clock is synchronised
+    # to the carrier): its absolute counts come from encoder_counts_first, not from the low word
     after = daq.capture(0.01, 2000, settle_s=0.0, channels=["rotor_angle_mech_rad"])
+    one_pwm_period = SPEED_RPM / 60 * 7200 / 20_000
     assert after["encoder_counts"][0] - counts[-1] == pytest.approx(
-        SPEED_RPM / 60 * 7200 / 2000, abs=2)
+        SPEED_RPM / 60 * 7200 / 2000 + one_pwm_period / 2, abs=2 + one_pwm_period / 2)
 
 
 @settings(max_examples=60, deadline=None)

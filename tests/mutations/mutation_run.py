@@ -19,13 +19,22 @@ PLANS = Path(ripple_hil_testplans.__file__).parent
 FAILED = ("failed", "error")
 
 
-def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0) -> dict:
-    """Run the plans of ``sources`` with ``defects``; per source, a Counter of test outcomes."""
+def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0,
+              select: str | None = None, bench: Path | None = None) -> dict:
+    """Run the plans of ``sources`` with ``defects``; per source, a Counter of test outcomes.
+
+    ``select``: a pytest ``-k`` expression (a few points of each plan, to keep a case fast);
+    ``bench``: a bench file other than the default simulated bench."""
     folder.mkdir(parents=True, exist_ok=True)
     args = [sys.executable, "-m", "pytest", *[str(PLANS / f"test_{s}.py") for s in sources],
             "-q", "-p", "no:cacheprovider", "--hil-record", str(folder / "records")]
+    if select:
+        args += ["-k", select]
+    if bench is not None:
+        args += ["--hil-bench", str(bench)]
     for key, value in defects.items():
-        args += ["--hil-sim-defect", f"{key}={value}"]
+        text = str(value).lower() if isinstance(value, bool) else value   # a TOML value
+        args += ["--hil-sim-defect", f"{key}={text}"]
     done = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s, cwd=folder)
     records = sorted((folder / "records").iterdir()) if (folder / "records").exists() else []
     outcomes: dict[str, Counter] = defaultdict(Counter)

@@ -48,7 +48,8 @@ def test_each_kind_of_bad_point_is_named(overrides, message):
 
 def test_a_requirement_on_an_order_outside_the_band_is_refused():
     req = requirement_from_dict({"id": "REQ-7", "name": "order 36", "quantity":
-                                 "order_amplitude_pct", "order": 36, "limit": {"max": 1.0}})
+                                 "order_amplitude_pct", "order": 36, "limit": {"max": 1.0},
+                                 "injected": "any"})
     problems = check_point(point(max_order=24), CONFIG, [req])
     assert any("REQ-7" in p and "order 36" in p for p in problems), problems
 

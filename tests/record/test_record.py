@@ -288,7 +288,8 @@ def test_a_changed_record_json_breaks_its_seal(record: RunRecord):
     path = record.path / "record.json"
     path.write_text(path.read_text().replace('"failed"', '"passed"'))
     problems = verify_record(record.path)
-    assert len(problems) == 1 and "changed after the run finished" in problems[0]
+    assert len(problems) == 2 and "changed after the run finished" in problems[0]
+    assert "the signature does not match record.json" in problems[1]
     (record.path / SEAL_FILE).unlink()
     assert "not sealed" in verify_record(record.path)[0]
 

@@ -64,6 +64,11 @@ def test_the_noise_check_is_stated_on_the_source_page(tmp_path, defect, accepted
     statement = "PASS" if accepted else "FAIL"
     assert f"Statement: {statement}" in page, page
     assert f"pwm_resolution: {statement}" in pages[0], pages[0]
+    # the rule printed is the rule recorded (simple acceptance), never "guard band w = U"
+    if not accepted:
+        assert "ILAC-G8 simple acceptance (w = 0" in page and "guard band w = U" not in page
+    # a skip prints its recorded reason, never "no reason"
+    assert "no reason" not in page
     verdict = "ACCEPTED" if accepted else "NOT ACCEPTED"
     assert f"Noise check (" in page and f": {verdict}." in page, page
     first = check["points"][0]

@@ -17,7 +17,7 @@ from hil.cli import main
 from hil.record import load_record
 from record_factory import EXPECTED_DECISIONS, POINTS, write_record
 from ripple_hil_reports import build_report, render_report
-from ripple_hil_reports.content import knob_display, swept_knobs, worst_decision
+from ripple_hil_reports.content import knob_display, swept_knobs
 from ripple_hil_reports.document import ZERO_WIDTH_SPACE, breakable
 
 
@@ -34,6 +34,13 @@ def partial_record(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def full_pdf(full_record, tmp_path_factory) -> Path:
     return build_report(full_record, tmp_path_factory.mktemp("pdf") / "report.pdf")
+
+
+def unissued(folder: Path) -> None:
+    """A copied record as before any report was issued: the signed revision lines of
+    record.sig cut off (its seal line kept), so that the test starts at Rev. 1."""
+    sig = folder / "record.sig"
+    sig.write_text(sig.read_text().splitlines(keepends=True)[0])
 
 
 def page_texts(pdf: Path) -> list[str]:
@@ -71,14 +78,33 @@ def test_every_page_has_report_id_and_page_x_of_y(full_record, full_pdf):
 def test_page_one_states_the_four_verdicts_apart(full_pdf):
     first = flat_lines(page_texts(full_pdf)[0])
     assert "1. Requirements conformity no requirements given" in first
-    assert "2. Model validation (vs the paper) dc_offset: CONDITIONAL PASS; dead_time: FAIL" \
+    # every source of the record, with its worst state: the skipped encoder test and the
+    # errored word-length test make those sources NOT DETERMINED (page 1 = the record)
+    assert ("2. Model validation (vs the paper) dc_offset: CONDITIONAL PASS (2 pass, 1 "
+            "conditional pass); dead_time: FAIL (1 conditional fail, 1 fail); encoder: NOT "
+            "DETERMINED (1 not determined); word_length: NOT DETERMINED (1 not determined)") \
         in first
     assert "3. Bench self-check not run" in first
     assert "4. Run status and integrity complete" in first and "every hash verifies" in first
-    assert "Overall: FAIL (4 test(s) failed or errored)" in first   # never PASS with failures
+    assert ("Overall: FAIL (4 test(s) failed or errored; the rest is not stated (not "
+            "determined: encoder, word_length))") in first   # never PASS with failures
     assert "SIM-MOTOR-1" in first and "ripple-fw 1.4.2" in first   # item tested, firmware
     assert "results relate only to the item tested" in first
     assert "Signature:" in first and "Date:" in first and "Rev. 1" in first
+
+
+def test_page_one_dates_the_report_by_its_issue_and_names_the_seal(full_record, full_pdf):
+    """Issue 22 item 8: the report date is the date of issue (the revision's), not the record's
+    last date; the seal line names the signing key or says there was none."""
+    from ripple_hil_reports.revisions import issued
+
+    first = flat_lines(page_texts(full_pdf)[0])
+    printed = re.search(r"Report date (\d{4}-\d{2}-\d{2}) \(date of issue", first)
+    assert printed, first
+    logged = [entry for entry in issued(full_record) if entry.get("revision") == 1]
+    assert logged and printed.group(1) == logged[0]["issued_utc"][:10]
+    assert printed.group(1) != "2026-11-21"          # the record's own (test) dates
+    assert "Seal Ed25519, key " in first
 
 
 def flat_lines(text: str) -> str:
@@ -154,7 +180,9 @@ def test_partial_record_says_so(partial_record, tmp_path, capsys):
     assert "NOT SEALED: the run never finished" in flat_lines(pages[0])
     text = flat_lines("\n".join(pages))
     assert "no overall statement of conformity" in text
-    assert "Overall: NOT STATED (never finished" in text
+    # a failure that happened is stated in any run status; the rest is not
+    assert "Overall: FAIL (1 test(s) failed or errored; the rest is not stated (never finished" \
+        in text
     pending = record["pending_captures"][0]
     assert pending["sha256"] in flat(text)
     assert "captured, not analysed" in text and "End of report" in pages[-1]
@@ -165,7 +193,7 @@ def test_tampered_record_is_invalid_on_page_one(full_record, tmp_path, capsys):
     page 1 says INVALID and names the files; hil report and hil verify exit 1."""
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    (copy / "reports.jsonl").unlink(missing_ok=True)
+    unissued(copy)
     data = json.loads((copy / "record.json").read_text())
     flipped = copy / data["tests"][0]["capture"]["file"]
     raw = bytearray(flipped.read_bytes())
@@ -207,7 +235,7 @@ def test_disagreeing_reanalysis_is_reported(full_record, tmp_path):
 def test_a_second_report_is_a_new_revision(full_record, tmp_path, capsys):
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    (copy / "reports.jsonl").unlink(missing_ok=True)
+    unissued(copy)
     assert main(["report", str(copy)]) == 0
     first = page_texts(copy / "report.pdf")[0]
     assert main(["report", str(copy)]) == 2                      # no reason: refused
@@ -226,7 +254,7 @@ def test_cli_writes_the_report(full_record, tmp_path, capsys):
     out = tmp_path / "cli.pdf"
     copy = tmp_path / "copy"
     shutil.copytree(full_record, copy)
-    (copy / "reports.jsonl").unlink(missing_ok=True)
+    unissued(copy)
     assert main(["report", str(copy), "-o", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["pdf"] == str(out) and out.is_file() and summary["overall"] == "FAIL"
@@ -248,8 +276,6 @@ def test_content_helpers():
     assert swept_knobs([{"encoder_decimation": 100, "hall_mode": False},
                         {"encoder_decimation": 1, "hall_mode": True}]) == ["encoder_decimation",
                                                                            "hall_mode"]
-    assert worst_decision(["pass", "conditional fail", "conditional pass"]) == "conditional fail"
-    assert worst_decision(["pass", "not determined"]) == "not determined"
     assert knob_display("dead_time_s", [1e-6, 2e-6]) == ("dead_time (µs)", 1e6)
     assert knob_display("ia_gain_error_pu", [0.01]) == ("ia_gain_error (%)", 100.0)
     assert knob_display("word_length_bits", [8]) == ("word_length (bits)", 1.0)
@@ -355,12 +381,15 @@ def test_environment_from_the_lab_or_a_daq_channel():
 
 
 def test_a_test_without_a_model_verdict_does_not_make_its_source_undetermined():
+    from hil.outcome_kinds import MEASURED
     from ripple_hil_reports.content import NO_VERDICT, _section
 
     judged = {"test_id": "a", "outcome": "passed", "injection": {"x_a": 1.0},
               "verdict": {"decision": "pass", "measured_pk_pk_pu": 0.01}}
     sensitivity = {"test_id": "b", "outcome": "passed", "injection": {}}
+    reference = {"test_id": "r", "outcome": MEASURED, "injection": {}}
     errored = {"test_id": "c", "outcome": "error", "injection": {}}
-    assert _section("s", [judged, sensitivity]).statement == "pass"
-    assert _section("s", [sensitivity]).statement == NO_VERDICT
+    assert _section("s", [judged, sensitivity, reference]).statement == "pass"
+    assert _section("s", [reference]).statement == MEASURED
+    assert [p.decision for p in _section("s", [reference]).points] == [NO_VERDICT]
     assert _section("s", [judged, sensitivity, errored]).statement == "not determined"

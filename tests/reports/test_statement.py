@@ -4,6 +4,7 @@ counts each test by its outcome."""
 
 from __future__ import annotations
 
+from hil.outcome_kinds import MEASURED
 from ripple_hil_fixtures.summary import summary_lines
 from record_factory import requirement_verdict, self_check_entry
 from ripple_hil_reports.statement import NOT_STATED, PASS, overall_statement
@@ -58,9 +59,11 @@ def test_a_self_check_stopped_by_a_lost_bench_is_not_completed_not_failed():
 
 
 def test_a_run_that_judged_nothing_is_not_stated():
-    diagnosis = {"test_id": "d", "source": "diagnosis", "kind": "diagnosis", "outcome": "passed"}
-    cell = {"test_id": "m", "source": "ripple_map", "kind": "ripple_map", "outcome": "passed"}
-    for tests in ((diagnosis,), (cell,), (self_check_entry(True),)):
+    diagnosis = {"test_id": "d", "source": "diagnosis", "kind": "diagnosis", "outcome": MEASURED}
+    cell = {"test_id": "m", "source": "ripple_map", "kind": "ripple_map", "outcome": MEASURED}
+    # a record written before the outcome existed: passed, measured, judged by nothing
+    old_cell = cell | {"outcome": "passed", "measured": {"pk_pk_pu": 0.01}}
+    for tests in ((diagnosis,), (cell,), (old_cell,), (self_check_entry(True),)):
         stated = overall_statement(record(*tests), [])
         assert stated.overall == NOT_STATED and "nothing was judged" in stated.reason
 
@@ -71,7 +74,8 @@ def test_requirements_applied_to_no_point_are_not_stated_overall():
     assert stated.requirements.startswith(NOT_STATED)
     assert stated.overall == NOT_STATED and "applied to no measured point" in stated.reason
     lines = summary_lines(record(measured("a", "baseline", "pass"), requirements=given))
-    assert "requirements: NOT STATED: no measured point was judged against a requirement" in lines
+    assert "requirements: 1 given, 0 judged, 0 verdicts; NOT STATED, judged no point: REQ-7" \
+        in lines
     stated = overall_statement(record(measured("a", "baseline", "pass")), [])
     assert stated.requirements == "no requirements given" and stated.overall == PASS
 

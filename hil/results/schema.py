@@ -1,0 +1,124 @@
+"""The results database's tables (SQLAlchemy 2 Core), as of the newest migration.
+
+The database is an index of sealed run records (design.md §10): the record folder stays the truth
+and every ``runs`` row carries the record's seal hash (``record.sha256``). Rows are only ever
+inserted, one record per transaction, keyed on the record ID, so an index is either all there or
+absent. Units are SI or per unit of the nameplate mean torque K_t·I·cos φ (``_pu``), as in the
+record; expanded uncertainties (``_u_``) are at the coverage factor the record states (k = 2).
+
+The schema grows by Alembic migrations (``hil/results/migrations``): 0001 is the first schema
+(runs, points, requirement verdicts); 0002 added the order spectra of each point and the diagnosis
+estimates of each run. Edit a table here only together with a new migration.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import (Boolean, Column, Float, ForeignKey, Index, Integer, MetaData, String,
+                        Table, Text, UniqueConstraint)
+
+metadata = MetaData()
+
+runs = Table(
+    "runs", metadata,
+    Column("record_id", String(64), primary_key=True),
+    Column("seal_sha256", String(64), nullable=False),       # record.sha256 at indexing
+    Column("record_path", Text, nullable=False),
+    Column("status", String(32), nullable=False),
+    Column("statement", String(32), nullable=False),          # overall: PASS … INVALID
+    Column("statement_reason", Text),
+    Column("created_utc", String(32), nullable=False),
+    Column("finished_utc", String(32)),
+    Column("software_version", String(64)),
+    Column("git_sha", String(64)),
+    Column("simulated", Boolean, nullable=False),
+    Column("sim_defects", Text),                              # JSON, "{}" for none
+    Column("station", String(200)),                           # the lab / bench name
+    Column("operator", String(200)),
+    Column("dut_serial", String(200)),                        # --dut-serial, else the drive's
+    Column("drive_serial", String(200)),
+    Column("drive_firmware", String(200)),
+    Column("motor_serial", String(200)),
+    Column("n_tests", Integer, nullable=False),
+    Column("n_failed", Integer, nullable=False),              # failed or errored
+    Column("indexed_utc", String(32), nullable=False),
+)
+Index("ix_runs_dut", runs.c.dut_serial)
+Index("ix_runs_firmware", runs.c.drive_firmware)
+Index("ix_runs_station", runs.c.station)
+Index("ix_runs_created", runs.c.created_utc)
+
+points = Table(
+    "points", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("record_id", String(64), ForeignKey("runs.record_id", ondelete="CASCADE"),
+           nullable=False),
+    Column("test_id", Text, nullable=False),
+    Column("source", String(64)),
+    Column("kind", String(32)),
+    Column("outcome", String(16), nullable=False),
+    Column("speed_rpm", Float),
+    Column("current_a", Float),
+    Column("current_angle_rad", Float),
+    Column("injection", Text),                                # canonical JSON
+    Column("mean_torque_nm", Float),
+    Column("pk_pk_pu", Float),                                # measured, of the nameplate torque
+    Column("pk_pk_u_pu", Float),                              # its expanded uncertainty
+    Column("coverage_factor", Float),
+    Column("predicted_pk_pk_pu", Float),
+    Column("decision", String(32)),                           # model verdict (ILAC-G8 zone)
+    Column("lower_limit_pu", Float),                          # the verdict's tolerance zone
+    Column("upper_limit_pu", Float),
+    UniqueConstraint("record_id", "test_id", name="uq_points_record_test"),
+)
+Index("ix_points_source", points.c.source)
+
+requirement_verdicts = Table(
+    "requirement_verdicts", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("record_id", String(64), ForeignKey("runs.record_id", ondelete="CASCADE"),
+           nullable=False),
+    Column("test_id", Text, nullable=False),
+    Column("requirement_id", String(100), nullable=False),
+    Column("quantity", String(64)),
+    Column("unit", String(16)),
+    Column("measured", Float),
+    Column("expanded_uncertainty", Float),
+    Column("limit_min", Float),
+    Column("limit_max", Float),
+    Column("rule", String(32)),
+    Column("decision", String(32)),
+    Column("accepted", Boolean),
+    Column("speed_rpm", Float),
+    Column("current_a", Float),
+)
+Index("ix_requirement_verdicts_req", requirement_verdicts.c.requirement_id)
+
+# ---- added by migration 0002
+point_orders = Table(
+    "point_orders", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("record_id", String(64), ForeignKey("runs.record_id", ondelete="CASCADE"),
+           nullable=False),
+    Column("test_id", Text, nullable=False),
+    Column("order", Float, nullable=False),                   # electrical order
+    Column("amplitude_nm", Float),
+    Column("amplitude_u_nm", Float),                          # type-A standard uncertainty
+    Column("phase_rad", Float),
+)
+Index("ix_point_orders_record", point_orders.c.record_id)
+
+diagnosis_estimates = Table(
+    "diagnosis_estimates", metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("record_id", String(64), ForeignKey("runs.record_id", ondelete="CASCADE"),
+           nullable=False),
+    Column("name", String(100), nullable=False),              # ia_offset_a, gain_k_diff, …
+    Column("unit", String(16)),
+    Column("estimate", Float),
+    Column("standard_uncertainty", Float),
+    Column("identifiable", Boolean),
+)
+Index("ix_diagnosis_estimates_name", diagnosis_estimates.c.name)
+
+#: Tables in insertion order (children after ``runs``).
+TABLES = (runs, points, requirement_verdicts, point_orders, diagnosis_estimates)

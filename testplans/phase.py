@@ -1,0 +1,44 @@
+"""The order-phase verdict of a plan point (design.md §9; issue 21 item 4): the phase the model
+predicts (``prediction.extras["order_phase_rad"]``, from eqs 19 / 25), moved by the bench's
+stated transducer response and judged with the model's phase bounds (``hil.model.order_phase``)
+and the measured phase's own U (``hil.analysis.decision.decide_phase``).
+
+Tolerance zone: T = asin(rel_tol) + U_model. asin(rel_tol) is the closed form's own magnitude
+tolerance read on the phasor (a phasor within rel_tol·|c| of the prediction lies within
+asin(rel_tol) of its phase: 0.20 → 0.201 rad, 11.5°); U_model adds the chain's bounds.
+
+A bench file without ``[torque] bandwidth_hz`` gets no phase verdict (the transducer's phase is
+then unknown; the self-check's dynamics test says "not determinable here" for the same reason).
+"""
+
+from __future__ import annotations
+
+import math
+
+from hil.analysis.decision import decide_phase
+from hil.model.order_phase import chain_phase, wrap_rad
+
+#: The angle channel's resolution: the drive's encoder, 7200 counts per mechanical revolution
+#: (the simulated bench; a bench file states none yet).
+ANGLE_COUNTS_PER_REV = 7200
+
+
+def phase_judge(rel_tol: float):
+    """A ``PointPlan.phase`` callable judging the order phase the prediction names."""
+    def judge(result, prediction, plan, bench):
+        predicted = prediction.extras.get("order_phase_rad")
+        if (predicted is None or prediction.order is None
+                or bench.config.torque.bandwidth_hz is None):
+            return None
+        order = int(round(prediction.order))
+        drive = bench.config.drive
+        loop_hz = (drive.current_loop_equivalent_bandwidth_hz()
+                   if drive.current_loop_bandwidth_hz is not None else None)
+        chain = chain_phase(order, plan.speed_rpm, bench.config.motor.pole_pairs,
+                            transducer_bandwidth_hz=bench.config.torque.bandwidth_hz,
+                            loop_bandwidth_hz=loop_hz, loop_delay_s=drive.current_loop_delay_s,
+                            angle_counts_per_rev=ANGLE_COUNTS_PER_REV)
+        tolerance = math.asin(rel_tol) + chain.model_u_rad
+        return decide_phase(result, order, wrap_rad(predicted + chain.correction_rad),
+                            tolerance_rad=tolerance)
+    return judge

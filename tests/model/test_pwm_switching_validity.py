@@ -1,0 +1,91 @@
+"""PWM switching off the default point (issue 21 items 1-2): reverse rotation is braking, and the
+DAQ rate is derived from the speed and the PWM frequency (never fixed for 500 rpm)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from hil.analysis.switching import (MIN_EFFECTIVE_SAMPLES_PER_PERIOD, capture_settings,
+                                    window_periods)
+from hil.model import OperatingPoint, predict
+from hil.motor import MotorParameters
+from hil.sim import DriveConfig, MotorModel, simulate
+
+DAQ = {"max_sample_rate_hz": 200_000.0, "buffer_samples": 200_000, "max_order": 24}
+
+
+def twin_within_period_pk_pk_pu(speed_rpm, current_a, motor=None, pwm_hz=20_000.0):
+    """Largest within-PWM-period pk-pk of the twin's air-gap torque, per unit of its mean
+    (sampled at 50 points per period over one electrical revolution after settling)."""
+    motor = motor or MotorParameters()
+    per_period = 50
+    elec_hz = abs(speed_rpm) * motor.pole_pairs / 60.0
+    periods = int(round(pwm_hz / elec_hz))
+    config = DriveConfig(current_command_a=current_a, speed_rpm=speed_rpm,
+                         motor=MotorModel(parameters=motor))
+    result = simulate(config, periods / pwm_hz, pwm_hz * per_period, settle_s=0.03,
+                      channels=["time_s", "torque_em_nm"])
+    torque = result.channels["torque_em_nm"][:periods * per_period]
+    return float(np.max(np.ptp(torque.reshape(periods, per_period), axis=1)) / abs(torque.mean()))
+
+
+def test_reverse_rotation_is_braking_not_mirrored_motoring():
+    """At -800 rpm, 15 A the twin's switching ripple is the braking form's (within 10 %); the
+    mirrored-motoring form (what the model gave before: the +800 rpm value) is 30 % off."""
+    braking = predict("pwm_switching", OperatingPoint(-800.0, 15.0), pwm_frequency_hz=20_000.0,
+                      model="switched_torque").pk_pk_pu
+    mirrored = predict("pwm_switching", OperatingPoint(800.0, 15.0), pwm_frequency_hz=20_000.0,
+                       model="switched_torque").pk_pk_pu
+    twin = twin_within_period_pk_pk_pu(-800.0, 15.0)
+    assert twin / braking == pytest.approx(1.0, abs=0.1)
+    assert twin / mirrored < 0.8
+
+
+def test_braking_on_another_motor_and_forward_unchanged():
+    """A 2-pole 24 V motor with a low L/R, reverse: the braking form holds there too; forward
+    rotation is the motoring form as before."""
+    motor = MotorParameters(pole_count=2, dc_bus_v=24.0, phase_resistance_ohm=0.2,
+                            phase_inductance_h=60e-6, max_reactance_ohm=0.019,
+                            ke_v_s_per_rad=0.03)
+    reverse = predict("pwm_switching", OperatingPoint(-700.0, 10.0, motor=motor),
+                      pwm_frequency_hz=20_000.0, model="switched_torque").pk_pk_pu
+    assert twin_within_period_pk_pk_pu(-700.0, 10.0, motor) / reverse == pytest.approx(
+        1.0, abs=0.1)
+    forward = OperatingPoint(700.0, 10.0, motor=motor)
+    from hil.model.pwm_switching import forward_voltage_rms
+    assert forward_voltage_rms(forward) == pytest.approx(forward.voltage_phasor_peak_v
+                                                         / math.sqrt(2.0))
+
+
+@pytest.mark.parametrize("speed_rpm,pole_pairs,pwm_hz", [
+    (500.0, 2, 20_000.0), (-800.0, 2, 40_000.0), (1500.0, 2, 40_000.0), (1500.0, 2, 10_000.0),
+    (100.0, 2, 10_000.0), (30.0, 2, 40_000.0), (-900.0, 4, 10_000.0), (1200.0, 1, 20_000.0)])
+def test_capture_settings_fit_the_daq_and_walk_the_period(speed_rpm, pole_pairs, pwm_hz):
+    """Derived from speed and PWM frequency: within the DAQ's rate and buffer, whole Hz, never an
+    integer multiple of f_pwm, at least 8 effective samples per period (the 1500 rpm, 40 kHz
+    point errored with the fixed 500 rpm rate: 5.4 effective samples)."""
+    settings = capture_settings(speed_rpm, pole_pairs, pwm_hz, **DAQ)
+    assert not isinstance(settings, str), settings
+    elec_hz = abs(speed_rpm) * pole_pairs / 60.0
+    assert settings.sample_rate_hz <= DAQ["max_sample_rate_hz"]
+    assert settings.sample_rate_hz == int(settings.sample_rate_hz)
+    assert (settings.revolutions + 0.25) / elec_hz * settings.sample_rate_hz \
+        <= DAQ["buffer_samples"]
+    assert 4 <= settings.revolutions <= 8
+    assert settings.sample_rate_hz / pwm_hz != int(settings.sample_rate_hz / pwm_hz)
+    assert settings.effective_samples_per_period >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD
+    assert settings.window_periods == window_periods(2 * math.pi * elec_hz, pwm_hz)
+
+
+def test_a_point_the_daq_cannot_capture_gets_a_reason():
+    """40 kHz on a 10-pole motor at 3000 rpm (and 8 poles at 3000 rpm): windows of one period,
+    5 samples per period at most, the walk cannot help; 20 kHz at 3000 rpm on 20 poles: too few
+    windows per revolution for order 24; the reason names it."""
+    for args in ((3000.0, 5, 40_000.0), (3000.0, 4, 40_000.0)):
+        reason = capture_settings(*args, **DAQ)
+        assert isinstance(reason, str) and "effective samples per PWM period" in reason
+    reason = capture_settings(3000.0, 10, 20_000.0, **DAQ)
+    assert isinstance(reason, str) and "windows per electrical revolution" in reason
+    reason = capture_settings(2.0, 2, 20_000.0, **DAQ)     # 8 revolutions would be 120 s
+    assert isinstance(reason, str) and "buffer" in reason

@@ -1,0 +1,143 @@
+"""Against a real PostgreSQL (and the SQLite default): several stations writing at once, a
+server killed mid-ingest, a migration from the first schema."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from sqlalchemy import create_engine, func, select, text
+
+from hil.record import verify_record
+from hil.results import index_after_run
+from hil.results.db import engine_for, normalise_url, upgrade
+from hil.results.ingest import sealed_records, sync
+from hil.results.schema import point_orders, points, runs
+from hil.results.synthetic import point_entry, synthetic_record
+
+from conftest import wait_for
+
+STATION = textwrap.dedent("""
+    import json, random, sys
+    from pathlib import Path
+    from hil.results.db import engine_for
+    from hil.results.ingest import ingest_record
+    url, seed, folders = sys.argv[1], int(sys.argv[2]), json.loads(sys.argv[3])
+    random.Random(seed).shuffle(folders)
+    engine = engine_for(url)
+    print(json.dumps([ingest_record(engine, Path(f)) for f in folders]))
+""")
+
+
+def _records(root: Path, count: int, tests: int = 3) -> list[Path]:
+    return [synthetic_record(root, [point_entry(i, 0.03 + 0.001 * n, 0.0007)
+                                    for i in range(tests)], dut_serial=f"SN-{n:04d}")
+            for n in range(count)]
+
+
+def _counts(url: str) -> tuple[int, int, int, int]:
+    engine = create_engine(normalise_url(url))
+    with engine.connect() as connection:
+        n_runs = connection.execute(select(func.count()).select_from(runs)).scalar()
+        distinct = connection.execute(select(func.count(func.distinct(runs.c.record_id)))).scalar()
+        n_points = connection.execute(select(func.count()).select_from(points)).scalar()
+        n_orders = connection.execute(select(func.count()).select_from(point_orders)).scalar()
+    engine.dispose()
+    return n_runs, distinct, n_points, n_orders
+
+
+def _stations(url: str, folders: list[Path], n_processes: int) -> list[list[str]]:
+    """Each of ``n_processes`` processes ingests every folder, in its own order, at once."""
+    env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
+    procs = [subprocess.Popen([sys.executable, "-c", STATION, url, str(seed),
+                               json.dumps([str(f) for f in folders])],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+             for seed in range(n_processes)]
+    outs = []
+    for proc in procs:
+        out, err = proc.communicate(timeout=240)
+        assert proc.returncode == 0, err[-2000:]
+        outs.append(json.loads(out.strip().splitlines()[-1]))
+    return outs
+
+
+@pytest.mark.parametrize("backend", ["postgresql", "sqlite"])
+def test_n_stations_times_m_runs_nothing_lost_nothing_duplicated(backend, tmp_path, request):
+    url = (request.getfixturevalue("pg_url") if backend == "postgresql"
+           else request.getfixturevalue("sqlite_url"))
+    n_processes, m_runs = 3, 5
+    folders = _records(tmp_path, m_runs)
+    outs = _stations(url, folders, n_processes)
+    # every record indexed by exactly one station; the others found it present
+    assert sum(o.count("indexed") for o in outs) == m_runs
+    assert all(len(o) == m_runs and set(o) <= {"indexed", "present"} for o in outs)
+    assert _counts(url) == (m_runs, m_runs, 3 * m_runs, 2 * 3 * m_runs)
+
+
+def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_url):
+    folders = _records(tmp_path / "records", 20, tests=6)
+    engine_for(pg_url)                      # schema created before the kill
+    env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
+    code = ("import sys; from pathlib import Path\n"
+            "from hil.results.db import engine_for\n"
+            "from hil.results.ingest import sealed_records, sync\n"
+            "r = sync(engine_for(sys.argv[1]), sealed_records(Path(sys.argv[2])))\n"
+            "print(len(r.indexed), len(r.failed))\n")
+    proc = subprocess.Popen([sys.executable, "-c", code, pg_url, str(tmp_path / "records")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert wait_for(lambda: _counts(pg_url)[0] >= 3, timeout_s=60)
+    finally:
+        postgres_server.kill()
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err[-2000:]       # the sync process survived the kill
+    indexed, failed = map(int, out.split())
+    assert indexed >= 3 and failed >= 1 and indexed + failed == 20
+    # a run that ends while the server is down: its record is sealed, indexing gives up
+    late = synthetic_record(tmp_path / "records", [point_entry(i, 0.05, 0.0007)
+                                                   for i in range(6)])
+    assert index_after_run(late, pg_url, timeout_s=5.0) is False
+    folders.append(late)
+    postgres_server.start()
+    n_runs, _, n_points, _ = _counts(pg_url)
+    assert n_points == 6 * n_runs                # no half-indexed record
+    assert all(verify_record(f) == [] for f in folders)   # every record intact
+    from hil.results.db import dispose_all
+
+    dispose_all()
+    result = sync(engine_for(pg_url), sealed_records(tmp_path / "records"))
+    assert not result.failed and len(result.indexed) == 21 - n_runs
+    assert _counts(pg_url) == (21, 21, 6 * 21, 2 * 6 * 21)
+
+
+@pytest.mark.parametrize("backend", ["postgresql", "sqlite"])
+def test_migration_from_the_first_schema(backend, tmp_path, request):
+    url = (request.getfixturevalue("pg_url") if backend == "postgresql"
+           else request.getfixturevalue("sqlite_url"))
+    engine = create_engine(normalise_url(url))
+    upgrade(engine, "0001")
+    with engine.begin() as connection:       # a run indexed under the first schema
+        connection.execute(text(
+            "INSERT INTO runs (record_id, seal_sha256, record_path, status, statement, "
+            "created_utc, simulated, n_tests, n_failed, indexed_utc) VALUES ('20250101T000000Z-"
+            "aaaaaa', :seal, '/old', 'complete', 'PASS', '2025-01-01T00:00:00Z', :f, 1, 0, "
+            "'2025-01-01T00:00:00Z')"), {"seal": "a" * 64, "f": False})
+        connection.execute(text(
+            "INSERT INTO points (record_id, test_id, outcome, pk_pk_pu, pk_pk_u_pu) VALUES "
+            "('20250101T000000Z-aaaaaa', 't::old', 'passed', 0.03, 0.001)"))
+        tables = set(connection.dialect.get_table_names(connection))
+    assert "point_orders" not in tables and "diagnosis_estimates" not in tables
+    engine.dispose()
+    migrated = engine_for(url)               # opening migrates to head
+    with migrated.connect() as connection:
+        assert connection.execute(text("SELECT version_num FROM alembic_version")).scalar() \
+            == "0002"
+        assert connection.execute(select(points.c.pk_pk_pu)).scalars().all() == [0.03]
+    folder = synthetic_record(tmp_path / "r", [point_entry(0, 0.04, 0.001)])
+    assert sync(migrated, [folder]).indexed == [str(folder)]
+    assert _counts(url) == (2, 2, 2, 2)

@@ -1,0 +1,121 @@
+"""History, compare and trend on synthetic records whose values are known, the statistics
+against their definitions, and the commands' JSON and PNG output."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import beta
+
+from hil.cli import main
+from hil.results.capability import capability, control_chart, measured_yield
+from hil.results.db import engine_for
+from hil.results.ingest import sealed_records, sync
+from hil.results.queries import compare, history, trend
+from hil.results.synthetic import point_entry, synthetic_record
+
+
+@pytest.fixture
+def fleet(tmp_path, sqlite_url):
+    """Two firmware versions on two DUTs; run B moves point 0 by 3 U_d, point 1 by 0.5 U_d."""
+    root = tmp_path / "records"
+    u = 0.0007
+    a = synthetic_record(root, [point_entry(0, 0.0300, u), point_entry(1, 0.0300, u)],
+                         dut_serial="SN-1", firmware="1.3")
+    b = synthetic_record(root, [point_entry(0, 0.0300 + 3 * math.sqrt(2) * u, u),
+                                point_entry(1, 0.0300 + 0.5 * math.sqrt(2) * u, u)],
+                         dut_serial="SN-1", firmware="1.4")
+    c = synthetic_record(root, [point_entry(0, 0.0310, u)], dut_serial="SN-2", firmware="1.4",
+                         station="station-2")
+    engine = engine_for(sqlite_url)
+    sync(engine, sealed_records(root))
+    return engine, root, a.name, b.name, c.name
+
+
+def test_history_filters(fleet):
+    engine, _, a, b, c = fleet
+    def ids(**kw):            # runs created within one second have no order between them
+        return {r["record_id"] for r in history(engine, **kw)}
+
+    assert ids() == {a, b, c} and ids(dut="SN-1") == {a, b} and ids(firmware="1.4") == {b, c}
+    assert ids(station="station-2") == {c} and len(history(engine, limit=2)) == 2
+
+
+def test_compare_flags_only_what_moved_beyond_u_d(fleet):
+    engine, _, a, b, c = fleet
+    result = compare(engine, a, b[:-1])                  # a unique prefix names a run
+    assert result["changed"] == ["testplans/test_baseline.py::test_baseline[0]"]
+    assert result["unchanged"] == ["testplans/test_baseline.py::test_baseline[1]"]
+    point0 = result["points"][0]["pk_pk_pu"]
+    assert point0["u_difference"] == pytest.approx(math.sqrt(2) * 0.0007)
+    assert point0["difference"] / point0["u_difference"] == pytest.approx(3.0)
+    # order 1 (synthetic amplitude pk-pk/2, u = U/4 → U_order = U/2): 1.5 U_d vs 0.25 U_d
+    assert result["orders_changed"] == [{"test_id": "testplans/test_baseline.py::test_baseline[0]",
+                                         "order": 1.0}]
+    only = compare(engine, a, c)
+    assert only["only_in_a"] == ["testplans/test_baseline.py::test_baseline[1]"]
+
+
+def test_statistics_against_their_definitions():
+    x = [1.0, 1.2, 0.9, 1.1, 1.05, 0.95]
+    cap = capability(x, 0.4, 1.6)
+    s = np.std(x, ddof=1)
+    assert cap["cp"] == pytest.approx(1.2 / (6 * s))
+    assert cap["cpk"] == pytest.approx(min(1.6 - np.mean(x), np.mean(x) - 0.4) / (3 * s))
+    half = 1.959964 * math.sqrt(1 / 54 + cap["cpk"] ** 2 / 10)      # Bissell, n = 6
+    assert cap["cpk_ci"] == pytest.approx([cap["cpk"] - half, cap["cpk"] + half], rel=1e-5)
+    assert capability(x, None, 1.6)["cp"] is None               # one-sided: Cpu only
+    chart = control_chart(x + [3.0])
+    assert chart["beyond"] == [6]
+    assert chart["sigma_short"] == pytest.approx(np.mean(np.abs(np.diff(x + [3.0]))) / 1.128)
+    yld = measured_yield([True] * 9 + [False])
+    assert yld["ci"] == pytest.approx([beta.ppf(0.025, 9, 2), beta.ppf(0.975, 10, 1)])
+
+
+def test_bissell_interval_covers_the_true_cpk():
+    """The 95 % Cpk interval covers the true Cpk in 92-98 % of normal samples of 50."""
+    rng = np.random.default_rng(7)
+    true_cpk = (1.0 - 0.2) / (3 * 0.2)
+    hits = 0
+    for _ in range(400):
+        lo, hi = capability(rng.normal(0.2, 0.2, 50), None, 1.0)["cpk_ci"]
+        hits += lo <= true_cpk <= hi
+    assert 0.92 <= hits / 400 <= 0.98
+
+
+def test_trend_of_a_requirement_over_units(tmp_path, sqlite_url):
+    rng = np.random.default_rng(3)
+    values = rng.normal(0.024, 0.002, 30)
+    root = tmp_path / "records"
+    for n, value in enumerate(values):
+        synthetic_record(root, [point_entry(0, float(value), 0.0007,
+                                            requirement=("REQ-12", 3.0))],
+                         dut_serial=f"SN-{n:03d}")
+    engine = engine_for(sqlite_url)
+    sync(engine, sealed_records(root))
+    result = trend(engine, requirement="REQ-12")
+    assert sorted(o["value"] for o in result["observations"]) == pytest.approx(
+        sorted(100 * values))
+    assert result["upper_limit"] == 3.0 and result["lower_limit"] is None
+    accepted = int(np.sum(100 * values + 0.07 <= 3.0))
+    assert result["measured_yield"]["passed"] == accepted
+    assert result["capability"]["cpk"] == pytest.approx(
+        (3.0 - np.mean(100 * values)) / (3 * np.std(100 * values, ddof=1)))
+
+
+def test_commands_json_and_png(fleet, capsys, tmp_path):
+    engine, _, a, b, _ = fleet
+    common = ["--results-db", engine.url.database, "--json"]
+    capsys.readouterr()
+    assert main(["history", "--dut", "SN-1", *common]) == 0
+    assert {r["record_id"] for r in json.loads(capsys.readouterr().out)["runs"]} == {a, b}
+    assert main(["compare", a, b, "-o", str(tmp_path / "c.png"), *common]) == 0
+    assert len(json.loads(capsys.readouterr().out)["changed"]) == 1
+    assert main(["trend", "--source", "baseline", "-o", str(tmp_path / "t.png"), *common]) == 0
+    assert len(json.loads(capsys.readouterr().out)["observations"]) == 3
+    assert (tmp_path / "c.png").stat().st_size > 1000 and (tmp_path / "t.png").stat().st_size > 1000
+    assert main(["compare", a, "nope", *common]) == 2            # unknown run: input error
+    assert "not in the results database" in json.loads(capsys.readouterr().out)["error"]["message"]
