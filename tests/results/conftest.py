@@ -11,6 +11,12 @@ import pytest
 from hil.results.pg_server import PostgresServer, pg_bin
 
 
+@pytest.fixture(autouse=True)
+def results_database_off(monkeypatch):
+    """Overrides tests/conftest.py's: these tests use the results database's real default rule."""
+    monkeypatch.delenv("RIPPLE_HIL_RESULTS_DB", raising=False)
+
+
 @pytest.fixture(scope="session")
 def postgres_server():
     bin_dir = pg_bin()
