@@ -16,10 +16,10 @@ What a region checks, in the order a refusal names it:
    (V_dc/√3)·(1 − 2·T_d·f_pwm) (``hil.model.voltage``); beyond it the current is not regulated or
    pulses are dropped, and no model of the paper applies.
 4. **Capture.** The DAQ's rate and buffer, the Nyquist order of the analysed band
-   (rate / (2·f_e) ≥ max_order), and for the switching analysis (PWM switching) the effective
-   samples per PWM period of equivalent-time sampling at *this* speed
-   (``hil.analysis.switching``: ≥ 8; a rate chosen for 500 rpm may not walk through the period
-   at another speed).
+   (rate / (2·f_e) ≥ max_order). The PWM-switching plan adapts its capture instead: its DAQ rate
+   and revolutions are derived from the speed and PWM frequency
+   (``hil.analysis.switching.capture_settings``), which refuses with the reason what the DAQ
+   cannot capture.
 5. **Resolvable ripple.** The bench's resolvable pk-pk floor must take at most ``floor_fraction``
    of the rule's acceptance half-width at the point (rel_tol·predicted + abs_tol, or the distance
    from the prediction to the top of a derived model's range + abs_tol; per unit of the nameplate
@@ -93,11 +93,12 @@ REGIONS: dict[str, Region] = {
         why="derived duty-quantisation model; reverse rotation is taken as braking "
             "(hil.model.pwm_resolution.forward_phasor_peak_v)"),
     "pwm_switching": Region(
-        braking=False,
-        why="switched-circuit torque under SVPWM with the motoring phasor: reverse rotation "
-            "(braking) measured 0.68-0.73x the model at -800 rpm (issue 21); capture by "
-            "equivalent-time sampling at the plan's fixed rates (the walk must complete within "
-            "a window at the point's speed)"),
+        braking=True, floor_fraction=None,
+        why="switched-circuit torque under SVPWM; reverse rotation is braking (the forward-"
+            "equivalent phasor of hil.model.pwm_resolution); the plan derives its DAQ rate from "
+            "the speed and PWM frequency (hil.analysis.switching.capture_settings) and refuses "
+            "itself, with the reason, a point the DAQ cannot capture or whose U covers its "
+            "acceptance zone"),
     "dead_time": Region(
         braking=True,
         why="average-voltage model with the loop's rejection (signed electrical speed); the "
@@ -180,8 +181,9 @@ def voltage_problems(plan, config: BenchConfig) -> list[str]:
 
 
 def capture_problems(plan, config: BenchConfig) -> list[str]:
-    """The DAQ's rate and buffer, the analysed band's Nyquist order and, for the switching
-    analysis, the effective samples per PWM period at this speed."""
+    """The DAQ's rate and buffer and the analysed band's Nyquist order. (The switching analysis'
+    equivalent-time sampling is the PWM-switching plan's own choice and refusal:
+    ``hil.analysis.switching.capture_settings``.)"""
     from ripple_hil_drivers.daq_register_map import load_register_map
 
     device = load_register_map(config.daq.register_map).device
@@ -199,59 +201,7 @@ def capture_problems(plan, config: BenchConfig) -> list[str]:
     if plan.analysis == "torque" and plan.max_order > nyquist_orders:
         found.append(f"max_order {plan.max_order} is above what {rate:g} Hz can resolve at "
                      f"{plan.speed_rpm:g} rpm (order {nyquist_orders:.0f})")
-    if plan.analysis == "switching":
-        found += _switching_sampling_problems(plan, config, rate)
     return found
-
-
-def effective_samples_per_period(rate_hz: float, pwm_frequency_hz: float,
-                                 window_periods: int) -> float:
-    """PWM period ÷ the largest gap between the sample phases (modulo the period) within one
-    window of ``window_periods`` PWM periods (equivalent-time sampling, hil.analysis.switching)."""
-    samples = max(1, int(math.floor(window_periods * rate_hz / pwm_frequency_hz)))
-    phases = sorted(math.fmod(k * pwm_frequency_hz / rate_hz, 1.0) for k in range(samples))
-    gaps = [b - a for a, b in zip(phases, phases[1:])] + [1.0 - phases[-1] + phases[0]]
-    return 1.0 / max(gaps)
-
-
-def switching_window_periods(plan, config: BenchConfig, pwm_hz: float) -> int:
-    """PWM periods per analysis window at the point's speed (hil.analysis.switching, step 1)."""
-    from hil.analysis.switching import MAX_WINDOW_ANGLE_RAD
-
-    omega_e = 2.0 * math.pi * plan.electrical_frequency_hz(config.motor.pole_pairs)
-    return max(1, int(MAX_WINDOW_ANGLE_RAD / (omega_e / pwm_hz) + 1e-6))
-
-
-def switching_sample_rate_hz(speed_rpm: float, pole_pairs: int, pwm_frequency_hz: float,
-                             max_sample_rate_hz: float) -> float:
-    """A DAQ rate for the switching analysis *at this speed*, Hz: f_pwm·(n + 1/G), G the PWM
-    periods of one 3° analysis window at ``speed_rpm``, n the most whole samples per period the
-    DAQ allows, so that the sample phases walk once through the period within every window
-    (equivalent-time sampling, n·G + 1 effective samples per period). How a plan adapts its point
-    instead of a rate fixed for one speed (the PWM-switching plan's rates are fixed for 500 rpm)."""
-    from hil.analysis.switching import MAX_WINDOW_ANGLE_RAD
-
-    omega_e = 2.0 * math.pi * abs(speed_rpm) / 60.0 * pole_pairs
-    window_periods = max(1, int(MAX_WINDOW_ANGLE_RAD / (omega_e / pwm_frequency_hz) + 1e-6))
-    walk = 1.0 / window_periods if window_periods > 1 else 0.5
-    whole = math.floor(max_sample_rate_hz / pwm_frequency_hz - walk)
-    if whole < 1:
-        raise InputError(f"a DAQ of {max_sample_rate_hz:g} Hz cannot sample pwm_frequency_hz="
-                         f"{pwm_frequency_hz:g} once per period")
-    return pwm_frequency_hz * (whole + walk)
-
-
-def _switching_sampling_problems(plan, config: BenchConfig, rate_hz: float) -> list[str]:
-    from hil.analysis.switching import MIN_EFFECTIVE_SAMPLES_PER_PERIOD
-
-    pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
-    window_periods = switching_window_periods(plan, config, pwm_hz)
-    effective = effective_samples_per_period(rate_hz, pwm_hz, window_periods)
-    if effective >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD:
-        return []
-    return [f"capture rate vs PWM frequency: {rate_hz:g} Hz gives {effective:.3g} effective samples "
-            f"per PWM period of {pwm_hz:g} Hz at {plan.speed_rpm:g} rpm (windows of "
-            f"{window_periods} periods) vs >= {MIN_EFFECTIVE_SAMPLES_PER_PERIOD}"]
 
 
 def bench_floor_nm(config: BenchConfig) -> float:
@@ -296,30 +246,10 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
         expected = (None if prediction.expected_range_pu is None else
                     tuple(v * scale for v in prediction.expected_range_pu))
     half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)
-    if plan.analysis == "switching":
-        floor_pu = switching_sampling_bias_nm(plan, config) / nameplate_nm
-        what = "the sampling bias bound of the switching analysis"
-    else:
-        floor_pu = bench_floor_nm(config) / nameplate_nm
-        what = "the bench's resolvable floor"
+    floor_pu = bench_floor_nm(config) / nameplate_nm
+    what = "the bench's resolvable floor"
     if floor_pu <= fraction * half_width_pu:
         return []
     return [f"ripple not resolvable against {what}: {floor_pu * 100:.3g} % of the mean torque vs "
             f"{fraction:g} x the acceptance half-width {half_width_pu * 100:.3g} % (predicted "
             f"{predicted_pu * 100:.3g} %)"]
-
-
-def switching_sampling_bias_nm(plan, config: BenchConfig) -> float:
-    """Upper bound of what the switching analysis may miss between sample phases, N·m: the
-    largest phase gap T_pwm / (effective samples per period) times the steepest torque slope of
-    a switching state, K_t·(2/3)·V_dc/L (the q-current slope with the whole active vector across
-    the inductance, EMF and R neglected; ``hil.analysis.switching`` states its own bound from the
-    capture as the largest sample-to-sample slope times the same gap)."""
-    motor = config.motor
-    pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
-    rate_hz = plan.capture_rate_hz(motor.pole_pairs)
-    gap_s = 1.0 / pwm_hz / effective_samples_per_period(
-        rate_hz, pwm_hz, switching_window_periods(plan, config, pwm_hz))
-    slope_nm_s = motor.torque_constant_nm_per_a * (2.0 / 3.0) * motor.dc_bus_v / (
-        motor.phase_inductance_h)
-    return slope_nm_s * gap_s

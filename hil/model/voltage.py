@@ -30,6 +30,7 @@ from __future__ import annotations
 import cmath
 import math
 
+from hil.model.dead_time import dead_time_voltage_loss_v  # (4/π)·T_d·f_pwm·V_dc, one definition
 from hil.motor import MotorParameters
 
 
@@ -42,12 +43,6 @@ def steady_voltage_phasor_peak_v(motor: MotorParameters, speed_rpm: float, curre
     emf = motor.emf_peak_v_s_per_rad * omega_m          # signed: −E in reverse rotation
     current = current_a * cmath.exp(-1j * current_angle_rad)
     return emf + complex(motor.phase_resistance_ohm, omega_e * motor.phase_inductance_h) * current
-
-
-def dead_time_voltage_loss_v(dead_time_s: float, pwm_frequency_hz: float, dc_bus_v: float) -> float:
-    """Peak fundamental phase voltage lost to dead time, V: (4/π)·T_d·f_pwm·V_dc (module
-    docstring; the fundamental of the ±T_d·f_pwm·V_dc leg error of eqs 32-37)."""
-    return 4.0 / math.pi * dead_time_s * pwm_frequency_hz * dc_bus_v
 
 
 def svpwm_limit_v(dc_bus_v: float) -> float:

@@ -98,10 +98,15 @@ def test_a_braking_point_beyond_the_motoring_limit_is_accepted_and_forward_is_no
 
 
 # ------------------------------------------------------------------------------ direction
-def test_reverse_rotation_is_refused_only_where_the_model_does_not_brake():
+def test_reverse_rotation_is_refused_only_where_the_model_does_not_brake(monkeypatch):
+    """Every shipped plan's model now takes reverse rotation as braking; a plan whose region
+    says it does not (as PWM switching's did before its braking fix) is refused there."""
     config = at(-800.0, 15.0)
-    refused = validity.refusal(test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0}),
-                               config)
+    switching = test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0})
+    assert validity.refusal(switching, config) is None
+    monkeypatch.setitem(validity.REGIONS, "pwm_switching", validity.Region(
+        braking=False, floor_fraction=None, why="a model of motoring only"))
+    refused = validity.refusal(switching, config)
     assert refused.startswith("reverse rotation is braking") and "-800 rpm" in refused
     assert validity.refusal(test_pwm_resolution.plan(config, {"pwm_period_counts": 32}),
                             config) is None
@@ -141,35 +146,13 @@ def test_acceptance_half_width_of_each_rule_kind():
 
 
 # ------------------------------------------------------------------------------ capture
-def test_effective_samples_of_equivalent_time_sampling():
-    # 182 kHz at 20 kHz: 9.1 samples per period, the phases repeat after 10 periods → 91
-    assert validity.effective_samples_per_period(182_000.0, 20_000.0, 10) == pytest.approx(91.0)
-    # a whole multiple never walks: 10 per period whatever the window
-    assert validity.effective_samples_per_period(200_000.0, 20_000.0, 10) == pytest.approx(10.0)
-    # 40 kHz at 162 kHz with windows of 6 periods (1500 rpm): the walk is not complete
-    assert validity.effective_samples_per_period(162_000.0, 40_000.0, 6) < 8
-
-
-def test_pwm_switching_40_khz_at_1500_rpm_is_refused_for_its_capture():
+def test_pwm_switching_adapts_its_capture_instead_of_being_refused():
+    """40 kHz at 1500 rpm: the plan's rate was fixed for 500 rpm (refused, or an error, before);
+    the plan now derives it from speed and PWM frequency and the region lets the point through."""
     config = at(1500.0, 20.0)
-    refused = validity.refusal(test_pwm_switching.plan(config, {"pwm_frequency_hz": 40_000.0}),
-                               config)
-    assert refused.startswith("capture rate vs PWM frequency") and "vs >= 8" in refused
-
-
-def test_switching_sampling_bias_bound():
-    # K_t·(2/3)·V_dc/L × T_pwm/effective: Table I at 500 rpm, 20 kHz, 182 kHz (91 effective)
-    config = at(500.0, 20.0)
-    plan = test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0})
-    slope = TABLE_I.torque_constant_nm_per_a * (2 / 3) * 12.0 / 38.5e-6
-    assert validity.switching_sampling_bias_nm(plan, config) == pytest.approx(
-        slope / 20_000.0 / 91.0)
+    plan = test_pwm_switching.plan(config, {"pwm_frequency_hz": 40_000.0})
     assert validity.refusal(plan, config) is None
-    # at 5 A the same absolute bound is 4× larger per unit: refused
-    config = at(500.0, 5.0)
-    refused = validity.refusal(test_pwm_switching.plan(config, {"pwm_frequency_hz": 20_000.0}),
-                               config)
-    assert "sampling bias bound" in refused, refused
+    assert validity.REGIONS["pwm_switching"].braking
 
 
 def test_region_dict_is_json_safe():
@@ -178,16 +161,3 @@ def test_region_dict_is_json_safe():
     table = {name: region.to_dict() for name, region in validity.REGIONS.items()}
     assert json.loads(json.dumps(table, allow_nan=False))["encoder"]["speed_rpm"] == [0.0, 60.0]
     assert table["dc_offset"]["speed_rpm"] == [0.0, None]
-
-
-def test_a_switching_rate_derived_from_the_speed_resolves_where_the_fixed_one_is_refused():
-    config = at(1500.0, 20.0)
-    fixed = test_pwm_switching.plan(config, {"pwm_frequency_hz": 40_000.0})
-    assert "capture rate vs PWM frequency" in validity.refusal(fixed, config)
-    rate = validity.switching_sample_rate_hz(1500.0, 2, 40_000.0, 200_000.0)
-    assert rate <= 200_000.0
-    adapted = fixed.__class__(**{**fixed.__dict__, "sample_rate_hz": rate})
-    assert validity.capture_problems(adapted, config) == []
-    windows = validity.switching_window_periods(adapted, config, 40_000.0)     # 6 at 1500 rpm
-    assert validity.effective_samples_per_period(rate, 40_000.0, windows) == pytest.approx(
-        4 * windows + 1)
