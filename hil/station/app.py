@@ -22,6 +22,7 @@ required (``?token=`` once, then a cookie; or ``Authorization: Bearer``).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import re
 import secrets
@@ -66,6 +67,7 @@ class Station:
         self.plot_key: tuple[str, int] | None = None
         self.plot_ready_s: dict[str, float] = {}
         self._changed: asyncio.Event | None = None
+        self._dirty = True
         self._lock = threading.Lock()
         if totals_loader is not None:
             threading.Thread(target=self._load_totals, args=(totals_loader,), daemon=True,
@@ -143,9 +145,14 @@ class Station:
                 if key not in self.plot_cache:
                     self.plot_cache = {key: point_png(record["tests"][index], folder)}
                     self.plot_ready_s[f"{folder.name}/{index}"] = time.time()
+                test_id = record["tests"][index]["test_id"]
+                seen = next((e["seen_s"] for e in run.follower.events if e.get("event") == "test"
+                             and e["entry"]["test_id"] == test_id), None)
                 out["plot"] = {"url": f"/plot/{folder.name}/{index}.png",
-                               "test": view.short_name(record["tests"][index]["test_id"]),
-                               "index": index}
+                               "test": view.short_name(test_id), "index": index,
+                               "capture": (record["tests"][index].get("capture") or {})
+                               .get("file"), "entry_seen_s": seen,
+                               "rendered_s": self.plot_ready_s.get(f"{folder.name}/{index}")}
             if record.get("status") != "running" and not run.alive:
                 out["final"] = view.final_statement(record, folder)
             out["links"] = {"record": f"/records/{folder.name}/record.json",
@@ -238,6 +245,7 @@ def create_app(station: Station, token: str | None = None) -> Starlette:
         return FileResponse(folder / name, media_type="application/pdf"
                             if name.endswith(".pdf") else "application/json")
 
+    @contextlib.asynccontextmanager
     async def lifespan(app):
         task = asyncio.create_task(station.run_ticker())
         try:

@@ -4,6 +4,7 @@
 const $ = (id) => document.getElementById(id);
 window.stationState = null;
 window.plotLoads = {};          // plot URL -> Date.now() when the browser finished loading it
+window.plotInfo = {};           // plot URL -> the state's plot entry (timing of the point)
 
 function text(tag, content, cls) {
   const node = document.createElement(tag);
@@ -49,8 +50,7 @@ function renderPlans(state) {
 
 function renderRun(run, totals) {
   $("run").hidden = !run;
-  const going = run && run.phase !== "finished";
-  $("start").disabled = !!going;
+  // Start stays pressable while a run goes on: the station refuses it and the page says why.
   $("stop").disabled = !(run && (run.phase === "running" || run.phase === "starting"));
   if (!run) return;
   $("run-unit").textContent = run.unit;
@@ -71,6 +71,7 @@ function renderRun(run, totals) {
     const url = run.plot.url;
     if ($("plot").dataset.url !== url) {
       $("plot").dataset.url = url;
+      window.plotInfo[url] = run.plot;
       $("plot").onload = () => { window.plotLoads[url] = Date.now(); };
       $("plot").src = url;
       $("plot-caption").textContent = "last analysed point: " + run.plot.test;
