@@ -44,8 +44,6 @@ def is_loopback(host: str) -> bool:
 
 
 def run(args) -> int:
-    import threading
-
     import uvicorn
 
     from hil.station.app import Station, create_app
@@ -70,8 +68,7 @@ def run(args) -> int:
     manager = RunManager(args.bench, args.record_dir)
     station = Station(manager, available_plans(),
                       f"bench: {args.bench or 'simulated (in-process)'}",
-                      totals_loader=lambda: collect_totals(args.bench))
-    threading.Thread(target=warm_up, daemon=True, name="station-warm-up").start()
+                      totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up)
     url = f"http://{args.host}:{args.port}/" + (f"?token={token}" if token else "")
     print(f"hil station: {url} (records in {manager.record_root}; Ctrl-C to stop serving)",
           flush=True)

@@ -55,7 +55,7 @@ class Station:
     """The state every page shows, and the one ticker that keeps it current."""
 
     def __init__(self, manager: RunManager, plans: list[str], bench_label: str,
-                 totals_loader=None) -> None:
+                 totals_loader=None, warm_up=None) -> None:
         self.manager = manager
         self.plans = plans
         self.bench_label = bench_label
@@ -69,6 +69,11 @@ class Station:
         self._changed: asyncio.Event | None = None
         self._dirty = True
         self._lock = threading.Lock()
+        #: False until the plotting and analysis start-up costs were paid (``warm_up``).
+        self.warm = warm_up is None
+        if warm_up is not None:
+            threading.Thread(target=self._warm_up, args=(warm_up,), daemon=True,
+                             name="station-warm-up").start()
         if totals_loader is not None:
             threading.Thread(target=self._load_totals, args=(totals_loader,), daemon=True,
                              name="station-plan-totals").start()
@@ -76,6 +81,13 @@ class Station:
     def _load_totals(self, loader) -> None:
         self.totals = loader() or {}
         self.touch()
+
+    def _warm_up(self, warm_up) -> None:
+        try:
+            warm_up()
+        finally:
+            self.warm = True
+            self.touch()
 
     def touch(self) -> None:
         """Mark the state as changed (the next tick rebuilds it and wakes the streams)."""
@@ -117,6 +129,7 @@ class Station:
     def build_state(self) -> dict:
         run = self.manager.run
         state = {"bench": self.bench_label, "plans": self.plans, "totals": self.totals,
+                 "warm": self.warm,
                  "run": None, "history": self.history.rows()}
         if run is None:
             return state

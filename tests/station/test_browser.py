@@ -74,6 +74,10 @@ def station(tmp_path_factory):
                 process.kill()
                 pytest.fail(f"station did not start: {process.stdout.read().decode()[-2000:]}")
             time.sleep(0.2)
+    while not json.loads(urllib.request.urlopen(url + "/api/state", timeout=5).read())["warm"]:
+        if time.monotonic() > deadline + 60:        # the station says when it has warmed up
+            break
+        time.sleep(0.2)
     yield {"url": url, "records": root / "records", "process": process}
     process.send_signal(signal.SIGINT)
     try:
@@ -87,7 +91,7 @@ def browser():
     options.binary_location = CHROMIUM
     for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                  "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--window-size=1200,1400"):
+                 "--disable-component-update", "--disable-sync", "--window-size=1200,1900"):
         options.add_argument(flag)
     import tempfile
 

@@ -54,7 +54,8 @@ function renderRun(run, totals) {
   $("stop").disabled = !(run && (run.phase === "running" || run.phase === "starting"));
   if (!run) return;
   $("run-unit").textContent = run.unit;
-  $("phase").textContent = run.phase + (run.status_text ? " (" + run.status_text + ")" : "");
+  $("phase").textContent = run.status_text && run.status_text !== run.phase
+    ? run.phase + " (" + run.status_text + ")" : run.phase;
   const alerts = $("alerts"); alerts.replaceChildren();
   for (const alert of run.alerts) {
     const div = text("div", alert.text, "alert"); div.dataset.kind = alert.kind;
