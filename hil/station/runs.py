@@ -17,6 +17,7 @@ import json
 import os
 import re
 import secrets
+import shutil
 import signal
 import subprocess
 import sys
@@ -200,6 +201,7 @@ class RunManager:
             except subprocess.TimeoutExpired:
                 run.process.kill()
         self._release_bench_lock()
+        shutil.rmtree(self.state_dir, ignore_errors=True)
 
     # ------------------------------------------------------------------ bench lock
     def lock_path(self) -> Path:
