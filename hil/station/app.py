@@ -39,7 +39,7 @@ from starlette.staticfiles import StaticFiles
 
 from hil.station import view
 from hil.station.history import History
-from hil.station.plots import point_png
+from hil.station.plots import point_svg
 from hil.station.runs import Refused, RunManager
 
 #: How often the run is polled, in s (journal lines are visible to the page within this).
@@ -156,12 +156,12 @@ class Station:
             if index is not None:
                 key = (folder.name, index)
                 if key not in self.plot_cache:
-                    self.plot_cache = {key: point_png(record["tests"][index], folder)}
+                    self.plot_cache = {key: point_svg(record["tests"][index], folder)}
                     self.plot_ready_s[f"{folder.name}/{index}"] = time.time()
                 test_id = record["tests"][index]["test_id"]
                 seen = next((e["seen_s"] for e in run.follower.events if e.get("event") == "test"
                              and e["entry"]["test_id"] == test_id), None)
-                out["plot"] = {"url": f"/plot/{folder.name}/{index}.png",
+                out["plot"] = {"url": f"/plot/{folder.name}/{index}.svg",
                                "test": view.short_name(test_id), "index": index,
                                "capture": (record["tests"][index].get("capture") or {})
                                .get("file"), "entry_seen_s": seen,
@@ -245,8 +245,8 @@ def create_app(station: Station, token: str | None = None) -> Starlette:
             record = view_record(folder)
             if record is None or not 0 <= key[1] < len(record["tests"]):
                 return PlainTextResponse("no such point", status_code=404)
-            data = await asyncio.to_thread(point_png, record["tests"][key[1]], folder)
-        return Response(data, media_type="image/png",
+            data = await asyncio.to_thread(point_svg, record["tests"][key[1]], folder)
+        return Response(data, media_type="image/svg+xml",
                         headers={"Cache-Control": "private, max-age=3600"})
 
     async def record_file(request: Request) -> Response:
@@ -271,7 +271,7 @@ def create_app(station: Station, token: str | None = None) -> Starlette:
               Route("/api/start", start, methods=["POST"]),
               Route("/api/stop", stop, methods=["POST"]),
               Route("/api/answer", answer, methods=["POST"]),
-              Route("/plot/{record}/{index:int}.png", plot),
+              Route("/plot/{record}/{index:int}.svg", plot),
               Route("/records/{record}/{file}", record_file),
               Mount("/static", StaticFiles(directory=STATIC), name="static")]
     app = Starlette(routes=routes, lifespan=lifespan)

@@ -8,12 +8,22 @@ every hash verified) is computed once and cached by its seal.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
 from hil.record import RECORD_FILE, SEAL_FILE
 from hil.station.journal import read_record
 from hil.station.view import OPERATOR_STATUS, final_statement, unit_of
+
+
+def _header(folder: Path) -> dict | None:
+    """A running record's header only (no journal replay: the history is read every tick; the
+    station's own running unit is shown from its journal follower)."""
+    try:
+        return json.loads((folder / RECORD_FILE).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return None
 
 
 class History:
@@ -38,7 +48,7 @@ class History:
         cached = self._cache.get(folder.name)
         if stamp is not None and cached is not None and cached[0] == stamp:
             return cached[1] | {"report": (folder / "report.pdf").exists()}
-        record = read_record(folder)
+        record = read_record(folder) if stamp is not None else _header(folder)
         if record is None:
             return None
         row = {"record": folder.name, "record_id": record.get("record_id"),

@@ -62,3 +62,27 @@ def test_progress_counts_points_per_plan_against_the_collected_totals(tmp_path):
     assert rows["baseline"] == {"source": "baseline", "done": 1, "total": 3, "passed": 1,
                                 "bad": 0, "not_run": 0}
     assert [v["decision"] for v in view.verdicts(record)] == [None, "pass"]
+
+
+def test_point_plot_is_valid_svg_of_the_recorded_curves(tmp_path):
+    import xml.etree.ElementTree as ElementTree
+
+    import numpy as np
+
+    from hil.station.plots import point_svg
+
+    grid = np.linspace(0, 2 * np.pi, 256, endpoint=False)
+    revolutions = [1 + 0.02 * np.sin(6 * grid + k) for k in range(4)]
+    entry = {"test_id": "plans::test_point[x]", "measured": {
+        "pk_pk_pu": 0.04, "angle_grid_rad": grid.tolist(),
+        "sync_average_nm": np.mean(revolutions, axis=0).tolist(),
+        "revolution_matrix_nm": [r.tolist() for r in revolutions],
+        "orders": [1.0, 6.0, 12.0], "amplitude_nm": [0.0, 0.01, 0.001]}}
+    svg = ElementTree.fromstring(point_svg(entry, tmp_path))
+    ns = "{http://www.w3.org/2000/svg}"
+    assert len(svg.findall(f"{ns}polyline")) == 4 + 1          # revolutions + their average
+    stems = svg.find(f"{ns}path").get("d")
+    assert stems.count("M") == 3
+    assert "pk-pk 4 % of mean torque" in ElementTree.tostring(svg, encoding="unicode")
+    missing = ElementTree.fromstring(point_svg({"test_id": "p::t", "measured": {}}, tmp_path))
+    assert "no plot: no raw capture" in ElementTree.tostring(missing, encoding="unicode")
