@@ -116,3 +116,40 @@ def test_headless_defaults_and_a_wrong_transducer_alert(tmp_path):
     kinds = [alert["kind"] for alert in view.alerts(record)]
     assert kinds == ["self-check"], (kinds, result.stdout[-2000:])
     assert "FAILED" in view.alerts(record)[0]["text"]
+
+
+VANISH = '''
+import pytest
+from hil.measurement import PointPlan
+
+pytestmark = pytest.mark.ripple_source("dc_offset")
+
+
+@pytest.mark.parametrize("offset_a", [0.1, 0.2, 0.3])
+def test_point(measure, bench, offset_a):
+    if offset_a == 0.2:
+        bench.simulated.stop()          # every in-process simulated instrument vanishes
+    measure(PointPlan(source="dc_offset", injection={"ia_offset_a": offset_a, "ib_offset_a": 0.0},
+                      speed_rpm=500.0, current_a=20.0, revolutions=3))
+'''
+
+
+def test_a_lost_bench_is_shown_with_the_instrument(tmp_path):
+    plan = tmp_path / "test_vanish.py"
+    plan.write_text(VANISH)
+    manager = RunManager(None, tmp_path / "records", extra_args=[str(plan)])
+    try:
+        manager.start("SN-LOST-3", ["self_check"], PLANS)
+        run = _wait(manager, lambda r: not r.alive and r.follower and r.follower.finished)
+    finally:
+        manager.close()
+    assert run.exit_status == 7, manager.log_tail(20)
+    record = run.follower.data
+    assert record["status"] == "aborted"
+    alerts = view.alerts(record)
+    assert alerts[0]["kind"] == "bench-lost" and "(drive)" in alerts[0]["text"]
+    # the alert stood as soon as the failed point's line was in the journal, before the end
+    failed = next(e for e in run.follower.events if e.get("event") == "update"
+                  and "bench lost" in str(e["fields"].get("message"))
+                  or e.get("event") == "test" and "bench lost" in str(e["entry"].get("message")))
+    assert failed is not None
