@@ -31,6 +31,9 @@ def register(subparsers) -> None:
                         help="access token for a non-loopback --host (default: generated)")
     parser.add_argument("--record-dir", metavar="DIR", default="records",
                         help="folder of the run records (default: records)")
+    parser.add_argument("--plan", action="append", default=[], metavar="FILE.py",
+                        help="a plan of your own (a pytest file using the ripple-hil fixtures, "
+                             "docs/writing-plans.md) offered beside the shipped plans; repeatable")
     parser.set_defaults(func=run)
 
 
@@ -41,6 +44,24 @@ def is_loopback(host: str) -> bool:
         return ipaddress.ip_address(host).is_loopback
     except ValueError:
         return False
+
+
+def own_plans(files: list[str]) -> dict[str, str]:
+    """``--plan FILE.py`` → {plan name (file stem without ``test_``): absolute path}."""
+    from pathlib import Path
+
+    from hil.commands.run import plan_modules
+
+    plans: dict[str, str] = {}
+    for text in files:
+        path = Path(text)
+        if path.suffix != ".py" or not path.is_file():
+            raise InputError(f"--plan {text}: not a Python file")
+        name = "own:" + path.stem.removeprefix("test_")
+        if name in plans or path.stem.removeprefix("test_") in plan_modules():
+            raise InputError(f"--plan {text}: a plan named {name} is already offered")
+        plans[name] = str(path.resolve())
+    return plans
 
 
 def run(args) -> int:
@@ -65,8 +86,9 @@ def run(args) -> int:
         from hil.config import load_bench
 
         load_bench(args.bench)          # a bad bench file: one line, before serving
-    manager = RunManager(args.bench, args.record_dir)
-    station = Station(manager, available_plans(),
+    own = own_plans(args.plan)
+    manager = RunManager(args.bench, args.record_dir, own_plans=own)
+    station = Station(manager, available_plans() + list(own),
                       f"bench: {args.bench or 'simulated (in-process)'}",
                       totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up)
     url = f"http://{args.host}:{args.port}/" + (f"?token={token}" if token else "")

@@ -66,8 +66,11 @@ class RunManager:
     """The station's one bench: at most one child run at a time."""
 
     def __init__(self, bench_path: str | None, record_root: str | Path,
-                 python: str = sys.executable, extra_args: list[str] | None = None) -> None:
+                 python: str = sys.executable, extra_args: list[str] | None = None,
+                 own_plans: dict[str, str] | None = None) -> None:
         self.bench_path = bench_path
+        #: Plans of the lab's own (name → pytest file), offered beside the shipped ones.
+        self.own_plans = dict(own_plans or {})
         self.record_root = Path(record_root).resolve()
         self.record_root.mkdir(parents=True, exist_ok=True)
         self.python = python
@@ -101,12 +104,16 @@ class RunManager:
             command = [self.python, "-m", "hil", "run", "--record-dir", str(self.record_root)]
             if self.bench_path:
                 command += ["--bench", self.bench_path]
-            for name in sources:
+            shipped = [name for name in sources if name not in self.own_plans]
+            # hil run without --source runs every shipped plan: with only own plans selected,
+            # name the self-check (which hil run runs first anyway)
+            for name in shipped or ["self_check"]:
                 command += ["--source", name]
             if operator:
                 command += ["--operator", operator]
             command += ["--", "--hil-unit-serial", unit_serial, "--hil-station-run", token,
-                        "--hil-station-answers", str(answers), *self.extra_args]
+                        "--hil-station-answers", str(answers), *self.extra_args,
+                        *[self.own_plans[name] for name in sources if name in self.own_plans]]
             try:
                 with open(log_path, "wb") as log:
                     process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT,

@@ -95,6 +95,7 @@ def test_cli_address_rules():
         host = "127.0.0.1"
         token = "a-token-that-is-long-enough"
         record_dir = "records"
+        plan = []
 
     with pytest.raises(InputError, match="only for a non-loopback"):
         station_command(Args)

@@ -47,6 +47,19 @@ SWEEP = ["dc_offset", "ripple_map", "diagnosis"]
 STEP_TIMEOUT_S = 120
 
 
+#: A plan of the lab's own (``hil station --plan``) that asks the operator twice.
+PROMPT_PLAN = """
+import pytest
+
+pytestmark = pytest.mark.ripple_source("coupling")
+
+
+def test_coupled_and_supply_entered(operator_prompts):
+    operator_prompts.confirm("couple", "Couple the transducer, then Continue")
+    assert operator_prompts.ask("supply_v", "Enter the supply voltage in V") == "47.5"
+"""
+
+
 def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
@@ -59,8 +72,10 @@ def station(tmp_path_factory):
     root = tmp_path_factory.mktemp("station")
     port = free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1")
+    (root / "test_coupling.py").write_text(PROMPT_PLAN)
     process = subprocess.Popen([sys.executable, "-m", "hil", "station", "--port", str(port),
-                                "--record-dir", str(root / "records")],
+                                "--record-dir", str(root / "records"),
+                                "--plan", str(root / "test_coupling.py")],
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env,
                                cwd=root)
     url = f"http://127.0.0.1:{port}"
@@ -213,3 +228,32 @@ def test_finished_unit_verdict_pdf_and_history(station):
     assert expected_statement(folder).split()[1] in history[0]
     state = json.loads(urllib.request.urlopen(station["url"] + "/api/state").read())
     assert [row["unit"] for row in state["history"]] == ["SN-OK-2", "SN-STOP-1"]
+
+
+def test_operator_prompts_on_the_page(station):
+    driver = browser()
+    try:
+        driver.get(station["url"])
+        start_unit(driver, "SN-ASK-3", ["own:coupling"])
+        wait_until(driver, lambda d: d.find_elements(By.ID, "answer-button-couple"),
+                   "the first question")
+        assert "Couple the transducer" in driver.find_element(By.ID, "prompts").text
+        driver.find_element(By.ID, "answer-button-couple").click()
+        field = wait_until(driver, lambda d: d.find_elements(By.ID, "answer-supply_v"),
+                           "the second question")[0]
+        field.send_keys("47.5")
+        driver.find_element(By.ID, "answer-button-supply_v").click()
+        wait_until(driver, lambda d: page_state(d)["run"]["unit"] == "SN-ASK-3"
+                   and page_state(d)["run"]["phase"] == "finished", "the finished unit")
+        run = page_state(driver)["run"]
+        assert not driver.find_element(By.ID, "prompts").text      # nothing left to answer
+    finally:
+        driver.quit()
+    record = load_record(station["records"] / run["record"])
+    assert record["status"] == "complete"
+    outcomes = {t["test_id"].rsplit("::", 1)[-1]: t["outcome"] for t in record["tests"]}
+    assert outcomes == {"test_bench_self_check": "passed",
+                        "test_coupled_and_supply_entered": "passed"}
+    asked = {p["key"]: (p["answer"], p["by"]) for p in record["operator_prompts"]["prompts"]}
+    assert asked == {"couple": ("continue", "station operator"),
+                     "supply_v": ("47.5", "station operator")}
