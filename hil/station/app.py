@@ -149,6 +149,7 @@ class Station:
             out.update(record=folder.name, record_id=record.get("record_id"),
                        status=record.get("status"),
                        status_text=view.OPERATOR_STATUS.get(record.get("status")),
+                       drive=view.drive_identity(record),
                        progress=view.progress(record, totals), verdicts=view.verdicts(record),
                        alerts=view.alerts(record),
                        prompts=view.prompts(record) if run.alive else [])

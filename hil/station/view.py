@@ -142,3 +142,16 @@ def final_statement(record: dict, folder: Path) -> dict:
 def unit_of(record: dict) -> str | None:
     """The unit serial number the run recorded (``--hil-unit-serial``)."""
     return (record.get("unit") or {}).get("serial_number")
+
+
+def drive_identity(record: dict) -> str | None:
+    """The drive as the record lists it (bench file's model and serial number, and the serial
+    the drive itself reported when it differs): shown beside the unit serial the operator gave."""
+    row = next((r for r in record.get("instruments") or [] if r.get("role") == "drive"), None)
+    if row is None:
+        return None
+    text = f"{row.get('model') or 'drive'} s/n {row.get('serial_number')}"
+    reported = (row.get("identity") or {}).get("serial_number")
+    if reported is not None and str(reported) != str(row.get("serial_number")):
+        text += f" (the drive reports {reported})"
+    return text

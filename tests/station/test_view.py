@@ -62,6 +62,16 @@ def test_progress_counts_points_per_plan_against_the_collected_totals(tmp_path):
     assert rows["baseline"] == {"source": "baseline", "done": 1, "total": 3, "passed": 1,
                                 "bad": 0, "not_run": 0}
     assert [v["decision"] for v in view.verdicts(record)] == [None, "pass"]
+    assert view.drive_identity(record) == "ripple-hil simulated CiA 402 drive s/n SIM-DRIVE-1"
+
+
+def test_a_drive_reporting_another_serial_is_shown(tmp_path):
+    from hil.record import instrument_table
+
+    record = {"instruments": instrument_table(default_sim_bench(),
+                                              [{"role": "drive", "serial_number": "X9"}])}
+    assert view.drive_identity(record) == ("ripple-hil simulated CiA 402 drive s/n SIM-DRIVE-1 "
+                                           "(the drive reports X9)")
 
 
 def test_point_plot_is_valid_svg_of_the_recorded_curves(tmp_path):

@@ -54,6 +54,7 @@ function renderRun(run, totals) {
   $("stop").disabled = !(run && (run.phase === "running" || run.phase === "starting"));
   if (!run) return;
   $("run-unit").textContent = run.unit;
+  $("drive").textContent = run.drive ? "on the bench: " + run.drive : "";
   $("phase").textContent = run.status_text && run.status_text !== run.phase
     ? run.phase + " (" + run.status_text + ")" : run.phase;
   const alerts = $("alerts"); alerts.replaceChildren();
