@@ -95,7 +95,8 @@ def run(args) -> int:
     print(f"hil station: {url} (records in {manager.record_root}; Ctrl-C to stop serving)",
           flush=True)
     config = uvicorn.Config(create_app(station, token), host=args.host, port=args.port,
-                            log_level="warning", lifespan="on")
+                            log_level="warning", lifespan="on", timeout_graceful_shutdown=5)
     server = uvicorn.Server(config)
+    station.shutting_down = lambda: server.should_exit
     server.run()
     return 0 if server.started else 2

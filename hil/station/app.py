@@ -68,6 +68,8 @@ class Station:
         self.plot_ready_s: dict[str, float] = {}
         self._changed: asyncio.Event | None = None
         self._dirty = True
+        #: True once the server is stopping (set by ``hil station``: uvicorn's should_exit).
+        self.shutting_down = lambda: False
         self._lock = threading.Lock()
         #: False until the plotting and analysis start-up costs were paid (``warm_up``).
         self.warm = warm_up is None
@@ -192,13 +194,16 @@ def create_app(station: Station, token: str | None = None) -> Starlette:
 
     async def events(request: Request) -> Response:
         async def stream():
-            version = -1
-            while True:
-                if await station.wait_change(version, KEEPALIVE_S):
-                    version = station.version
+            version, quiet_s = -1, 0.0
+            while not station.shutting_down():     # ends so the server can stop at once
+                if await station.wait_change(version, 1.0):
+                    version, quiet_s = station.version, 0.0
                     yield f"data: {json.dumps(station.state)}\n\n"
                 else:
-                    yield ": keep-alive\n\n"
+                    quiet_s += 1.0
+                    if quiet_s >= KEEPALIVE_S:
+                        quiet_s = 0.0
+                        yield ": keep-alive\n\n"
         return StreamingResponse(stream(), media_type="text/event-stream",
                                  headers={"Cache-Control": "no-store"})
 
