@@ -135,6 +135,9 @@ class Station:
                  "run": None, "history": self.history.rows()}
         if run is None:
             return state
+        for row in state["history"]:          # a running record's unit is still in its journal
+            if run.record_dir is not None and row["record"] == run.record_dir.name:
+                row["unit"] = row["unit"] or run.unit_serial
         record = run.follower.data if run.follower is not None else None
         phase = ("starting" if run.alive and record is None else
                  "stopping" if run.alive and run.stop_requested_s is not None else
