@@ -5,8 +5,9 @@ number and the station's answer folder passed to the ripple-hil plugin (``fixtur
 Stop sends that child SIGINT — exactly Ctrl-C at a terminal, so the plugin's interrupt guard
 leaves the drive safe and closes the record ``interrupted``. One run per bench at a time: a
 second Start is refused with the reason, also when another station process on this machine holds
-the same bench (an exclusive ``flock`` on a lock file named after the bench file, held for the
-child's life). The run outlives any browser: it belongs to the station process, not to a page.
+the same bench (an exclusive ``flock`` on a lock file named after the bench file, inherited by the
+child run, so it is held for the run's whole life even if the station dies). A ``hil run``
+started by hand at a terminal does not take this lock. The run outlives any browser: it belongs to the station process, not to a page.
 """
 
 from __future__ import annotations
@@ -118,7 +119,8 @@ class RunManager:
                 with open(log_path, "wb") as log:
                     process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT,
                                                stdin=subprocess.DEVNULL,
-                                               start_new_session=True)
+                                               start_new_session=True,
+                                               pass_fds=(self._bench_lock_file.fileno(),))
             except OSError as exc:
                 self._release_bench_lock()
                 raise Refused(f"the run could not be started: {exc}") from None
@@ -228,7 +230,9 @@ class RunManager:
         self._bench_lock_file = handle
 
     def _release_bench_lock(self) -> None:
+        """Close this station's handle of the lock. The child run inherited the same open file
+        (``pass_fds``), so the bench stays locked until the run itself ends — also when this
+        station dies first and a restarted one would otherwise start a second run."""
         if self._bench_lock_file is not None:
-            fcntl.flock(self._bench_lock_file, fcntl.LOCK_UN)
             self._bench_lock_file.close()
             self._bench_lock_file = None

@@ -73,6 +73,9 @@ def test_station_run_prompts_answers_and_one_run_per_bench(tmp_path):
             manager.start("SN-8", ["self_check"], PLANS)
         with pytest.raises(Refused, match="another station"):
             other_station.start("SN-8", ["self_check"], PLANS)
+        manager._release_bench_lock()       # as if this station died: the run holds the lock
+        with pytest.raises(Refused, match="another station"):
+            other_station.start("SN-8", ["self_check"], PLANS)
         run = _wait(manager, lambda r: r.follower and view.prompts(r.follower.data)
                     or not r.alive)
         assert [p["key"] for p in view.prompts(run.follower.data)] == ["couple"]
