@@ -34,6 +34,9 @@ def register(subparsers) -> None:
     parser.add_argument("--plan", action="append", default=[], metavar="FILE.py",
                         help="a plan of your own (a pytest file using the ripple-hil fixtures, "
                              "docs/writing-plans.md) offered beside the shipped plans; repeatable")
+    parser.add_argument("--selection", action="append", default=[], metavar="NAME=PLAN,…",
+                        help="a saved selection of plans the operator picks with one button, "
+                             "e.g. 'end of line=self_check,baseline,dc_offset'; repeatable")
     parser.set_defaults(func=run)
 
 
@@ -64,6 +67,21 @@ def own_plans(files: list[str]) -> dict[str, str]:
     return plans
 
 
+def selections(texts: list[str], plans: list[str]) -> dict[str, list[str]]:
+    """``--selection NAME=PLAN,PLAN`` → {name: plans}, every plan one the station offers."""
+    out: dict[str, list[str]] = {}
+    for text in texts:
+        name, _, listed = text.partition("=")
+        chosen = [item.strip() for item in listed.split(",") if item.strip()]
+        unknown = [item for item in chosen if item not in plans]
+        if not name.strip() or not chosen or unknown:
+            raise InputError(f"--selection {text!r}: give NAME=PLAN[,PLAN…] with plans among "
+                             f"{', '.join(plans)}" + (f"; unknown: {', '.join(unknown)}"
+                                                      if unknown else ""))
+        out[name.strip()] = chosen
+    return out
+
+
 def run(args) -> int:
     import uvicorn
 
@@ -87,10 +105,12 @@ def run(args) -> int:
 
         load_bench(args.bench)          # a bad bench file: one line, before serving
     own = own_plans(args.plan)
+    offered = available_plans() + list(own)
+    saved = selections(args.selection, offered)
     manager = RunManager(args.bench, args.record_dir, own_plans=own)
-    station = Station(manager, available_plans() + list(own),
-                      f"bench: {args.bench or 'simulated (in-process)'}",
-                      totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up)
+    station = Station(manager, offered, f"bench: {args.bench or 'simulated (in-process)'}",
+                      totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up,
+                      selections=saved)
     url = f"http://{args.host}:{args.port}/" + (f"?token={token}" if token else "")
     print(f"hil station: {url} (records in {manager.record_root}; Ctrl-C to stop serving)",
           flush=True)

@@ -55,9 +55,12 @@ class Station:
     """The state every page shows, and the one ticker that keeps it current."""
 
     def __init__(self, manager: RunManager, plans: list[str], bench_label: str,
-                 totals_loader=None, warm_up=None) -> None:
+                 totals_loader=None, warm_up=None,
+                 selections: dict[str, list[str]] | None = None) -> None:
         self.manager = manager
         self.plans = plans
+        #: Saved selections of plans (name → plans), one button each on the page.
+        self.selections = dict(selections or {})
         self.bench_label = bench_label
         self.history = History(manager.record_root)
         self.totals: dict[str, int] = {}
@@ -131,6 +134,7 @@ class Station:
     def build_state(self) -> dict:
         run = self.manager.run
         state = {"bench": self.bench_label, "plans": self.plans, "totals": self.totals,
+                 "selections": self.selections,
                  "warm": self.warm,
                  "run": None, "history": self.history.rows()}
         if run is None:

@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from hil.commands.station import is_loopback, run as station_command
+from hil.commands.station import is_loopback, run as station_command, selections
 from hil.errors import InputError
 from hil.station.app import Station, create_app
 from hil.station.runs import RunManager
@@ -102,3 +102,12 @@ def test_cli_address_rules():
     Args.host, Args.token = "0.0.0.0", "short"
     with pytest.raises(InputError, match="at least 16"):
         station_command(Args)
+
+
+def test_saved_selections_name_only_offered_plans():
+    assert selections(["end of line = self_check, baseline"], ["baseline", "self_check"]) == \
+        {"end of line": ["self_check", "baseline"]}
+    with pytest.raises(InputError, match="unknown: nope"):
+        selections(["x=baseline,nope"], ["baseline"])
+    with pytest.raises(InputError, match="NAME=PLAN"):
+        selections(["=baseline"], ["baseline"])

@@ -75,7 +75,8 @@ def station(tmp_path_factory):
     (root / "test_coupling.py").write_text(PROMPT_PLAN)
     process = subprocess.Popen([sys.executable, "-m", "hil", "station", "--port", str(port),
                                 "--record-dir", str(root / "records"),
-                                "--plan", str(root / "test_coupling.py")],
+                                "--plan", str(root / "test_coupling.py"),
+                                "--selection", "quick check=baseline"],
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env,
                                cwd=root)
     url = f"http://127.0.0.1:{port}"
@@ -126,7 +127,7 @@ def wait_until(driver, predicate, what: str, timeout_s: float = STEP_TIMEOUT_S):
 
 
 def start_unit(driver, serial: str, plans: list[str]) -> None:
-    wait_until(driver, lambda d: d.find_elements(By.ID, f"plan-{plans[0]}"), "the plan list")
+    wait_until(driver, lambda d: d.find_elements(By.ID, "plan-baseline"), "the plan list")
     driver.find_element(By.ID, "unit").send_keys(serial)
     for name in plans:
         driver.find_element(By.ID, f"plan-{name}").click()
@@ -207,7 +208,10 @@ def test_finished_unit_verdict_pdf_and_history(station):
         driver.get(station["url"])
         wait_until(driver, lambda d: page_state(d) and page_state(d)["run"]
                    and page_state(d)["run"]["phase"] == "finished", "the last unit kept")
-        start_unit(driver, "SN-OK-2", ["baseline"])
+        wait_until(driver, lambda d: d.find_elements(By.CSS_SELECTOR, "button.selection"),
+                   "the saved selection")
+        driver.find_element(By.CSS_SELECTOR, "button.selection").click()   # "quick check"
+        start_unit(driver, "SN-OK-2", [])
         wait_until(driver, lambda d: page_state(d)["run"]["unit"] == "SN-OK-2"
                    and page_state(d)["run"]["phase"] == "finished"
                    and page_state(d)["run"]["links"]["pdf"], "the finished unit with its PDF")
@@ -224,6 +228,7 @@ def test_finished_unit_verdict_pdf_and_history(station):
     assert pdf.startswith(b"%PDF")
     record = load_record(folder)
     assert record["status"] == "complete" and record["unit"]["serial_number"] == "SN-OK-2"
+    assert record["run"]["selection"]["sources"] == ["baseline", "self_check"]
     assert len(history) == 2 and "SN-OK-2" in history[0] and "SN-STOP-1" in history[1]
     assert expected_statement(folder).split()[1] in history[0]
     state = json.loads(urllib.request.urlopen(station["url"] + "/api/state").read())

@@ -45,6 +45,13 @@ function renderPlans(state) {
     label.appendChild(box1); label.appendChild(document.createTextNode(" " + name));
     box.appendChild(label);
   }
+  for (const [name, chosen] of Object.entries(state.selections || {})) {
+    const button = text("button", name); button.type = "button"; button.className = "selection";
+    button.onclick = () => {
+      for (const item of document.querySelectorAll("input[name=plan]")) item.checked = chosen.includes(item.value);
+    };
+    box.appendChild(button);
+  }
   box.dataset.filled = "1";
 }
 
