@@ -181,6 +181,10 @@ class Station:
             out["links"] = {"record": f"/records/{folder.name}/record.json",
                             "pdf": f"/records/{folder.name}/report.pdf"
                             if (folder / "report.pdf").exists() else None}
+        elif not run.alive and run.stop_requested_s is not None:
+            out["alerts"] = [{"kind": "stopped-before-start",
+                              "text": "Stopped before the run began: nothing was sent to the "
+                                      "drive and no record was made.", "detail": ""}]
         elif not run.alive:
             out["alerts"] = [{"kind": "not-started",
                               "text": "The run did not start: nothing was sent to the drive. "

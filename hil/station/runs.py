@@ -154,6 +154,13 @@ class RunManager:
                 raise Refused(f"an answer is one line of at most {MAX_ANSWER_CHARS} characters")
             if prompt_id in run.answered:
                 raise Refused("this question was already answered")
+            self.refresh()
+            from hil.station.view import prompts
+
+            waiting = prompts(run.follower.data) if run.follower and run.follower.data else []
+            if prompt_id not in [p["key"] for p in waiting]:
+                raise Refused("no such question is waiting (an answer is only taken for a "
+                              "question the run has asked)")
             target = run.answers_dir / f"{prompt_id}.json"
             tmp = target.with_suffix(".tmp")
             tmp.write_text(json.dumps({"answer": value, "utc": time.time()}), encoding="utf-8")

@@ -79,7 +79,11 @@ def test_station_run_prompts_answers_and_one_run_per_bench(tmp_path):
         run = _wait(manager, lambda r: r.follower and view.prompts(r.follower.data)
                     or not r.alive)
         assert [p["key"] for p in view.prompts(run.follower.data)] == ["couple"]
+        with pytest.raises(Refused, match="no such question is waiting"):
+            manager.answer("supply_v", "99")          # not asked yet: never pre-answered
         manager.answer("couple", "continue")
+        with pytest.raises(Refused, match="already answered"):
+            manager.answer("couple", "continue")
         run = _wait(manager, lambda r: [p["key"] for p in view.prompts(r.follower.data)]
                     == ["supply_v"] or not r.alive)
         manager.answer("supply_v", "47.5")
