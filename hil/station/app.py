@@ -109,14 +109,19 @@ class Station:
                 with self._lock:
                     changed, self._dirty = changed or self._dirty, False
                 if changed:
-                    self.state = await asyncio.to_thread(self.build_state)
-                    self.version += 1
-                    self.state["version"] = self.version
-                    event, self._changed = self._changed, asyncio.Event()
-                    event.set()
+                    self._publish(await asyncio.to_thread(self.build_state))
             except Exception as exc:             # a sink never stops: show it, keep ticking
-                self.state = dict(self.state, station_error=f"{type(exc).__name__}: {exc}")
+                error = f"{type(exc).__name__}: {exc}"
+                if self.state.get("station_error") != error:
+                    self._publish(dict(self.state, station_error=error))
             await asyncio.sleep(TICK_S)
+
+    def _publish(self, state: dict) -> None:
+        """Make ``state`` current and wake every event stream."""
+        self.version += 1
+        self.state = state | {"version": self.version}
+        event, self._changed = self._changed, asyncio.Event()
+        event.set()
 
     async def wait_change(self, version: int, timeout_s: float) -> bool:
         if self.version != version:

@@ -111,3 +111,22 @@ def test_saved_selections_name_only_offered_plans():
         selections(["x=baseline,nope"], ["baseline"])
     with pytest.raises(InputError, match="NAME=PLAN"):
         selections(["=baseline"], ["baseline"])
+
+
+def test_a_display_error_is_shown_and_the_ticker_goes_on(station):
+    calls = []
+
+    def broken_refresh():
+        calls.append(1)
+        raise ValueError("odd record")
+
+    station.manager.refresh = broken_refresh
+
+    async def tick_a_while():
+        task = asyncio.create_task(station.run_ticker())
+        await asyncio.sleep(0.5)
+        task.cancel()
+
+    asyncio.run(tick_a_while())
+    assert station.state["station_error"] == "ValueError: odd record"
+    assert station.version == 1 and len(calls) >= 3        # published once, still polling

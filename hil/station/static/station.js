@@ -140,6 +140,8 @@ function renderHistory(rows) {
 function render(state) {
   window.stationState = state;
   $("bench").textContent = state.bench;
+  $("station-error").hidden = !state.station_error;
+  $("station-error").textContent = state.station_error ? "Station display problem (the run is not affected): " + state.station_error : "";
   renderPlans(state);
   renderRun(state.run, state.totals);
   renderHistory(state.history);
