@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 from pathlib import Path
@@ -60,6 +62,10 @@ def test_coupled_and_supply_entered(operator_prompts):
 """
 
 
+#: Fresh chromium profile folders made by :func:`browser`, removed when the station stops.
+PROFILES: list[str] = []
+
+
 def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
@@ -73,12 +79,12 @@ def station(tmp_path_factory):
     port = free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     (root / "test_coupling.py").write_text(PROMPT_PLAN)
+    log = open(root / "station.log", "wb")         # a file: a pipe nobody reads could fill
     process = subprocess.Popen([sys.executable, "-m", "hil", "station", "--port", str(port),
                                 "--record-dir", str(root / "records"),
                                 "--plan", str(root / "test_coupling.py"),
                                 "--selection", "quick check=baseline"],
-                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env,
-                               cwd=root)
+                               stdout=log, stderr=subprocess.STDOUT, env=env, cwd=root)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
     while True:
@@ -88,7 +94,8 @@ def station(tmp_path_factory):
         except OSError:
             if process.poll() is not None or time.monotonic() > deadline:
                 process.kill()
-                pytest.fail(f"station did not start: {process.stdout.read().decode()[-2000:]}")
+                pytest.fail(f"station did not start: "
+                            f"{(root / 'station.log').read_text(errors='replace')[-2000:]}")
             time.sleep(0.2)
     while not json.loads(urllib.request.urlopen(url + "/api/state", timeout=5).read())["warm"]:
         if time.monotonic() > deadline + 60:        # the station says when it has warmed up
@@ -100,6 +107,9 @@ def station(tmp_path_factory):
         process.wait(timeout=60)
     except subprocess.TimeoutExpired:
         process.kill()
+    log.close()
+    for profile in PROFILES:
+        shutil.rmtree(profile, ignore_errors=True)
 
 
 def browser():
@@ -109,9 +119,8 @@ def browser():
                  "--no-first-run", "--disable-background-networking",
                  "--disable-component-update", "--disable-sync", "--window-size=1200,1900"):
         options.add_argument(flag)
-    import tempfile
-
-    options.add_argument(f"--user-data-dir={tempfile.mkdtemp(prefix='hil-station-chromium-')}")
+    PROFILES.append(tempfile.mkdtemp(prefix="hil-station-chromium-"))
+    options.add_argument(f"--user-data-dir={PROFILES[-1]}")
     service = webdriver.ChromeService(executable_path=CHROMEDRIVER)
     os.environ.setdefault("SE_OFFLINE", "true")        # selenium manager: never download
     return webdriver.Chrome(options=options, service=service)
