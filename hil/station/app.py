@@ -39,6 +39,7 @@ from starlette.staticfiles import StaticFiles
 
 from hil.station import view
 from hil.station.history import History
+from hil.station.journal import read_record
 from hil.station.plots import point_svg
 from hil.station.runs import Refused, RunManager
 
@@ -69,6 +70,7 @@ class Station:
         self.plot_cache: dict[tuple[str, int], bytes] = {}
         self.plot_key: tuple[str, int] | None = None
         self.plot_ready_s: dict[str, float] = {}
+        self._last_cache: dict[str, dict] = {}
         self._changed: asyncio.Event | None = None
         self._dirty = True
         #: True once the server is stopping (set by ``hil station``: uvicorn's should_exit).
@@ -139,10 +141,10 @@ class Station:
     def build_state(self) -> dict:
         run = self.manager.run
         state = {"bench": self.bench_label, "plans": self.plans, "totals": self.totals,
-                 "selections": self.selections,
-                 "warm": self.warm,
-                 "run": None, "history": self.history.rows()}
-        if run is None:
+                 "selections": self.selections, "warm": self.warm, "run": None,
+                 "history": self.history.rows()}
+        if run is None:                       # a station (re)started: the last unit stays
+            state["run"] = self._last_unit(state["history"])
             return state
         for row in state["history"]:          # a running record's unit is still in its journal
             if run.record_dir is not None and row["record"] == run.record_dir.name:
@@ -151,41 +153,11 @@ class Station:
         phase = ("starting" if run.alive and record is None else
                  "stopping" if run.alive and run.stop_requested_s is not None else
                  "running" if run.alive else "finished")
-        out = {"unit": run.unit_serial, "plans": run.sources, "phase": phase,
-               "exit_status": run.exit_status, "record": None, "status": None,
-               "status_text": None, "progress": [], "verdicts": [], "alerts": [],
-               "prompts": [], "plot": None, "final": None, "links": None}
+        out = self._empty_run(run.unit_serial, run.sources, phase) | {
+            "exit_status": run.exit_status}
         if record is not None:
-            folder = run.record_dir
-            totals = {name: self.totals.get(name) for name in
-                      ((record.get("run") or {}).get("selection") or {}).get("sources", [])} \
-                if self.totals else None
-            out.update(record=folder.name, record_id=record.get("record_id"),
-                       status=record.get("status"),
-                       status_text=view.OPERATOR_STATUS.get(record.get("status")),
-                       drive=view.drive_identity(record),
-                       progress=view.progress(record, totals), verdicts=view.verdicts(record),
-                       alerts=view.alerts(record),
-                       prompts=view.prompts(record) if run.alive else [])
-            index = view.latest_plot_index(record)
-            if index is not None:
-                key = (folder.name, index)
-                if key not in self.plot_cache:
-                    self.plot_cache = {key: point_svg(record["tests"][index], folder)}
-                    self.plot_ready_s[f"{folder.name}/{index}"] = time.time()
-                test_id = record["tests"][index]["test_id"]
-                seen = next((e["seen_s"] for e in run.follower.events if e.get("event") == "test"
-                             and e["entry"]["test_id"] == test_id), None)
-                out["plot"] = {"url": f"/plot/{folder.name}/{index}.svg",
-                               "test": view.short_name(test_id), "index": index,
-                               "capture": (record["tests"][index].get("capture") or {})
-                               .get("file"), "entry_seen_s": seen,
-                               "rendered_s": self.plot_ready_s.get(f"{folder.name}/{index}")}
-            if record.get("status") != "running" and not run.alive:
-                out["final"] = view.final_statement(record, folder)
-            out["links"] = {"record": f"/records/{folder.name}/record.json",
-                            "pdf": f"/records/{folder.name}/report.pdf"
-                            if (folder / "report.pdf").exists() else None}
+            out.update(self._record_view(record, run.record_dir, run.alive,
+                                         run.follower.events))
         elif not run.alive and run.stop_requested_s is not None:
             out["alerts"] = [{"kind": "stopped-before-start",
                               "text": "Stopped before the run began: nothing was sent to the "
@@ -197,6 +169,64 @@ class Station:
                               "detail": " / ".join(self.manager.log_tail())}]
         state["run"] = out
         return state
+
+    @staticmethod
+    def _empty_run(unit: str | None, plans: list[str], phase: str) -> dict:
+        return {"unit": unit, "plans": plans, "phase": phase, "exit_status": None,
+                "record": None, "status": None, "status_text": None, "progress": [],
+                "verdicts": [], "alerts": [], "prompts": [], "plot": None, "final": None,
+                "links": None}
+
+    def _last_unit(self, history: list[dict]) -> dict | None:
+        """The newest finished record under the record root, shown as the last unit."""
+        row = next((r for r in history if r.get("overall") is not None), None)
+        if row is None:
+            return None
+        cached = self._last_cache.get(row["record"])
+        if cached is None:
+            folder = self.manager.record_root / row["record"]
+            record = read_record(folder)
+            if record is None:
+                return None
+            cached = self._empty_run(row["unit"], row["plans"], "finished") | \
+                self._record_view(record, folder, False, [])
+            self._last_cache = {row["record"]: cached}
+        return cached | {"links": {"record": f"/records/{row['record']}/record.json",
+                                   "pdf": f"/records/{row['record']}/report.pdf"
+                                   if row["report"] else None}}
+
+    def _record_view(self, record: dict, folder: Path, alive: bool, events: list[dict]) -> dict:
+        """What the page shows of one record (running or finished)."""
+        totals = {name: self.totals.get(name) for name in
+                  ((record.get("run") or {}).get("selection") or {}).get("sources", [])} \
+            if self.totals else None
+        out = {"record": folder.name, "record_id": record.get("record_id"),
+               "status": record.get("status"),
+               "status_text": view.OPERATOR_STATUS.get(record.get("status")),
+               "drive": view.drive_identity(record),
+               "progress": view.progress(record, totals), "verdicts": view.verdicts(record),
+               "alerts": view.alerts(record),
+               "prompts": view.prompts(record) if alive else []}
+        index = view.latest_plot_index(record)
+        if index is not None:
+            key = (folder.name, index)
+            if key not in self.plot_cache:
+                self.plot_cache = {key: point_svg(record["tests"][index], folder)}
+                self.plot_ready_s[f"{folder.name}/{index}"] = time.time()
+            test_id = record["tests"][index]["test_id"]
+            seen = next((e["seen_s"] for e in events if e.get("event") == "test"
+                         and e["entry"]["test_id"] == test_id), None)
+            out["plot"] = {"url": f"/plot/{folder.name}/{index}.svg",
+                           "test": view.short_name(test_id), "index": index,
+                           "capture": (record["tests"][index].get("capture") or {}).get("file"),
+                           "entry_seen_s": seen,
+                           "rendered_s": self.plot_ready_s.get(f"{folder.name}/{index}")}
+        if record.get("status") != "running" and not alive:
+            out["final"] = view.final_statement(record, folder)
+        out["links"] = {"record": f"/records/{folder.name}/record.json",
+                        "pdf": f"/records/{folder.name}/report.pdf"
+                        if (folder / "report.pdf").exists() else None}
+        return out
 
 
 def create_app(station: Station, token: str | None = None) -> Starlette:
@@ -301,8 +331,6 @@ def create_app(station: Station, token: str | None = None) -> Starlette:
 
 
 def view_record(folder: Path | None) -> dict | None:
-    from hil.station.journal import read_record
-
     return read_record(folder) if folder is not None else None
 
 

@@ -130,3 +130,25 @@ def test_a_display_error_is_shown_and_the_ticker_goes_on(station):
     asyncio.run(tick_a_while())
     assert station.state["station_error"] == "ValueError: odd record"
     assert station.version == 1 and len(calls) >= 3        # published once, still polling
+
+
+def test_a_restarted_station_shows_the_last_unit(station, tmp_path):
+    from hil.config import default_sim_bench
+    from hil.record import RunRecord
+
+    record = RunRecord.create(tmp_path / "records", default_sim_bench(), [],
+                              sections={"run": {"selection": {"sources": ["baseline"]}}})
+    record.set_section("unit", {"serial_number": "SN-LAST"})
+    record.add_test({"test_id": "plans::test_baseline", "source": "baseline",
+                     "outcome": "failed", "message": "boom"})
+    record.finish("complete")
+    state = station.build_state()
+    assert state["run"]["unit"] == "SN-LAST" and state["run"]["phase"] == "finished"
+    from hil.record import load_record, verify_record
+    from ripple_hil_reports.statement import overall_statement
+
+    data = load_record(record.path)
+    assert state["run"]["final"]["overall"] == \
+        overall_statement(data, verify_record(record.path, data)).overall == "NOT STATED"
+    assert state["run"]["verdicts"][0]["outcome"] == "failed"
+    assert state["history"][0]["unit"] == "SN-LAST"
