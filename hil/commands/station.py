@@ -1,0 +1,122 @@
+"""``hil station``: the operator's page for one bench, in the browser (issue 25).
+
+Serves on 127.0.0.1 by default. Enter or scan the unit's serial number, pick the plans, Start:
+the station runs the same ``hil run`` as the command line (simulated bench unless --bench);
+Stop is Ctrl-C for that run (drive made safe, record ``interrupted``). One run per bench at a
+time; closing the browser does not stop the run. Another address needs --host and an access
+token (--token, or one generated and printed with the URL).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import secrets
+import sys
+
+from hil.errors import InputError
+
+DEFAULT_PORT = 8725
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser("station", help="the operator's page in the browser",
+                                   description=__doc__.split("\n\n")[0].replace("``", ""),
+                                   epilog=__doc__.split("\n\n")[-1])
+    parser.add_argument("--bench", metavar="FILE", help="bench file (default: simulated bench)")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT,
+                        help=f"TCP port (default {DEFAULT_PORT})")
+    parser.add_argument("--host", default="127.0.0.1",
+                        help="address to serve on (default 127.0.0.1; any other needs a token)")
+    parser.add_argument("--token", metavar="TEXT",
+                        help="access token for a non-loopback --host (default: generated)")
+    parser.add_argument("--record-dir", metavar="DIR", default="records",
+                        help="folder of the run records (default: records)")
+    parser.add_argument("--plan", action="append", default=[], metavar="FILE.py",
+                        help="a plan of your own (a pytest file using the ripple-hil fixtures, "
+                             "docs/writing-plans.md) offered beside the shipped plans; repeatable")
+    parser.add_argument("--selection", action="append", default=[], metavar="NAME=PLAN,…",
+                        help="a saved selection of plans the operator picks with one button, "
+                             "e.g. 'end of line=self_check,baseline,dc_offset'; repeatable")
+    parser.set_defaults(func=run)
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def own_plans(files: list[str]) -> dict[str, str]:
+    """``--plan FILE.py`` → {plan name (file stem without ``test_``): absolute path}."""
+    from pathlib import Path
+
+    from hil.commands.run import plan_modules
+
+    plans: dict[str, str] = {}
+    for text in files:
+        path = Path(text)
+        if path.suffix != ".py" or not path.is_file():
+            raise InputError(f"--plan {text}: not a Python file")
+        name = "own:" + path.stem.removeprefix("test_")
+        if name in plans or path.stem.removeprefix("test_") in plan_modules():
+            raise InputError(f"--plan {text}: a plan named {name} is already offered")
+        plans[name] = str(path.resolve())
+    return plans
+
+
+def selections(texts: list[str], plans: list[str]) -> dict[str, list[str]]:
+    """``--selection NAME=PLAN,PLAN`` → {name: plans}, every plan one the station offers."""
+    out: dict[str, list[str]] = {}
+    for text in texts:
+        name, _, listed = text.partition("=")
+        chosen = [item.strip() for item in listed.split(",") if item.strip()]
+        unknown = [item for item in chosen if item not in plans]
+        if not name.strip() or not chosen or unknown:
+            raise InputError(f"--selection {text!r}: give NAME=PLAN[,PLAN…] with plans among "
+                             f"{', '.join(plans)}" + (f"; unknown: {', '.join(unknown)}"
+                                                      if unknown else ""))
+        out[name.strip()] = chosen
+    return out
+
+
+def run(args) -> int:
+    import uvicorn
+
+    from hil.station.app import Station, create_app
+    from hil.station.plans import available_plans, collect_totals
+    from hil.station.plots import warm_up
+    from hil.station.runs import RunManager
+
+    if not 0 < args.port < 65536:
+        raise InputError(f"--port {args.port}: allowed 1…65535")
+    token = args.token
+    if is_loopback(args.host):
+        if token:
+            raise InputError("--token is only for a non-loopback --host")
+    else:
+        token = token or secrets.token_urlsafe(18)
+        if len(token) < 16:
+            raise InputError("--token: at least 16 characters")
+    if args.bench:
+        from hil.config import load_bench
+
+        load_bench(args.bench)          # a bad bench file: one line, before serving
+    own = own_plans(args.plan)
+    offered = available_plans() + list(own)
+    saved = selections(args.selection, offered)
+    manager = RunManager(args.bench, args.record_dir, own_plans=own)
+    station = Station(manager, offered, f"bench: {args.bench or 'simulated (in-process)'}",
+                      totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up,
+                      selections=saved)
+    url = f"http://{args.host}:{args.port}/" + (f"?token={token}" if token else "")
+    print(f"hil station: {url} (records in {manager.record_root}; Ctrl-C to stop serving)",
+          flush=True)
+    config = uvicorn.Config(create_app(station, token), host=args.host, port=args.port,
+                            log_level="warning", lifespan="on", timeout_graceful_shutdown=5)
+    server = uvicorn.Server(config)
+    station.shutting_down = lambda: server.should_exit
+    server.run()
+    return 0 if server.started else 2
