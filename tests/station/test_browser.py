@@ -10,7 +10,7 @@ One ``hil station`` process on the in-process simulated bench, on 127.0.0.1 and 
 2. another unit runs to its end: the page states the record's overall statement exactly as
    page 1 does, links the PDF, and the history lists both units.
 
-Needs ``/usr/bin/chromium`` and ``/usr/bin/chromedriver`` (``.ci/setup-browser``).
+Needs ``/usr/bin/chromium`` and ``/usr/bin/chromedriver`` (``.ci/setup-services``).
 ``HIL_STATION_SCREENSHOTS=DIR`` saves ``station-running.png`` and ``station-finished.png``.
 """
 
@@ -34,7 +34,7 @@ CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 pytestmark = [
     pytest.mark.slow,
     pytest.mark.skipif(not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)),
-                       reason="needs Debian's chromium and chromium-driver (.ci/setup-browser)"),
+                       reason="needs Debian's chromium and chromium-driver (.ci/setup-services)"),
 ]
 webdriver = pytest.importorskip("selenium.webdriver")
 from selenium.webdriver.common.by import By  # noqa: E402
