@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 from pypdf import PdfReader
 
+from hil.outcome_kinds import MEASURED
 from hil.record import load_record, verify_captures
 
 HIL = [sys.executable, "-m", "hil"]
@@ -134,7 +135,8 @@ def test_requirements_run_judges_each_line_and_fails_on_the_demonstration(tmp_pa
     assert baseline["outcome"] == "failed" and "REQ-90" in baseline["message"]
     assert record["requirements"]["lines"][2]["id"] == "REQ-03"      # listed though not judged
     cells = [t for t in record["tests"] if t.get("kind") == "ripple_map"]
-    assert len(cells) == 9 and all(t["outcome"] == "passed" for t in cells)
+    # a cell a requirement judges passes; the others are "measured, no verdict"
+    assert len(cells) == 9 and all(t["outcome"] in ("passed", MEASURED) for t in cells)
     page1 = PdfReader(report).pages[0].extract_text().replace("\n", " ")
     assert "REQ-90" in page1 and "FAIL" in page1
 

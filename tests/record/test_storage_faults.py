@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+from hil.outcome_kinds import MEASURED
 from hil.errors import InputError
 from hil.record import EXIT_STORAGE, load_record
 from hil.seal import KEY_DIR_ENV
@@ -135,7 +136,7 @@ def test_a_full_disk_mid_run_stops_at_once_with_the_drive_safe(tmp_path, everyth
     captured = [p.name for p in (folder / "captures").glob("*.npz")]
     assert any("test_first" in name for name in captured), captured
     assert not [n for n in captured if "test_third" in n or "test_fourth" in n], captured
-    assert record["tests"][0]["outcome"] == "passed"
+    assert record["tests"][0]["outcome"] == MEASURED          # rule None: nothing judged
     if everything:
         # nothing more could be written: the folder keeps the header and the journal lines
         # written before the fault (status running), and the line says it was not closed
@@ -153,7 +154,7 @@ def test_a_full_disk_mid_run_stops_at_once_with_the_drive_safe(tmp_path, everyth
     assert len(hit) == 1, record["tests"]          # the one test during which the disk filled
     stopped = hit[0]
     assert 0 < stopped < 3, record["tests"]
-    assert all(t["outcome"] == "passed" for t in record["tests"][:stopped])
+    assert all(t["outcome"] == MEASURED for t in record["tests"][:stopped])
     assert record["tests"][stopped]["outcome"] in ("failed", "error")
     assert all(t["outcome"] == "not run" for t in record["tests"][stopped + 1:])
 

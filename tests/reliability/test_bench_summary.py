@@ -48,6 +48,17 @@ twin on 2 worker(s): 6.20 drive-s per wall s (32 drives x 0.071 simulated s in 0
 dask overhead per task, 2 worker(s): 3.4 ms (chunks of 16 drives); empty-task round trip 1.8 ms
 projection (extrapolated from 1 worker, not measured): 10^6-drive twin campaign at 500 rpm, chunks of 16: N=1: 5.04 h, N=2: 2.52 h
 """,
+    "results_db": """ingest of a 53-test run, sqlite: 0.009 s (median of 2, warm engine; min 0.009, max 0.009)
+bulk load of 500 synthetic runs (2500 points), sqlite: 0.05 s
+hil history (newest 50 of 500 runs), sqlite: 0.000 s
+hil history --dut (one of 2000 DUTs), sqlite: 0.000 s
+hil trend --requirement over 503 runs, sqlite: 0.007 s (Cpk 0.91)
+hil trend --source over 500 runs, sqlite: 0.005 s
+ingest of a 53-test run, postgresql: 0.013 s (median of 2, warm engine; min 0.013, max 0.014)
+hil history (newest 50 of 500 runs), postgresql: 0.001 s
+hil trend --requirement over 503 runs, postgresql: 0.009 s (Cpk 0.91)
+hil trend --source over 500 runs, postgresql: 0.007 s
+""",
 }
 EXPECTED = {
     "simulation": {"one_drive_one_core_Table_I_motor_wall_s_per_sim_s": 0.0226,
@@ -70,6 +81,10 @@ EXPECTED = {
               "dask_overhead_per_task_1_workers_ms": 2.1,
               "dask_overhead_per_task_2_workers_ms": 3.4,
               "projected_1e6_twin_drives_N1_h": 5.04, "projected_1e6_twin_drives_N2_h": 2.52},
+    "results_db": {"ingest_53_tests_sqlite_s": 0.009, "history_sqlite_s": 0.0,
+                   "trend_requirement_sqlite_s": 0.007, "trend_source_sqlite_s": 0.005,
+                   "ingest_53_tests_postgresql_s": 0.013, "history_postgresql_s": 0.001,
+                   "trend_requirement_postgresql_s": 0.009, "trend_source_postgresql_s": 0.007},
 }
 
 

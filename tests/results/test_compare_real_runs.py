@@ -64,8 +64,13 @@ def test_compare_names_the_points_the_defect_changed_and_no_others(four_runs, ca
     # a 0.3 A offset (1.5 % of 20 A) adds an order-1 ripple of ~3.5 % pk-pk (eqs 15-20): the
     # points whose pk-pk is the synchronous average's change; the PWM-switching points judge
     # the switching-frequency ripple, which a dc offset does not move
-    assert sorted(result["changed"]) == ["testplans/test_baseline.py::test_baseline",
-                                         "testplans/test_self_check.py::test_bench_self_check"]
+    # (the self-check's transducer-dynamics pair, at the point's speed and one fifth of it,
+    # measures the torque ripple too: the offset's order-1 ripple moves both)
+    assert sorted(result["changed"]) == [
+        "testplans/test_baseline.py::test_baseline",
+        "testplans/test_self_check.py::test_bench_self_check",
+        "testplans/test_self_check.py::test_transducer_dynamics",
+        "testplans/test_self_check.py::test_transducer_dynamics-reference"]
     assert sorted(result["unchanged"]) == sorted(
         f"testplans/test_pwm_switching.py::test_pwm_switching[pwm_frequency_hz={f}]"
         for f in (10000, 20000, 40000))
@@ -78,5 +83,7 @@ def test_a_correct_drive_off_the_default_point_changes_nothing(four_runs, capsys
     records, ids = four_runs
     assert main(["db", "sync", "--records", str(records)]) == 0
     again = _compare(capsys, records, ids["reverse"], ids["reverse_again"])
-    assert {p["speed_rpm"] for p in again["points"] if p["speed_rpm"] is not None} == {-700.0}
-    assert again["changed"] == [] and len(again["unchanged"]) == 5
+    # the bench's point, and the self-check's transducer-dynamics reference at one fifth of it
+    assert {p["speed_rpm"] for p in again["points"] if p["speed_rpm"] is not None} == {
+        -700.0, -140.0}
+    assert again["changed"] == [] and len(again["unchanged"]) == 7

@@ -79,6 +79,10 @@ def test_n_stations_times_m_runs_nothing_lost_nothing_duplicated(backend, tmp_pa
     assert _counts(url) == (m_runs, m_runs, 3 * m_runs, 2 * 3 * m_runs)
 
 
+#: records the killed sync works through
+KILL_RECORDS = 150
+
+
 def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_url):
     folders = _records(tmp_path / "records", 20, tests=6)
     engine_for(pg_url)                      # schema created before the kill

@@ -40,7 +40,8 @@ def test_a_passed_self_check_raises_no_alert(tmp_path):
     final = view.final_statement(record, folder)
     statement = overall_statement(record, [])
     assert final["overall"] == statement.overall == "PASS"
-    assert final["overall_line"] == "Overall: PASS"
+    assert final["overall_line"] == ("Overall: PASS (model validation and self-check; no "
+                                     "requirements given)")
     assert final["lines"][1] == ["2. Model validation (vs the paper)", "baseline: PASS"]
 
 
