@@ -43,7 +43,8 @@ word everywhere. It is neither CONDITIONAL PASS (the user chose the rule that do
 it) nor NOT STATED (kept for runs that could state nothing: incomplete, voided, nothing judged).
 Under the simple rule the same value is accepted: PASS. A value beyond the limit by less than U
 ("conditional fail") is accepted by neither rule: FAIL. CONDITIONAL PASS overall comes only from
-model-validation verdicts inside their guard band.
+model-validation verdicts inside their guard band whose plan accepted them (the test passed); one
+that failed its test (the standard plans require a guarded pass) is a fail of statement 2 too.
 """
 
 from __future__ import annotations
@@ -121,6 +122,13 @@ def test_state(test: dict) -> str | None:
     if outcome in ("xfailed", "xpassed"):
         return None
     if decision in DECISIONS:
+        # a model verdict inside the guard band (guarded rule: not accepted) whose test failed
+        # on it is a fail of that rule, as the summary table, pytest and the exit status say
+        # (one word everywhere, as for requirements); CONDITIONAL PASS stays for a plan that
+        # accepts such a point
+        if decision == "conditional pass" and outcome == "failed" \
+                and (test.get("verdict") or {}).get("guarded_pass") is False:
+            return "fail"
         return decision
     if outcome in ("passed", "failed") and test.get("requirements") and not test.get("checks") \
             and (outcome == "passed" or not all(map(accepted, test["requirements"]))):

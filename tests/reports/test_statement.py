@@ -108,3 +108,27 @@ def test_summary_never_says_all_pass_where_statement_1_is_not_stated():
     assert "requirements: 1 verdicts, all accepted; statement: NOT STATED (run interrupted)" \
         in text
     assert "requirements: 1 verdicts, all pass" in "\n".join(summary_lines(record(*tests[:1])))
+
+
+def test_a_model_verdict_inside_the_guard_band_that_failed_its_test_is_a_fail():
+    """-700 rpm / 12 A: the encoder plan's point 25 was a guarded 'conditional pass', its test
+    failed (PointOutcome.passed needs guarded_pass), the summary counted it 'fail', yet statement
+    2 said 'encoder: CONDITIONAL PASS'. One word everywhere: FAIL, with the test as reason."""
+    inside = measured("enc25", "encoder", "conditional pass", outcome="failed") | {
+        "verdict": {"decision": "conditional pass", "guarded_pass": False},
+        "message": "conditional pass: pk-pk 0.01077 pu ± 0.0024, zone [0.0049, 0.0124]"}
+    stated = overall_statement(record(self_check_entry(True),
+                                      measured("enc5", "encoder", "pass"), inside), [])
+    assert stated.model_text == "encoder: FAIL (1 pass, 1 fail)"
+    assert any("enc25" in reason and "conditional pass" in reason
+               for reason in stated.sources["encoder"].reasons)
+    assert stated.overall == "FAIL"
+    # a plan that accepts such a point (its test passed) keeps the non-binary word
+    accepted = inside | {"outcome": "passed"}
+    stated = overall_statement(record(self_check_entry(True), accepted), [])
+    assert stated.model_text == "encoder: CONDITIONAL PASS (1 conditional pass)"
+    # a test failed by something else (a requirement) leaves a model pass a pass
+    other = measured("b", "baseline", "pass", outcome="failed",
+                     requirements=[requirement_verdict("REQ-1", 29.99, 30.0)])
+    assert overall_statement(record(self_check_entry(True), other), []).model_text == \
+        "baseline: PASS"
