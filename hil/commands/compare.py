@@ -28,10 +28,12 @@ def register(subparsers) -> None:
 def _fmt(diff: dict, scale: float, digits: int = 3) -> str:
     if diff["difference"] is None:
         return "not comparable (no value or no U)"
+    word = ("not judged" if diff["changed"] is None
+            else "CHANGED" if diff["changed"] else "unchanged")
     return (f"{diff['a'] * scale:.{digits}f} ± {diff['u_a'] * scale:.{digits}f} → "
             f"{diff['b'] * scale:.{digits}f} ± {diff['u_b'] * scale:.{digits}f}: "
             f"d = {diff['difference'] * scale:+.{digits}f} ± {diff['u_difference'] * scale:.{digits}f}"
-            f" {'CHANGED' if diff['changed'] else 'unchanged'}")
+            f" {word}")
 
 
 def run(args) -> int:
@@ -62,7 +64,9 @@ def run(args) -> int:
                 print(f"      order {order['order']:g} (mN·m): {_fmt(order, 1000.0, 3)}")
     print(f"changed beyond U_d: {len(result['changed'])} point(s); unchanged: "
           f"{len(result['unchanged'])}; not comparable: {len(result['not_comparable'])}; "
-          f"orders changed: {len(result['orders_changed'])}")
+          f"orders changed: {len(result['orders_changed'])}"
+          + (f"; at another operating point or injection (not judged): "
+             f"{len(result['different_point'])}" if result["different_point"] else ""))
     for key, text in (("only_in_a", "only in A"), ("only_in_b", "only in B")):
         if result[key]:
             print(f"{text}: {', '.join(result[key])}")

@@ -21,14 +21,15 @@ def compare_plot(result: dict, out: str | Path) -> None:
     fig, ax = plt.subplots(figsize=(10, 0.35 * len(rows) + 1.8))
     for i, p in enumerate(rows):
         d = p["pk_pk_pu"]
-        color = "tab:red" if d["changed"] else "tab:green"
+        color = ("tab:gray" if d["changed"] is None
+                 else "tab:red" if d["changed"] else "tab:green")
         ax.errorbar(100 * d["difference"], i, xerr=100 * d["u_difference"], fmt="o",
                     color=color, capsize=3)
     ax.axvline(0.0, color="black", lw=0.8)
     ax.set_yticks(range(len(rows)), [p["test_id"].split("::")[-1] for p in rows], fontsize=7)
     ax.set_xlabel("pk-pk difference B − A, % of the nameplate torque (bars: ±U_d)")
     ax.set_title(f"B {result['run_b']} − A {result['run_a']}\nred: changed beyond U_d, "
-                 "green: not", fontsize=8)
+                 "green: not, grey: another operating point (not judged)", fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=110, bbox_inches="tight")
     plt.close(fig)

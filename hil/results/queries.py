@@ -68,7 +68,10 @@ def _difference(a: float | None, ua: float | None, b: float | None, ub: float | 
 def compare(engine, ref_a: str, ref_b: str) -> dict:
     """Matching points of two runs (same test id) side by side: pk-pk per unit of the nameplate
     torque and every order both analysed (amplitude, N·m; U = k·u with the point's coverage
-    factor), each difference with U_d = √(U_a² + U_b²) and whether |d| > U_d."""
+    factor), each difference with U_d = √(U_a² + U_b²) and whether |d| > U_d. A test id measured
+    at another operating point (speed, current, current angle) or injection in the two runs is
+    listed in ``different_point`` with its differences, judged neither changed nor unchanged
+    (``changed`` None): the difference is the point's, not the drive's."""
     from sqlalchemy import select
 
     with engine.connect() as connection:
@@ -86,8 +89,8 @@ def compare(engine, ref_a: str, ref_b: str) -> dict:
         pa, pb = a_points[tid], b_points[tid]
         entry = {"test_id": tid, "source": pa.source, "speed_rpm": pa.speed_rpm,
                  "current_a": pa.current_a, "injection": json.loads(pa.injection or "{}"),
-                 "same_point": (pa.speed_rpm, pa.current_a, pa.injection)
-                 == (pb.speed_rpm, pb.current_a, pb.injection),
+                 "same_point": (pa.speed_rpm, pa.current_a, pa.current_angle_rad, pa.injection)
+                 == (pb.speed_rpm, pb.current_a, pb.current_angle_rad, pb.injection),
                  "outcome_a": pa.outcome, "outcome_b": pb.outcome,
                  "pk_pk_pu": _difference(pa.pk_pk_pu, pa.pk_pk_u_pu, pb.pk_pk_pu, pb.pk_pk_u_pu),
                  "orders": []}
@@ -98,12 +101,17 @@ def compare(engine, ref_a: str, ref_b: str) -> dict:
             ub = kb * ob[order].amplitude_u_nm if ob[order].amplitude_u_nm is not None else None
             entry["orders"].append({"order": order, **_difference(
                 oa[order].amplitude_nm, ua, ob[order].amplitude_nm, ub)})
+        if not entry["same_point"]:     # not like for like: differences shown, not judged
+            for diff in (entry["pk_pk_pu"], *entry["orders"]):
+                diff["changed"] = None
         rows.append(entry)
     changed = [r["test_id"] for r in rows if r["pk_pk_pu"]["changed"]]
     unchanged = [r["test_id"] for r in rows if r["pk_pk_pu"]["changed"] is False]
     return {"run_a": id_a, "run_b": id_b, "points": rows, "changed": changed,
             "unchanged": unchanged,
-            "not_comparable": [r["test_id"] for r in rows if r["pk_pk_pu"]["changed"] is None],
+            "not_comparable": [r["test_id"] for r in rows if r["same_point"]
+                               and r["pk_pk_pu"]["changed"] is None],
+            "different_point": [r["test_id"] for r in rows if not r["same_point"]],
             "only_in_a": sorted(set(a_points) - set(b_points)),
             "only_in_b": sorted(set(b_points) - set(a_points)),
             "orders_changed": [{"test_id": r["test_id"], "order": o["order"]} for r in rows

@@ -119,3 +119,30 @@ def test_commands_json_and_png(fleet, capsys, tmp_path):
     assert (tmp_path / "c.png").stat().st_size > 1000 and (tmp_path / "t.png").stat().st_size > 1000
     assert main(["compare", a, "nope", *common]) == 2            # unknown run: input error
     assert "not in the results database" in json.loads(capsys.readouterr().out)["error"]["message"]
+
+
+def test_compare_does_not_judge_a_point_measured_at_another_operating_point(tmp_path,
+                                                                          sqlite_url):
+    """Two runs of one test id at other speeds (another bench file's [operating_point]): the
+    difference is the point's, not the drive's, so it is shown but neither CHANGED nor
+    unchanged (it was counted CHANGED beyond U_d: 18 of a -700 rpm/12 A vs 1000 rpm/30 A
+    pair of correct drives)."""
+    root = tmp_path / "records"
+    u = 0.0007
+    moved = point_entry(0, 0.0400, u)
+    moved["operating_point"] = {"speed_rpm": -700.0, "current_a": 20.0, "current_angle_rad": 0.0}
+    angled = point_entry(1, 0.0300, u)
+    angled["operating_point"] = {"speed_rpm": 500.0, "current_a": 20.0, "current_angle_rad": 0.3}
+    a = synthetic_record(root, [point_entry(0, 0.0300, u), point_entry(1, 0.0300, u),
+                                point_entry(2, 0.0300, u)])
+    b = synthetic_record(root, [moved, angled, point_entry(2, 0.0300 + 3 * math.sqrt(2) * u, u)])
+    engine = engine_for(sqlite_url)
+    sync(engine, sealed_records(root))
+    result = compare(engine, a.name, b.name)
+    ids = [f"testplans/test_baseline.py::test_baseline[{i}]" for i in range(3)]
+    assert result["changed"] == [ids[2]] and result["unchanged"] == []
+    assert result["different_point"] == ids[:2]
+    first = result["points"][0]
+    assert first["pk_pk_pu"]["changed"] is None and first["pk_pk_pu"]["difference"] > 0.009
+    assert all(o["changed"] is None for o in first["orders"])
+    assert all(o["test_id"] == ids[2] for o in result["orders_changed"])
