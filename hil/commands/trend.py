@@ -61,6 +61,9 @@ def run(args) -> int:
     unit = result["unit"]
     print(f"{result['what']}: {len(result['observations'])} run(s), limits "
           f"[{result['lower_limit']}, {result['upper_limit']}] {unit}")
+    if result.get("runs_at_other_points"):
+        print(f"left out: {result['runs_at_other_points']} run(s) that measured this test at "
+              f"another operating point, injection or motor (another prediction and zone)")
     if chart["sigma_short"] is not None:
         print(f"control chart: centre {chart['centre']:.4g}, limits [{chart['lcl']:.4g}, "
               f"{chart['ucl']:.4g}] {unit} (σ̂ = MR̄/1.128 = {chart['sigma_short']:.3g}); "

@@ -129,7 +129,9 @@ def trend(engine, *, requirement: str | None = None, source: str | None = None,
     Requirement: the run's verdict nearest its limit (the worst margin), accepted when every
     verdict of that requirement in the run was. Source: the measured pk-pk (per unit of the
     nameplate torque) at ``point`` (a test id; default the source's most measured one), limits
-    the model verdict's tolerance zone, accepted when the point's test passed. The fold to one
+    the model verdict's tolerance zone, accepted when the point's test passed; only runs at the
+    newest run's operating point, injection and motor serial (the others are counted in
+    ``runs_at_other_points``: their prediction and zone differ). The fold to one
     row per run is done by the database (GROUP BY), so a fleet of 10,000 runs returns 10,000 rows.
     """
     if (requirement is None) == (source is None):
@@ -168,18 +170,30 @@ def trend(engine, *, requirement: str | None = None, source: str | None = None,
             query = (select(pc.record_id, pc.pk_pk_pu.label("value"), pc.pk_pk_u_pu.label("u"),
                             pc.lower_limit_pu.label("lower"), pc.upper_limit_pu.label("upper"),
                             case((pc.outcome == "passed", 1), else_=0).label("ok"),
-                            runs.c.created_utc, runs.c.dut_serial)
+                            runs.c.created_utc, runs.c.dut_serial, runs.c.motor_serial,
+                            pc.speed_rpm, pc.current_a, pc.current_angle_rad, pc.injection)
                      .join(runs, runs.c.record_id == pc.record_id)
                      .where(pc.source == source, pc.test_id == point, pc.pk_pk_pu.is_not(None)))
             label = f"source {source}, point {point}"
         query = query.order_by(runs.c.created_utc.desc(), runs.c.record_id.desc())
-        rows, seen = [], set()
+        rows, seen, other_point, key = [], set(), 0, None
         for row in connection.execute(query):       # two verdicts of one run at the same
-            if row.record_id not in seen:           # margin: one observation
-                seen.add(row.record_id)
-                rows.append(row)
-                if len(rows) == limit:
-                    break
+            if row.record_id in seen:               # margin: one observation
+                continue
+            seen.add(row.record_id)
+            if source is not None:
+                # one point's trend: the newest run's operating point, injection and motor;
+                # the same test id measured elsewhere (another bench file) has another
+                # prediction and tolerance zone, and is counted, not charted
+                here = (row.motor_serial, row.speed_rpm, row.current_a, row.current_angle_rad,
+                        row.injection)
+                key = here if key is None else key
+                if here != key:
+                    other_point += 1
+                    continue
+            rows.append(row)
+            if len(rows) == limit:
+                break
         rows.reverse()
     if not rows:
         raise InputError(f"no measured value of {label} in the results database")
@@ -192,6 +206,7 @@ def trend(engine, *, requirement: str | None = None, source: str | None = None,
     lower = float(lowers[len(lowers) // 2]) if lowers else None      # median: one limit
     upper = float(uppers[len(uppers) // 2]) if uppers else None
     return {"what": label, "requirement": requirement, "source": source, "point": point,
+            "runs_at_other_points": other_point,
             "unit": rows[0].unit if requirement is not None else "pu of the nameplate torque",
             "observations": obs, "lower_limit": lower, "upper_limit": upper,
             "control_chart": control_chart(values),

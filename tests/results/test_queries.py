@@ -146,3 +146,28 @@ def test_compare_does_not_judge_a_point_measured_at_another_operating_point(tmp_
     assert first["pk_pk_pu"]["changed"] is None and first["pk_pk_pu"]["difference"] > 0.009
     assert all(o["changed"] is None for o in first["orders"])
     assert all(o["test_id"] == ids[2] for o in result["orders_changed"])
+
+
+def test_a_source_trend_charts_one_operating_point(tmp_path, sqlite_url):
+    """The same test id measured on two bench files' operating points has two predictions and
+    tolerance zones: the trend charts the newest run's point and counts the others (it charted
+    all five runs of a -700..1000 rpm set against the median of their zones: Cpk -0.06, yield
+    5/5)."""
+    root = tmp_path / "records"
+    u = 0.0007
+    for value in (0.030, 0.031, 0.029):
+        synthetic_record(root, [point_entry(0, value, u, tolerance=(0.02, 0.04))])
+    elsewhere = point_entry(0, 0.090, u, tolerance=(0.08, 0.10))
+    elsewhere["operating_point"] = {"speed_rpm": -700.0, "current_a": 12.0,
+                                    "current_angle_rad": 0.0}
+    synthetic_record(root, [elsewhere])                          # an older run elsewhere
+    import time
+    time.sleep(1.1)                                             # created_utc has 1 s steps
+    newest = synthetic_record(root, [point_entry(0, 0.030, u, tolerance=(0.02, 0.04))])
+    engine = engine_for(sqlite_url)
+    sync(engine, sealed_records(root))
+    result = trend(engine, source="baseline")
+    assert len(result["observations"]) == 4 and result["runs_at_other_points"] == 1
+    assert result["observations"][-1]["record_id"] == newest.name
+    assert max(o["value"] for o in result["observations"]) == pytest.approx(0.031)
+    assert (result["lower_limit"], result["upper_limit"]) == (0.02, 0.04)
