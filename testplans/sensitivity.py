@@ -56,6 +56,20 @@ def sweep_points(record, source: str) -> list[dict]:
             if t.get("source") == source and t.get("verdict") and t.get("measured")]
 
 
+def _why_not_measured(record, source: str, points: list[dict]) -> str:
+    """What became of the sweep's other points, from the record: "2 not determinable", "1
+    error"…; "the others deselected" when none of them is recorded."""
+    from collections import Counter
+
+    measured = {t.get("test_id") for t in points}
+    others = Counter(str(t.get("outcome")) for t in record.tests
+                     if t.get("source") == source and t.get("test_id") not in measured
+                     and not str(t.get("test_id", "")).endswith("_sensitivity"))
+    if not others:
+        return "the others deselected"
+    return ", ".join(f"{n} {outcome}" for outcome, n in sorted(others.items())) + " among the others"
+
+
 def fit_slope(expected: np.ndarray, measured: np.ndarray, expanded: np.ndarray) -> dict:
     """Weighted least squares of measured = s·expected + b (weights 1/u², u = U/2)."""
     u = np.maximum(np.asarray(expanded, float) / 2.0, 1e-12)
@@ -106,8 +120,8 @@ def check_sensitivity(record, source: str, rel_tol: float, *, mode: str = "linea
     points = sweep_points(record, source)
     if len(points) < MIN_POINTS:
         pytest.skip(not_determinable(
-            f"{source}: {len(points)} measured point(s) of the sweep (deselected or failed to "
-            f"measure); the slope needs {MIN_POINTS}"))
+            f"{source}: {len(points)} measured point(s) of the sweep "
+            f"({_why_not_measured(record, source, points)}); the slope needs {MIN_POINTS}"))
     expected = np.array([t["verdict"]["predicted_pk_pk_pu"] for t in points])
     measured = np.array([t["verdict"]["measured_pk_pk_pu"] for t in points])
     expanded = np.array([t["verdict"]["expanded_uncertainty_pu"] for t in points])

@@ -85,3 +85,17 @@ def test_a_right_slope_passes_and_too_few_points_are_not_determinable():
     with pytest.raises(pytest.skip.Exception) as skipped:
         sensitivity.check_sensitivity(RecordStub(sweep(u_pu=0.001)[:2]), "src", 0.3)
     assert is_not_determinable(str(skipped.value.msg))
+
+
+def test_too_few_points_says_what_became_of_the_others():
+    """1000 rpm / 30 A: two dead-time points were not determinable here (voltage headroom); the
+    slope's reason said '(deselected or failed to measure)', which neither was."""
+    record = RecordStub(sweep(u_pu=0.001)[:2])
+    record.tests.append({"test_id": "t[4e-06]", "source": "src", "outcome": NOT_DETERMINABLE,
+                         "kind": "other", "message": "not determinable here: headroom"})
+    with pytest.raises(pytest.skip.Exception) as skipped:
+        sensitivity.check_sensitivity(record, "src", 0.3)
+    assert "(1 not determinable among the others)" in str(skipped.value.msg)
+    with pytest.raises(pytest.skip.Exception) as skipped:
+        sensitivity.check_sensitivity(RecordStub(sweep(u_pu=0.001)[:2]), "src", 0.3)
+    assert "(the others deselected)" in str(skipped.value.msg)
