@@ -32,7 +32,8 @@ from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, R
                              SourceSection, fmt, fmt_pct, report_content)
 from ripple_hil_reports.document import ReportPDF
 from ripple_hil_reports.revisions import Revision
-from ripple_hil_reports.statement import NOT_RUN, accepted, plan_checks, run_status_text
+from ripple_hil_reports.statement import (NOT_RUN, accepted, plan_checks, reason_line,
+                                          run_status_text)
 
 BUDGET_COLUMNS = ("source", "value", "unit", "distribution", "divisor", "sensitivity",
                   "sensitivity_unit", "contribution_pu", "combination")
@@ -531,9 +532,14 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
              widths=(34, 0, 17, 15, 17, 12, 15, 22))
     pdf.para("Ripple figures in % of the mean torque at the operating point; the full test ids "
              "and capture hashes are in the traceability table.", size=7, style="I")
-    unfinished = [f"{p.test_id.split('::')[-1]}: {p.outcome}: {reason_of(p.entry)}"
-                  for p in section.points
-                  if p.outcome in ("error", "skipped", NOT_DETERMINABLE, "not run")]
+    # the tests that reached no verdict, worded as the statement's reasons above (a reason
+    # that says "not determinable" is not prefixed with its outcome again); those already
+    # listed above are not repeated
+    listed = set(section.reasons[:20])
+    unfinished = [line for line in (_unfinished_line(p) for p in section.points
+                                     if p.outcome in ("error", "skipped", NOT_DETERMINABLE,
+                                                      "not run"))
+                  if line not in listed]
     if unfinished:
         pdf.bullets(unfinished, size=7.5)
     worst = section.worst
@@ -560,6 +566,12 @@ def _source_pages(pdf: ReportPDF, section: SourceSection, record_dir: Path,
         if view.mismatch:
             pdf.para(f"Warning: {view.mismatch}", style="B")
     _budget(pdf, worst.entry)
+
+
+def _unfinished_line(point) -> str:
+    """``test: outcome: reason`` of a point without a verdict, as statement 2's reasons word it."""
+    return reason_line({**point.entry, "test_id": point.test_id, "outcome": point.outcome,
+                    "message": reason_of(point.entry)})
 
 
 def reason_of(entry: dict) -> str:

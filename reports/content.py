@@ -16,7 +16,7 @@ from typing import Any
 
 from hil.record import RECORD_FILE
 from ripple_hil_reports.revisions import Revision
-from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE, is_not_determinable
 from ripple_hil_reports.statement import (NOT_DETERMINED, NOT_RUN, SourceState,
                                           Statement, overall_statement, run_status_text,
                                           source_of)
@@ -261,9 +261,12 @@ def deviations(record: dict, sources: list[SourceSection],
                                    NOT_DETERMINABLE):
             reason = test.get("message") or test.get("error") or \
                 "; ".join(test.get("notes") or []) or "no reason recorded"
-            out.append(f"Test '{test.get('test_id')}' {test.get('outcome')}"
-                       f"{' in ' + test['phase'] if test.get('phase') not in (None, 'call') else ''}"
-                       f": {reason}")
+            said = is_not_determinable(reason)      # the reason says it already
+            out.append(f"Test '{test.get('test_id')}'"
+                       + ("" if said else f" {test.get('outcome')}")
+                       + (f" in {test['phase']}" if test.get("phase") not in (None, "call")
+                          else "")
+                       + f": {reason}")
     return out
 
 

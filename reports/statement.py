@@ -159,7 +159,7 @@ class SourceState:
         return f"{self.name}: {self.state.upper()}" + (f" ({counts})" if counts else "")
 
 
-def _reason(test: dict) -> str:
+def reason_line(test: dict) -> str:
     """``test: outcome: message`` (a not-determinable message already says so)."""
     detail = test.get("message") or test.get("error") or ""
     name = str(test.get("test_id")).split("::")[-1]
@@ -197,7 +197,7 @@ def source_states(record: dict) -> dict[str, SourceState]:
             state = NOT_RUN
         else:
             state = NO_MODEL_VERDICT if counts[NO_MODEL_VERDICT] else MEASURED
-        reasons = [_reason(test) for s, test in items if s in (NOT_DETERMINED, NOT_RUN, "fail")]
+        reasons = [reason_line(test) for s, test in items if s in (NOT_DETERMINED, NOT_RUN, "fail")]
         reasons += [f"{name} check across the sweep rejected the drive"
                     for name in rejected_checks(record, source)]
         out[source] = SourceState(source, state, dict(counts), reasons)

@@ -39,3 +39,36 @@ def test_a_skip_prints_its_recorded_reason():
     section = _section("pwm_resolution", [entry("a", SIMPLE), skipped])
     assert section.statement == "not determined"
     assert any(reason in line for line in section.reasons)
+
+
+def test_a_point_without_a_verdict_is_worded_once_on_its_source_page():
+    """1000 rpm / 30 A dead-time page: each not-determinable point was listed twice, the second
+    time as 'not determinable: not determinable here: …'. The list under the points table words
+    it as the statement's reasons, so the lines already listed above it are left out."""
+    from ripple_hil_reports.build import _unfinished_line
+
+    reason = not_determinable("dead time 4e-06 s at 1000 rpm / 30 A: pulses are dropped")
+    skipped = {"test_id": "t.py::test_dead_time[4e-06]", "outcome": NOT_DETERMINABLE,
+               "message": reason}
+    section = _section("dead_time", [entry("a", GUARDED), skipped])
+    point = next(p for p in section.points if p.outcome == NOT_DETERMINABLE)
+    line = _unfinished_line(point)
+    assert line == f"test_dead_time[4e-06]: {reason}"
+    assert "not determinable: not determinable" not in line
+    assert line in section.reasons          # so the page does not print it a second time
+    errored = _unfinished_line(next(p for p in _section("dead_time", [
+        {"test_id": "t.py::e", "outcome": "error", "error": "TimeoutError: DAQ"}]).points))
+    assert errored == "e: error: TimeoutError: DAQ"
+
+
+def test_deviations_word_a_not_determinable_test_once():
+    from ripple_hil_reports.content import deviations
+
+    reason = not_determinable("dead time 4e-06 s at 1000 rpm / 30 A: pulses are dropped")
+    record = {"status": "complete", "tests": [
+        {"test_id": "t::nd", "outcome": NOT_DETERMINABLE, "message": reason},
+        {"test_id": "t::e", "outcome": "error", "phase": "setup", "error": "TimeoutError: DAQ"}]}
+    lines = deviations(record, [], [])
+    assert f"Test 't::nd': {reason}" in lines
+    assert "Test 't::e' error in setup: TimeoutError: DAQ" in lines
+    assert not any("not determinable: not determinable" in line for line in lines)
