@@ -43,7 +43,9 @@ def run_plans(tmp_path: Path, sources, motor: str, speed_rpm: float, current_a: 
     for key, value in (defects or {}).items():
         args += ["--hil-sim-defect", f"{key}={value}"]
     done = subprocess.run(args, capture_output=True, text=True, timeout=600, cwd=tmp_path)
-    records = sorted((tmp_path / "records").iterdir()) if (tmp_path / "records").exists() else []
+    # record folders only (the results database may sit beside them)
+    records = sorted(p for p in (tmp_path / "records").iterdir() if p.is_dir()) \
+        if (tmp_path / "records").exists() else []
     assert records, done.stdout[-3000:] + done.stderr[-2000:]
     outcomes: dict[str, Counter] = {}
     for test in load_record(records[-1])["tests"]:

@@ -36,7 +36,9 @@ def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0,
         text = str(value).lower() if isinstance(value, bool) else value   # a TOML value
         args += ["--hil-sim-defect", f"{key}={text}"]
     done = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s, cwd=folder)
-    records = sorted((folder / "records").iterdir()) if (folder / "records").exists() else []
+    # record folders only (the results database may sit beside them)
+    records = sorted(p for p in (folder / "records").iterdir() if p.is_dir()) \
+        if (folder / "records").exists() else []
     outcomes: dict[str, Counter] = defaultdict(Counter)
     if records:
         for test in load_record(records[-1])["tests"]:
