@@ -43,7 +43,13 @@ def resolve_run(connection, ref: str) -> str:
     if (path / "record.json").exists():
         from hil.record import load_record
 
-        return load_record(path)["record_id"]
+        record_id = load_record(path)["record_id"]
+        if connection.execute(select(runs.c.record_id).where(
+                runs.c.record_id == record_id)).first() is None:
+            # an unindexed (or unsealed) folder is not an empty run with nothing to compare
+            raise InputError(f"run {ref!r}: record {record_id} is not in the results database "
+                             f"(a sealed record is added by 'hil db import {ref}')")
+        return record_id
     found = list(connection.execute(select(runs.c.record_id).where(
         runs.c.record_id.like(ref.replace("%", "") + "%")).limit(3)).scalars())
     if ref in found:

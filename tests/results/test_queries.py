@@ -171,3 +171,15 @@ def test_a_source_trend_charts_one_operating_point(tmp_path, sqlite_url):
     assert result["observations"][-1]["record_id"] == newest.name
     assert max(o["value"] for o in result["observations"]) == pytest.approx(0.031)
     assert (result["lower_limit"], result["upper_limit"]) == (0.02, 0.04)
+
+
+def test_a_record_folder_not_in_the_database_is_refused(fleet, tmp_path):
+    """`hil compare FOLDER …` with a folder never indexed (or unsealed) compared an empty run:
+    every point 'only in B', 'changed beyond U_d: 0', exit 0."""
+    from hil.errors import InputError
+
+    engine, root, a, _, _ = fleet
+    other = synthetic_record(tmp_path / "elsewhere", [point_entry(0, 0.03, 0.0007)])
+    with pytest.raises(InputError, match="not in the results database.*hil db import"):
+        compare(engine, str(other), a)
+    assert compare(engine, str(root / a), a)["unchanged"]        # an indexed folder works
