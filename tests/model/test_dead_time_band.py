@@ -19,7 +19,7 @@ from hil.sim import DriveConfig, DriveTwin, MotorModel, TransducerModel  # noqa:
 from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE, phase_judge  # noqa: E402
 
 
-def judge(point, *, model_scale=1.0, transducer_hz=1000.0):
+def judge(point, *, model_scale=1.0, transducer_hz=1000.0, bench=None):
     """(pk-pk guarded pass, phase check) of one twin capture against the model × scale."""
     motor = study.MOTORS[point.motor]
     op = OperatingPoint(speed_rpm=point.speed_rpm, current_a=point.current_a, motor=motor)
@@ -48,7 +48,7 @@ def judge(point, *, model_scale=1.0, transducer_hz=1000.0):
     predicted = model_scale * prediction.pk_pk_nm / nameplate
     pk_pk_ok = abs(measured - predicted) <= (DEAD_TIME_RULE.rel_tol * predicted
                                              + DEAD_TIME_RULE.abs_tol_pu - expanded)
-    return pk_pk_ok, phase_judge(result, prediction, plan, None)
+    return pk_pk_ok, phase_judge(result, prediction, plan, bench)
 
 
 HOLDOUT = [study.Point("B", -400.0, 8.0, 3e-6, 16), study.Point("TableI", -750.0, 15.0, 3e-6, 38),
@@ -80,3 +80,20 @@ def test_transducer_lagging_1ms_more_than_stated_fails_the_phase_check():
     assert math.degrees(phase.difference_rad) < -20.0
     _, right = judge(point)
     assert right is not None and right.guarded_pass, right.reason
+
+
+def test_no_phase_verdict_without_a_stated_transducer_bandwidth():
+    """A bench file without [torque] bandwidth_hz: the transducer's phase lag is unknown, so the
+    order-6 phase is not judged (the point is then not determinable); it was judged against a
+    model with an ideal transducer and rejected a correct drive at −700 rpm / 12 A (+0.161 rad
+    against ±0.087)."""
+    from types import SimpleNamespace
+
+    def bench(bandwidth_hz):
+        return SimpleNamespace(config=SimpleNamespace(torque=SimpleNamespace(
+            bandwidth_hz=bandwidth_hz)))
+
+    point = HOLDOUT[0]
+    assert judge(point, bench=bench(None))[1] is None
+    stated = judge(point, bench=bench(1000.0))[1]
+    assert stated is not None and stated.guarded_pass, stated
