@@ -11,6 +11,7 @@ from __future__ import annotations
 import pytest
 
 from mutation_run import failed_sources, run_plans
+from test_phase_mutations import PHASE_CASES
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -30,6 +31,7 @@ CASES = [
     ({"word_length_offset_bits": -2}, ["word_length"], {"word_length"}),
     ({"transducer_scale": 1.05}, ["self_check"], {"self_check"}),
     ({"daq_drop_every_nth": 10}, ["self_check"], {"self_check"}),
+    *PHASE_CASES,
 ]
 
 

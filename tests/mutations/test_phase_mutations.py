@@ -2,8 +2,9 @@
 plans that exist to catch them fail, and the same plans pass a correct drive away from the
 default point (reverse rotation, another motor with another pole count, a current angle).
 
-Each case runs the plans end to end over the real stacks (``mutation_run.run_plans``), as
-``hil run --sim-defect KEY=VALUE`` does.
+The defect cases are run by ``test_mutations.py`` (with the first suite's); this module runs the
+correct drive off the default point, end to end over the real stacks
+(``mutation_run.run_plans``), as ``hil run --bench COPY`` does.
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ from mutation_run import failed_sources, run_plans
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
-CASES = [
+#: The new defects (issue 21 item 8); tests/mutations/test_mutations.py runs them with the
+#: first suite's cases (one test for all).
+PHASE_CASES = [
     # defect, plans run, plans that must fail
     # offsets on the other sensor: same order-1 magnitude, phase 60..180 degrees away
     ({"sensor_injection_swapped": True}, ["dc_offset", "gain_mismatch"],
@@ -37,22 +40,6 @@ CASES = [
     # of the dead time's order-6 voltage disturbance than the model (with the stated loop) says
     ({"current_loop_bandwidth_scale": 0.5}, ["dead_time"], {"dead_time"}),
 ]
-
-
-def case_id(case) -> str:
-    defects, _, must_fail = case
-    return ",".join(f"{k}={v}" for k, v in defects.items()) + "->" + "+".join(sorted(must_fail))
-
-
-@pytest.mark.parametrize("case", CASES, ids=case_id)
-def test_a_defective_drive_fails_the_plans_that_exist_to_catch_it(case, tmp_path):
-    defects, sources, must_fail = case
-    run = run_plans(sources, defects, tmp_path)
-    assert run["outcomes"], "no record was written:\n" + run["output"]
-    missed = must_fail - failed_sources(run)
-    assert not missed, (f"defect {defects}: plans {sorted(missed)} passed although they exist "
-                        f"to catch it; outcomes {run['outcomes']}\n{run['output']}")
-    assert run["returncode"] == 1, run["output"]
 
 
 def bench_at(folder: Path, *, speed_rpm: float, current_a: float, current_angle_deg: float,
