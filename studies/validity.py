@@ -141,7 +141,8 @@ def run_point(name: str, speed_rpm: float, current_a: float, folder: Path,
     row = {"motor": name, "speed_rpm": speed_rpm, "current_a": current_a,
            "exit_status": done.returncode, "seconds": round(time.perf_counter() - started, 1),
            "tests": []}
-    found = sorted(records.iterdir()) if records.exists() else []
+    # record folders only (the results database's file and lock sit beside them)
+    found = sorted(p for p in records.iterdir() if p.is_dir()) if records.exists() else []
     if not found:
         row["run_error"] = (done.stdout[-1500:] + done.stderr[-1500:]).strip()
         return row
