@@ -40,7 +40,7 @@ from hil.measurement import PointPlan
 from hil.model import OperatingPoint, predict
 from hil.model.dead_time import dead_time_linear_voltage_limit_v, dead_time_voltage_command_v
 from hil.motor import TABLE_I, MotorParameters
-from hil.sim import DriveConfig, DriveTwin, MotorModel
+from hil.sim import DriveConfig, DriveTwin, MotorModel, TransducerModel
 
 PWM_HZ = 20_000.0
 LOOP = {"current_loop_bandwidth_hz": 1600.0, "current_loop_delay_s": 75e-6}
@@ -87,10 +87,14 @@ def holdout_set() -> list[Point]:
     return points
 
 
-def capture(point: Point, plan: PointPlan):
-    """The twin's transducer torque captured as the plan would (see the module docstring)."""
+def capture(point: Point, plan: PointPlan, transducer_bandwidth_hz: float = 1000.0):
+    """The twin's transducer torque captured as the plan would (see the module docstring);
+    ``transducer_bandwidth_hz`` the simulated transducer's first-order bandwidth (the bench
+    file's 1 kHz unless a test makes it lag more)."""
     motor = MOTORS[point.motor]
-    twin = DriveTwin(DriveConfig(motor=MotorModel(parameters=motor)), seed=point.seed)
+    config = DriveConfig(motor=MotorModel(parameters=motor),
+                         transducer=TransducerModel(bandwidth_hz=transducer_bandwidth_hz))
+    twin = DriveTwin(config, seed=point.seed)
     twin.set_injection(dead_time_s=point.dead_time_s)
     twin.speed_rpm, twin.current_command_a = point.speed_rpm, point.current_a
     twin.enable()

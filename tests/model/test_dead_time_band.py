@@ -15,7 +15,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
 import dead_time_calibration as study  # noqa: E402
 from hil.measurement import PointPlan  # noqa: E402
 from hil.model import OperatingPoint, predict  # noqa: E402
-from hil.sim import DriveConfig, DriveTwin, MotorModel, TransducerModel  # noqa: E402
 from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE, phase_judge  # noqa: E402
 
 
@@ -27,21 +26,7 @@ def judge(point, *, model_scale=1.0, transducer_hz=1000.0, bench=None):
                          model="current_clamping", transducer_bandwidth_hz=1000.0, **study.LOOP)
     plan = PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
                      speed_rpm=point.speed_rpm, current_a=point.current_a)
-    config = DriveConfig(motor=MotorModel(parameters=motor),
-                         transducer=TransducerModel(bandwidth_hz=transducer_hz))
-    twin = DriveTwin(config, seed=point.seed)
-    twin.set_injection(dead_time_s=point.dead_time_s)
-    twin.speed_rpm, twin.current_command_a = point.speed_rpm, point.current_a
-    twin.enable()
-    rate = plan.capture_rate_hz(motor.pole_pairs)
-    twin.advance(plan.settle_s, rate)
-    ch = twin.advance(plan.capture_duration_s(motor.pole_pairs), rate,
-                      channels=["time_s", "torque_nm", "rotor_angle_mech_rad"])
-    from hil.analysis import analyze_torque
-    result = analyze_torque(ch["time_s"], ch["torque_nm"],
-                            motor.pole_pairs * ch["rotor_angle_mech_rad"],
-                            max_order=plan.max_order, named_order=6,
-                            instruments=study.INSTRUMENTS)
+    result = study.capture(point, plan, transducer_bandwidth_hz=transducer_hz)
     nameplate = op.mean_torque_nm
     measured = result.pk_pk_nm / nameplate
     expanded = result.uncertainty.expanded_pu * abs(result.mean_torque_nm) / nameplate
