@@ -12,9 +12,10 @@ What a region checks, in the order a refusal names it:
 2. **Speed** |n| within the range the model assumes (the encoder plan runs at its own 12 rpm).
 3. **Voltage headroom.** The peak phase voltage the inverter must give — the steady phasor with
    the signed speed (braking in reverse) plus the dead time's (4/π)·T_d·f_pwm·V_dc along the
-   current — within the SVPWM limit less the on-times the dead time swallows,
-   (V_dc/√3)·(1 − 2·T_d·f_pwm) (``hil.model.voltage``); beyond it the current is not regulated or
-   pulses are dropped, and no model of the paper applies.
+   current — within the SVPWM limit less the dead times every edge must keep inside the period,
+   (V_dc/√3)·(1 − 4·T_d·f_pwm) (``hil.model.voltage.linear_limit_v``, the one limit, its reason
+   there); beyond it the current is not regulated or the highest leg clips and its dead-time
+   error vanishes, and no model of the paper applies.
 4. **Capture.** The DAQ's rate and buffer, the Nyquist order of the analysed band
    (rate / (2·f_e) ≥ max_order). The PWM-switching plan adapts its capture instead: its DAQ rate
    and revolutions are derived from the speed and PWM frequency
@@ -174,7 +175,8 @@ def voltage_problems(plan, config: BenchConfig) -> list[str]:
     if needed <= available:
         return []
     limit = ("V_dc/√3, SVPWM" if dead_time_s == 0 else
-             f"V_dc/√3·(1 − 2·T_d·f_pwm), SVPWM with on-times > {dead_time_s * 1e6:g} us")
+             f"V_dc/√3·(1 − 4·T_d·f_pwm), SVPWM whose every edge keeps its "
+             f"{dead_time_s * 1e6:g} us dead time within the period")
     return [f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
             f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us included) vs "
             f"{available:.2f} V ({limit})"]

@@ -26,13 +26,20 @@ periodic steady state (``hil.model.dead_time_steady_state``). Near each zero cro
 flips with the current and the current dwells at zero; where ε is not small against the phase
 voltage (low speed, low current) this adds order-12, 18, … content the six-step series misses
 (the six-step series was 20–35 % low in pk-pk at 250 rpm / 10 A and 500 rpm / 10 A against the
-simulated drive: ``studies/dead_time_calibration.py``). The orders kept are 1..``max_order`` (the
+simulated drive: ``studies/dead_time_calibration.py``). The PWM current ripple is included where
+it matters, at the zero crossings: a leg's error is set by the current at its two edges of the
+period, which differ from the period average by ∓a_x (the ripple's excursion); while |i_x| < a_x
+the two edges see opposite signs and their errors cancel, and a dead interval that starts near
+zero clamps the current there (``dead_time_steady_state``). At low current on a low-inductance
+motor this is a large part of the crossing: Table I at 1000 rpm / 5 A, 2 µs, a_x ≈ 0.64 A of
+5 A; without it the model read 30 % low there (0.0277 pu against 0.0367 measured). The orders kept are 1..``max_order`` (the
 analysis's band); with ``transducer_bandwidth_hz`` each order k is multiplied by the stated
 first-order transducer response at k·f_e, as the bench measures it (its phase enters the order-6
 phase the plan judges).
 
 ``dead_time_voltage_loss_v`` gives the fundamental of the leg error, the phase voltage the dead
-time costs (for the pre-flight voltage headroom).
+time costs (for the pre-flight voltage headroom, ``hil.model.voltage``, where the one linear
+limit with dead time, (V_dc/√3)·(1 − 4·T_d·f_sw), is derived).
 """
 
 from __future__ import annotations
@@ -70,29 +77,6 @@ def dead_time_voltage_loss_v(dead_time_s: float, pwm_frequency_hz: float,
     f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, 0.0, 1e6, unit=" Hz")
     v_dc = check_range("dc_bus_v", dc_bus_v, 0.0, 2000.0, unit=" V")
     return 4.0 / math.pi * t_d * f_sw * v_dc
-
-
-def dead_time_linear_voltage_limit_v(dead_time_s: float, pwm_frequency_hz: float,
-                                     dc_bus_v: float) -> float:
-    """Largest peak phase-voltage command (V) for which every PWM period keeps both dead-time
-    edges of every leg (centre-aligned PWM, dead time after each edge, SVPWM min-max).
-
-    A leg's duty d reaches 0.5 + (√3/2)·|V|/V_dc with min-max injection; its low interval at
-    each end of the period, (1 − d)/(2·f_sw), must outlast the dead time T_d, or the edge is
-    dropped and the leg error is no longer ε·sign(i) (the average model, and eqs 32-37, no
-    longer hold). Hence |V| ≤ (V_dc/√3)·(1 − 4·T_d·f_sw). The command includes the dead time's
-    own fundamental (:func:`dead_time_voltage_loss_v`), which the loop adds.
-    """
-    t_d = check_range("dead_time_s", dead_time_s, *DEAD_TIME_RANGE_S, unit=" s")
-    f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, 0.0, 1e6, unit=" Hz")
-    return dc_bus_v / math.sqrt(3.0) * max(0.0, 1.0 - 4.0 * t_d * f_sw)
-
-
-def dead_time_voltage_command_v(op: OperatingPoint, dead_time_s: float,
-                                pwm_frequency_hz: float) -> float:
-    """Peak phase voltage (V) the loop commands at ``op``: |E + (R + jω_e·L)·I| plus the dead
-    time's fundamental loss (in phase with the current; added in magnitude, an upper bound)."""
-    return abs(op.voltage_phasor_peak_v) + dead_time_voltage_loss_v(dead_time_s, pwm_frequency_hz, op.dc_bus_v)
 
 
 def transducer_response(frequency_hz, bandwidth_hz: float | None):
@@ -232,7 +216,8 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
         emf_peak_v=speed_sign * op.emf_peak_v, elec_speed_rad_s=op.elec_speed_rad_s,
         current_a=op.current_a, current_angle_rad=op.current_angle_rad, leg_error_v=eps,
         loop_bandwidth_rad_s=2 * math.pi * bandwidth_hz if bandwidth_hz else 0.0,
-        delay_s=delay_s, max_order=CLAMPING_MAX_ORDER)
+        delay_s=delay_s, max_order=CLAMPING_MAX_ORDER,
+        dc_bus_v=op.dc_bus_v, pwm_frequency_hz=f_sw)
     orders = np.arange(coefficients.size)
     elec_hz = op.elec_speed_rad_s / (2 * math.pi)
     coefficients = coefficients * transducer_response(orders * elec_hz, transducer_bandwidth_hz)
@@ -247,8 +232,9 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
         inputs=inputs, equations="average voltage error T_d·f_sw·V_dc per leg with the actual "
         "current's sign (eqs 32-37 averaged over a PWM period), periodic steady state",
         assumptions=[
-            "leg error −ε·sign(i) with the simulated (not the ideal) current: zero-current "
-            "clamping included; PWM current ripple and diode drops neglected",
+            "leg error from the simulated (not the ideal) current at the leg's two edges: the "
+            "PWM ripple's excursion (centre-aligned SVPWM) and zero-current clamping within the "
+            "dead intervals included; diode drops and the loop's sampling neglected",
             f"synchronous-frame PI, Kp = ω_c·L, Ki = ω_c·R, no decoupling, delay {delay_s:.3g} s,"
             " continuous-time" if bandwidth_hz else "no current loop (voltage-fed, open loop)",
             f"orders 1..{CLAMPING_MAX_ORDER} kept" + (

@@ -67,21 +67,24 @@ def test_dead_time_voltage_loss_of_issue_21s_point():
     assert inverter_voltage_needed_v(TABLE_I, 1500.0, 30.0, 0.0, 1e-6, 20_000.0) > svpwm_limit_v(12)
     config = at(1500.0, 30.0)
     refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 1e-6}), config)
-    # against (V_dc/√3)·(1 − 2·1 µs·20 kHz) = 6.65 V
-    assert refused.startswith("voltage headroom") and "vs 6.65 V" in refused, refused
+    # against (V_dc/√3)·(1 − 4·1 µs·20 kHz) = 6.37 V
+    assert refused.startswith("voltage headroom") and "vs 6.37 V" in refused, refused
     # the same point without injected dead time is inside the headroom
     assert not validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 0.0}), config)
 
 
 def test_pulse_dropping_limit_of_dead_time():
-    # (V_dc/√3)·(1 − 2·4 µs·20 kHz) = 6.928 × 0.84 = 5.82 V
-    assert linear_limit_v(12.0, 4e-6, 20_000.0) == pytest.approx(12 / 3 ** 0.5 * 0.84)
+    # the one limit (hil.model.voltage): (V_dc/√3)·(1 − 4·4 µs·20 kHz) = 6.928 × 0.68 = 4.71 V
+    assert linear_limit_v(12.0, 4e-6, 20_000.0) == pytest.approx(12 / 3 ** 0.5 * 0.68)
     assert linear_limit_v(12.0) == svpwm_limit_v(12.0)
     # Table I at 1200 rpm / 10 A: 4 µs needs 5.86 V (a correct drive measured 23 % against
-    # 2.9 %): refused; 2 µs needs 5.25 V of 6.37 V: inside
+    # 2.9 %) and 3 µs 5.56 V (inside the old 1 − 2·T_d·f limit, 6.10 V, but the order-6
+    # amplitude read 0.76x the model): both refused; 2 µs needs 5.25 V of 5.82 V: inside
     config = at(1200.0, 10.0)
     refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 4e-6}), config)
-    assert refused.startswith("voltage headroom") and "5.86 V" in refused and "5.82 V" in refused
+    assert refused.startswith("voltage headroom") and "5.86 V" in refused and "4.71 V" in refused
+    refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 3e-6}), config)
+    assert refused.startswith("voltage headroom") and "5.56 V" in refused and "5.27 V" in refused
     assert validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 2e-6}),
                                      config) == []
 
