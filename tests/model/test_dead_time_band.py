@@ -15,7 +15,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
 import dead_time_calibration as study  # noqa: E402
 from hil.measurement import PointPlan  # noqa: E402
 from hil.model import OperatingPoint, predict  # noqa: E402
-from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE, phase_judge  # noqa: E402
+from ripple_hil_testplans.test_dead_time import (DEAD_TIME_RULE, order6_amplitude_check,  # noqa: E402
+                                                 phase_judge)
 
 
 def judge(point, *, model_scale=1.0, transducer_hz=1000.0, bench=None):
@@ -82,3 +83,38 @@ def test_no_phase_verdict_without_a_stated_transducer_bandwidth():
     assert judge(point, bench=bench(None))[1] is None
     stated = judge(point, bench=bench(1000.0))[1]
     assert stated is not None and stated.guarded_pass, stated
+
+
+def amplitude_verdict(point, applied_fraction=1.0):
+    """The plan's order-6 amplitude check of a twin whose drive applies ``applied_fraction`` of
+    the commanded dead time, against the model at the commanded one."""
+    from dataclasses import replace
+
+    motor = study.MOTORS[point.motor]
+    op = OperatingPoint(speed_rpm=point.speed_rpm, current_a=point.current_a, motor=motor)
+    prediction = predict("dead_time", op, dead_time_s=point.dead_time_s,
+                         model="current_clamping", transducer_bandwidth_hz=1000.0, **study.LOOP)
+    applied = replace(point, dead_time_s=applied_fraction * point.dead_time_s)
+    plan = PointPlan(source="dead_time", injection={"dead_time_s": applied.dead_time_s},
+                     speed_rpm=point.speed_rpm, current_a=point.current_a)
+    return order6_amplitude_check(study.capture(applied, plan), prediction)
+
+
+#: off the calibration set: other motors (10-pole 48 V; 2-pole 24 V 80 µH at low current and
+#: high speed, the holdout's worst point), reverse rotation, other seeds
+AMPLITUDE_POINTS = [study.Point("B", -400.0, 8.0, 3e-6, 16),
+                    study.Point("C", 1300.0, 5.0, 3e-6, 32),
+                    study.Point("TableI", -750.0, 15.0, 3e-6, 38)]
+
+
+@pytest.mark.parametrize("point", AMPLITUDE_POINTS, ids=lambda p: f"{p.motor}-{p.speed_rpm:g}rpm")
+def test_order6_amplitude_passes_a_correct_drive_and_fails_one_applying_70_percent(point):
+    """Issue 21 (dt brief item 3): a drive that applies 70 % of the commanded dead time sat
+    inside the ±35 % pk-pk band; the order-6 amplitude (±15 %, guarded) fails it wherever the
+    correct drive passes."""
+    assert point not in study.calibration_set()
+    right = amplitude_verdict(point)
+    assert right is not None and right["passed"], right
+    wrong = amplitude_verdict(point, applied_fraction=0.7)
+    assert wrong is not None and not wrong["passed"], wrong
+    assert wrong["measured"] / wrong["expected"] < 0.8

@@ -24,6 +24,9 @@ CASES = [
      {"word_length", "pwm_resolution"}),
     ({"injection_scale": 1.5}, ["dc_offset", "gain_mismatch", "dead_time"],
      {"dc_offset", "gain_mismatch", "dead_time"}),
+    # a drive applying 70 % of the commanded dead time: inside the ±35 % pk-pk band; the order-6
+    # amplitude check (±15 %) and the sweep's slope catch it
+    ({"injection_scale": 0.7}, ["dead_time"], {"dead_time"}),
     # a PWM counter applied scaled: the non-synchronous noise check of the plan catches it
     ({"injection_scale": 1.5}, ["pwm_resolution"], {"pwm_resolution"}),
     ({"injection_scale": 0.7}, ["pwm_resolution"], {"pwm_resolution"}),
