@@ -102,8 +102,12 @@ REGIONS: dict[str, Region] = {
             "acceptance zone"),
     "dead_time": Region(
         braking=True,
-        why="average-voltage model with the loop's rejection (signed electrical speed); the "
-            "order-6 ripple is small (0.2-1 %), so low current and 1 us reach the floor"),
+        why="current-clamping model (average leg error from the current at each leg's edges: "
+            "PWM ripple and zero-current clamping at the crossings, the stated loop and "
+            "transducer, signed speed: braking in reverse); needs every edge's dead time inside "
+            "the period (the voltage limit with 1 - 4*T_d*f_pwm); the order-6 ripple is small "
+            "(0.1-1 %) and, on a motor whose loop rejects order 6 at low electrical frequency "
+            "(2 poles, low speed), below what the bench resolves"),
     "baseline": Region(
         braking=True,
         why="nothing injected, judged against the 1 % ceiling; needs a regulated current"),

@@ -15,7 +15,7 @@ resolvable floor at most half of the pk-pk acceptance half-width.
 
 Verdicts per point: the pk-pk against the model (±35 % + the bench floor 0.001 pu), the order-6
 amplitude against the model's (±15 %, guarded by its U; ``order6_amplitude_check``) and the
-order-6 phase (±5°). Tolerances set on a calibration set (Table I, forward, seed 1) and checked
+order-6 phase (±5° + the turn the bench floor can give it, ``phase_tolerance_rad``). Tolerances set on a calibration set (Table I, forward, seed 1) and checked
 on a disjoint holdout set (``studies/dead_time_calibration.py``, hil/model/README.md).
 """
 
@@ -41,8 +41,6 @@ DEAD_TIME_RULE = DecisionRule(rel_tol=0.35, abs_tol_pu=0.001)
 ORDER6_AMPLITUDE_TOL = 0.15
 #: order-6 phase tolerance, rad: the calibration set's largest |Δφ| + U (4.3°) → 5°.
 PHASE_TOLERANCE_RAD = math.radians(5.0)
-#: the injection knob of a PWM frequency (the bench default applies when a point has none)
-PWM_FREQUENCY_KEY = "pwm_frequency_hz"
 
 
 def prediction_params(config) -> dict:
@@ -76,20 +74,39 @@ def order6_amplitude_check(result, prediction, tolerance: float = ORDER6_AMPLITU
                        "(guarded)")}
 
 
+def phase_tolerance_rad(prediction, floor_pk_pk_nm: float) -> float:
+    """The order-6 phase zone, rad: the calibrated ±5° plus asin(A_floor/A_6), the turn that an
+    order-6 content of the bench's own, up to half its resolvable pk-pk floor (N·m), can give the
+    measured phasor of predicted amplitude A_6 — the phase's counterpart of the pk-pk rule's
+    floor allowance (``abs_tol_pu``). Without it the correct drive failed at 8 poles, −2475 rpm
+    / 20 A, 2 µs: order 6 at 990 Hz, amplitude right (1.004×) but +6.8° ± 2.0° against ±5°,
+    with A_6 = 0.0036 N·m against a 0.0005 N·m floor amplitude (asin: 8.0°)."""
+    amplitude_nm = prediction.extras["order6_amplitude_pu"] * abs(prediction.base_nm)
+    if amplitude_nm <= 0.0:
+        return math.pi / 2
+    return PHASE_TOLERANCE_RAD + math.asin(min(1.0, 0.5 * floor_pk_pk_nm / amplitude_nm))
+
+
 def phase_judge(result, prediction, plan, bench):
     """The order-6 phase verdict (``PointPlan.phase``, recorded as ``verdict.phase``): the
-    model's phase (it already includes the stated loop and transducer) against ±5°, guarded
-    by the measured phase's U = 2·u(A_6)/A_6. None — no phase verdict, the point is then not
-    determinable — when that U is not below the tolerance (the order is too small to have a
-    phase here), or when the bench file states no ``[torque] bandwidth_hz`` (the transducer's
-    phase lag is then unknown, as for ``ripple_hil_testplans.phase``; the model's phase would
-    assume an ideal transducer and reject a correct drive: +0.161 rad against ±0.087 at
-    −700 rpm / 12 A)."""
+    model's phase (it already includes the stated loop and transducer) against
+    :func:`phase_tolerance_rad` (±5° + the bench floor's turn), guarded by the measured phase's
+    U = 2·u(A_6)/A_6. None — no phase verdict, the point is then not determinable — when that U
+    is not below the tolerance (the order is too small to have a phase here), or when the bench
+    file states no ``[torque] bandwidth_hz`` (the transducer's phase lag is then unknown, as for
+    ``ripple_hil_testplans.phase``; the model's phase would assume an ideal transducer and reject
+    a correct drive: +0.161 rad against ±0.087 at −700 rpm / 12 A). ``bench`` None (a study):
+    no floor term."""
+    from hil.validity import bench_floor_nm
+
     if bench is not None and bench.config.torque.bandwidth_hz is None:
         return None
+    floor_nm = (bench_floor_nm(bench.config)
+                if bench is not None and hasattr(bench.config, "uncertainty_inputs") else 0.0)
+    tolerance = phase_tolerance_rad(prediction, floor_nm)
     verdict = decide_phase(result, 6, prediction.extras["order6_phase_rad"],
-                           tolerance_rad=PHASE_TOLERANCE_RAD)
-    return verdict if verdict.guard_band_rad < PHASE_TOLERANCE_RAD else None
+                           tolerance_rad=min(tolerance, 0.99 * math.pi))
+    return verdict if verdict.guard_band_rad < tolerance else None
 
 
 def plan(config, injection):

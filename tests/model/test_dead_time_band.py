@@ -118,3 +118,27 @@ def test_order6_amplitude_passes_a_correct_drive_and_fails_one_applying_70_perce
     wrong = amplitude_verdict(point, applied_fraction=0.7)
     assert wrong is not None and not wrong["passed"], wrong
     assert wrong["measured"] / wrong["expected"] < 0.8
+
+
+def test_phase_zone_widens_by_the_bench_floor_and_still_fails_a_lagging_transducer():
+    """The order-6 phase zone is ±5° + asin(floor/2 / A_6): on the simulated bench (floor
+    0.001 N·m pk-pk) at Table I 500 rpm / 20 A, 4 µs (A_6 ≈ 0.0036 N·m) ≈ 13°; the transducer
+    lagging 1 ms more than stated is ≈ 30° off and still fails, the stated one passes."""
+    from hil.analysis.decision import decide_phase
+    from ripple_hil_testplans.test_dead_time import phase_tolerance_rad
+
+    point = study.Point("TableI", 500.0, 20.0, 4e-6, 3)
+    op = OperatingPoint(speed_rpm=point.speed_rpm, current_a=point.current_a)
+    prediction = predict("dead_time", op, dead_time_s=point.dead_time_s,
+                         model="current_clamping", transducer_bandwidth_hz=1000.0, **study.LOOP)
+    tolerance = phase_tolerance_rad(prediction, 0.001)
+    assert math.radians(12.0) < tolerance < math.radians(14.5)
+    assert phase_tolerance_rad(prediction, 0.0) == pytest.approx(math.radians(5.0))
+    plan = PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
+                     speed_rpm=point.speed_rpm, current_a=point.current_a)
+    tau = 1.0 / (2 * math.pi * 1000.0) + 1e-3
+    lagging = study.capture(point, plan, transducer_bandwidth_hz=1.0 / (2 * math.pi * tau))
+    assert not decide_phase(lagging, 6, prediction.extras["order6_phase_rad"],
+                            tolerance_rad=tolerance).guarded_pass
+    assert decide_phase(study.capture(point, plan), 6, prediction.extras["order6_phase_rad"],
+                        tolerance_rad=tolerance).guarded_pass
