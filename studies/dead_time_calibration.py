@@ -1,7 +1,7 @@
 """Study: the dead-time models against the simulated drive, calibration and holdout sets.
 
 Run: ``.venv/bin/python studies/dead_time_calibration.py [--set calibration|holdout|both]
-[--quick]`` (both sets ≈ 30 s on one core; ``--quick``: every 4th point, for CI).
+[--quick] [--rel-tol 0.35 --phase-tol-deg 5 --a6-tol 0.15]`` (the plan's bands for the holdout) (both sets ≈ 30 s on one core; ``--quick``: every 4th point, for CI).
 
 Each point must lie in the plan's validity region first (``hil.model.voltage.linear_limit_v``
 and the bench floor against half the pk-pk acceptance half-width, ``hil.validity``); a point
@@ -204,8 +204,8 @@ def report(name: str, rows: list[dict], rel_tol: float | None, phase_tol: float 
           f"order-6 amplitude tolerance needed (|A6 ratio − 1| + U): {max(a6_needed):.3f}")
     if rel_tol is not None:
         print(f"with rel_tol {rel_tol:.2f}, phase tolerance {math.degrees(phase_tol):.0f} deg and "
-              f"order-6 amplitude ±{a6_tol:.2f} "
-              f"from the calibration: {len(rows) - len(fails)}/{len(rows)} holdout points pass"
+              f"order-6 amplitude ±{a6_tol:.2f} (the calibration's, or the options given): "
+              f"{len(rows) - len(fails)}/{len(rows)} holdout points pass"
               + "".join(f"\n  FAILS: {p}" for p in fails))
     return max(needed), max(phase_needed), max(a6_needed)
 
