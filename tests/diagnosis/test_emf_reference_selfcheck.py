@@ -100,3 +100,45 @@ def test_recorded_reference_keeps_the_diagnosis_signs_right(drive, tmp_path, cap
     wrong = {p["name"]: p for p in json.loads(capsys.readouterr().out)["parameters"]}
     # (a 30° turn of the offsets' space vector: Δb moves by ≈ 0.09 A here)
     assert max(abs(wrong[name]["estimate"] - truth) for name, truth in HIDDEN.items()) > 0.05
+
+
+def _bench_file(tmp_path, *, stated_deg, speed_rpm):
+    from hil.config import example_bench_path
+
+    text = example_bench_path().read_text()
+    assert "unit_id = 1\n" in text and "speed_rpm = 500.0\n" in text
+    text = text.replace("unit_id = 1\n", f"unit_id = 1\nemf_a_rising_zero_elec_deg = "
+                                         f"{stated_deg}\n", 1)
+    text = text.replace("[operating_point]\nspeed_rpm = 500.0\n",
+                        f"[operating_point]\nspeed_rpm = {speed_rpm}\n", 1)
+    path = tmp_path / "bench.toml"
+    path.write_text(text)
+    return path
+
+
+def _angle_check(folder):
+    from hil.record import load_record
+
+    (record,) = [p for p in folder.iterdir() if (p / "record.json").is_file()]
+    entries = [t for t in load_record(record)["tests"]
+               if t["test_id"].endswith("test_angle_reference")]
+    assert len(entries) == 1
+    (check,) = entries[0]["checks"]
+    return check
+
+
+@pytest.mark.parametrize("stated_deg, speed_rpm, passes", [
+    (0.0, 500.0, False),         # the bench file says aligned; the encoder sits 30° off: FAIL
+    (OFFSET_ELEC_DEG, -700.0, True),   # stated right, reverse rotation, another speed: pass
+])
+def test_bench_self_check_against_the_stated_commutation_offset(tmp_path, stated_deg,
+                                                                 speed_rpm, passes):
+    bench = _bench_file(tmp_path, stated_deg=stated_deg, speed_rpm=speed_rpm)
+    code = main(["run", "--bench", str(bench), "--source", "self_check", "--no-report",
+                 "--record-dir", str(tmp_path / "records"), "--results-db", "off",
+                 "--sim-defect", f"encoder_commutation_offset_elec_deg={OFFSET_ELEC_DEG}",
+                 "--", "-k", "angle_reference"])
+    check = _angle_check(tmp_path / "records")
+    assert check["passed"] is passes and (code == 0) is passes, (code, check)
+    assert abs(wrap_deg(check["measured"] - OFFSET_ELEC_DEG)) <= check["tolerance"] or not passes
+    assert f"states {stated_deg:g}°" in check["detail"]
