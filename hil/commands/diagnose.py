@@ -94,12 +94,14 @@ def run(args) -> int:
     records = [record for _, record, _ in loaded]
     bench = _with_manifest(_bench_dict(args, records), manifest)
     setup_keys, unused = _setup_keys(bench, manifest)
-    setup, class_pct = setup_from_bench_dict(
-        bench, current_loop_bandwidth_hz=args.loop_bandwidth_hz,
-        current_loop_delay_s=args.loop_delay_s,
-        transducer_bandwidth_hz=args.transducer_bandwidth_hz,
-        pwm_frequency_hz=args.pwm_frequency_hz, current_channel_u_a=args.current_channel_u_a,
-        dead_time_bound_s=args.dead_time_bound_s, **setup_keys)
+    options = {"current_loop_bandwidth_hz": args.loop_bandwidth_hz,
+               "current_loop_delay_s": args.loop_delay_s,
+               "transducer_bandwidth_hz": args.transducer_bandwidth_hz,
+               "pwm_frequency_hz": args.pwm_frequency_hz,
+               "current_channel_u_a": args.current_channel_u_a,
+               "dead_time_bound_s": args.dead_time_bound_s}
+    setup_keys.update({k: v for k, v in options.items() if v is not None})  # options win
+    setup, class_pct = setup_from_bench_dict(bench, **setup_keys)
     pairs = []
     for (capture, record, op), entry in zip(loaded, entries):
         _set_angle_reference(capture, op, args, manifest, setup)
@@ -107,7 +109,11 @@ def run(args) -> int:
     _check_one_drive_state([str(e.path) for e in entries], [c for c, _ in pairs])
     spectra = spectra_from_captures(pairs, max_mech_order=args.max_mech_order)
     if any(op.get(key) for _, op in pairs for key in ADDITION_KEYS):
-        from hil.diagnosis.additions import diagnose_by_additions
+        try:
+            from hil.diagnosis.additions import diagnose_by_additions
+        except ImportError:
+            raise InputError("captures with known additions (addition_* keys) need "
+                             "hil.diagnosis.additions, which this build does not have") from None
 
         result = diagnose_by_additions(spectra, setup=setup, transducer_class_pct=class_pct)
     else:
@@ -169,6 +175,8 @@ def _load(entry, args, manifest):
             raise InputError(f"{name}: an imported capture needs the motor's pole pairs: "
                              "--pole-pairs P, a manifest's [drive] pole_pairs, or --bench FILE")
         capture = import_with_defaults(path, pole_pairs=pole_pairs, **entry.import_options)
+        if manifest and manifest.drive.get("encoder_counts_per_rev"):
+            capture.meta["encoder_counts_per_rev"] = manifest.drive["encoder_counts_per_rev"]
         record, op = None, {"label": path.stem}
     check_torque(capture, name)
     if not any(c in capture for c in ("rotor_angle_mech_rad", "encoder_counts", "speed_rpm")):

@@ -110,7 +110,8 @@ def test_cli_foreign_captures_at_two_currents(tmp_path, capsys):
     _write_csv(tmp_path / "c20.csv")
     _write_csv(tmp_path / "c10.csv", speed_rpm=1000.0, revolutions=8)
     (tmp_path / "m.toml").write_text(
-        '[drive]\npole_pairs = 2\nemf_a_rising_zero_elec_deg = 0.0\n'
+        '[drive]\npole_pairs = 2\nemf_a_rising_zero_elec_deg = 0.0\npwm_frequency_hz = 16000.0\n'
+        'dead_time_bound_s = 2e-6\ncurrent_loop_bandwidth_hz = 900.0\n'
         '[[capture]]\nfile = "c20.csv"\ncurrent_a = 20.0\n'
         '[[capture]]\nfile = "c10.csv"\ncurrent_a = 10.0\ncurrent_angle_deg = 10.0\n')
     assert main(["diagnose", "--manifest", str(tmp_path / "m.toml"), "--json"]) == 0
@@ -121,6 +122,14 @@ def test_cli_foreign_captures_at_two_currents(tmp_path, capsys):
     assert points["c20"]["current_a"] == 20.0 and points["c10"]["current_a"] == 10.0
     assert points["c10"]["current_angle_rad"] == pytest.approx(math.radians(10.0))
     assert points["c10"]["speed_rpm"] == pytest.approx(1000.0, rel=1e-3)
+    assert data["setup"]["pwm_frequency_hz"] == 16000.0
+    assert data["setup"]["dead_time_bound_s"] == 2e-6
+    assert data["setup"]["current_loop_bandwidth_hz"] == 900.0
+    # an option overrides the manifest
+    assert main(["diagnose", "--manifest", str(tmp_path / "m.toml"), "--json",
+                 "--pwm-frequency-hz", "20000", "--loop-bandwidth-hz", "1500"]) == 0
+    setup = json.loads(capsys.readouterr().out)["setup"]
+    assert setup["pwm_frequency_hz"] == 20000.0 and setup["current_loop_bandwidth_hz"] == 1500.0
     # the same two on the command line
     assert main(["diagnose", f"{tmp_path / 'c20.csv'}@20", f"{tmp_path / 'c10.csv'}@10,10",
                  "--pole-pairs", "2", "--json"]) == 0
