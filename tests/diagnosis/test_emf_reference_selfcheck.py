@@ -106,9 +106,9 @@ def _bench_file(tmp_path, *, stated_deg, speed_rpm):
     from hil.config import example_bench_path
 
     text = example_bench_path().read_text()
-    assert "unit_id = 1\n" in text and "speed_rpm = 500.0\n" in text
-    text = text.replace("unit_id = 1\n", f"unit_id = 1\nemf_a_rising_zero_elec_deg = "
-                                         f"{stated_deg}\n", 1)
+    line = "emf_a_rising_zero_elec_deg = 0.0 "
+    assert line in text and "speed_rpm = 500.0\n" in text
+    text = text.replace(line, f"emf_a_rising_zero_elec_deg = {stated_deg} ", 1)
     text = text.replace("[operating_point]\nspeed_rpm = 500.0\n",
                         f"[operating_point]\nspeed_rpm = {speed_rpm}\n", 1)
     path = tmp_path / "bench.toml"
