@@ -167,8 +167,8 @@ def _load(entry, args, manifest):
         record = find_record(path)
         op = operating_point_of(path, capture, record)
     elif not path.is_file():
-        capture = Capture.load(path)         # the one-line "does not exist" / "is a directory"
-        raise AssertionError("unreachable")
+        raise InputError(f"capture file {name!r} " + ("is a directory, not a capture"
+                                                       if path.is_dir() else "does not exist"))
     else:
         pole_pairs = _pole_pairs(args, manifest)
         if pole_pairs is None:
@@ -183,7 +183,8 @@ def _load(entry, args, manifest):
         raise InputError(f"{name}: no rotor-angle channel (channels: "
                          f"{', '.join(sorted(capture.channels))}); the diagnosis refers the "
                          "torque's phase to the rotor angle")
-    op = {**op, **entry.operating_point}
+    op = {**op, **entry.operating_point}      # what is stated for the capture wins
+    op.setdefault("label", path.stem)
     if "current_a" not in op:
         if args.current_a is None:
             raise InputError(_no_operating_point(name, path, capture))

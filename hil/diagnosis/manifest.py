@@ -237,7 +237,7 @@ def parse_capture_argument(text: str) -> CaptureEntry:
     current angle φ in electrical degrees). A file name that itself contains ``@`` is taken as is
     when it exists."""
     if "@" not in text or Path(text).exists():
-        return CaptureEntry(path=Path(text), operating_point={"label": Path(text).stem})
+        return CaptureEntry(path=Path(text), operating_point={})
     name, _, spec = text.rpartition("@")
     parts = spec.split(",")
     try:

@@ -319,7 +319,9 @@ class Diagnosis:
                          f"{item['value']:+.4g} ± {item['expanded_uncertainty']:.2g} {unit}"
                          + ("" if item["significant"] else " (not significant)")))
         lines.append("")
-        lines.append(f"{'point':28s} {'pk-pk before':>12s} {'after (predicted)':>18s}")
+        lines.append(f"{'point':28s} {'pk-pk before':>12s} {'after (predicted)':>18s}"
+                     + ("" if reference["known"] else
+                        "  (after a calibration that needs the angle reference)"))
         for row in self.predicted_after_correction():
             lines.append(f"{row['label'][:28]:28s} {row['pk_pk_pct_before']:11.3f}% "
                          f"{row['pk_pk_pct_after']:17.3f}%")
