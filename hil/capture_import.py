@@ -179,8 +179,8 @@ def import_with_defaults(path: str | Path, *, pole_pairs: int, **options) -> Cap
         elif pick("elec_angle_col"):
             options["angle_col"], options["angle_kind"] = pick("elec_angle_col"), "elec"
         else:
-            raise InputError(f"{str(path)!r}: no rotor-angle column (tried "
-                             f"{', '.join(DEFAULT_COLUMNS['angle_col'] + DEFAULT_COLUMNS['elec_angle_col'])}"
+            tried = DEFAULT_COLUMNS["angle_col"] + DEFAULT_COLUMNS["elec_angle_col"]
+            raise InputError(f"{str(path)!r}: no rotor-angle column (tried {', '.join(tried)}"
                              f"; the file has: {have}); the diagnosis needs the rotor angle "
                              "(the torque's phase is referred to it): name it with "
                              "angle_column = \"...\" and angle_kind = \"mech\" or \"elec\"")

@@ -7,7 +7,7 @@ its operating point. A capture from another bench or simulator (a CSV or ``.npz`
 
     [drive]                              # optional; overrides the bench file's values
     pole_pairs = 2
-    emf_a_rising_zero_elec_deg = 180.0   # the angle reference (hil/diagnosis/README.md); omit = unknown
+    emf_a_rising_zero_elec_deg = 180.0   # angle reference (hil/diagnosis/README.md); omit: unknown
     current_loop_bandwidth_hz = 1000.0   # the current loop: same keys as the bench file's [drive]
     ...
     [motor]                              # optional: the bench file's [motor] keys

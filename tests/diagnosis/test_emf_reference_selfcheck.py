@@ -8,7 +8,6 @@ import json
 import math
 from dataclasses import replace
 
-import numpy as np
 import pytest
 
 from hil import selfcheck
