@@ -39,7 +39,15 @@ DRIVE_FLOAT_KEYS = ("emf_a_rising_zero_elec_deg", "emf_a_rising_zero_u_elec_deg"
                     "current_channel_u_a")
 DRIVE_BOOL_KEYS = ("current_loop_decoupling", "current_loop_emf_feedforward",
                    "current_loop_angle_compensation")
+#: current_loop_design values: those the fit's DriveSetup knows (hil.diagnosis.signatures
+#: LOOP_DESIGNS when it states them), else the bench file's two and "unknown".
 LOOP_DESIGNS = ("continuous", "discrete", "unknown")
+
+
+def loop_designs() -> tuple[str, ...]:
+    from hil.diagnosis import signatures
+
+    return tuple(getattr(signatures, "LOOP_DESIGNS", LOOP_DESIGNS))
 DRIVE_KEYS = ("pole_pairs", "encoder_counts_per_rev", "current_loop_design") + DRIVE_FLOAT_KEYS \
     + DRIVE_BOOL_KEYS
 MOTOR_KEYS = tuple(f.name for f in fields(MotorParameters))
@@ -129,9 +137,9 @@ def _parse_drive(table, where: str) -> dict:
                                  f"1..{top}")
             out[key] = value
         elif key == "current_loop_design":
-            if value not in LOOP_DESIGNS:
+            if value not in loop_designs():
                 raise InputError(f"{where} [drive]: current_loop_design = {value!r} is not one "
-                                 f"of {', '.join(LOOP_DESIGNS)}")
+                                 f"of {', '.join(loop_designs())}")
             out[key] = value
         elif key in DRIVE_BOOL_KEYS:
             if not isinstance(value, bool):

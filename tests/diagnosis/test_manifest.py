@@ -86,7 +86,7 @@ addition_ia_offset_a = 0.05
     ('[[capture]]\nfile = "a.csv"\ncurrent_a = 2.0\n[[capture]]\nfile = "./a.csv"\n'
      'current_a = 3.0\n', ["listed twice"]),
     ('[drive]\ncurrent_loop_design = "pi"\n[[capture]]\nfile = "a.csv"\ncurrent_a = 1.0\n',
-     ["continuous, discrete, unknown"]),
+     ["continuous, discrete", "unknown"]),
     ('[drive]\npole_pairs = 2\n', ["no [[capture]]"]),
 ])
 def test_manifest_errors_name_the_key(tmp_path, text, words):
