@@ -106,16 +106,16 @@ def run(args) -> int:
     for (capture, record, op), entry in zip(loaded, entries):
         _set_angle_reference(capture, op, args, manifest, setup)
         pairs.append((capture, op))
-    _check_one_drive_state([str(e.path) for e in entries], [c for c, _ in pairs])
+    _check_one_drive_state([str(e.path) for e in entries], pairs)
     spectra = spectra_from_captures(pairs, max_mech_order=args.max_mech_order)
     if any(op.get(key) for _, op in pairs for key in ADDITION_KEYS):
         try:
-            from hil.diagnosis.additions import diagnose_by_additions
+            from hil.diagnosis import additions
         except ImportError:
             raise InputError("captures with known additions (addition_* keys) need "
                              "hil.diagnosis.additions, which this build does not have") from None
-
-        result = diagnose_by_additions(spectra, setup=setup, transducer_class_pct=class_pct)
+        spectra = [additions.with_addition(s, op) for s, (_, op) in zip(spectra, pairs)]
+        result = additions.diagnose_by_additions(spectra, setup=setup)
     else:
         result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
     result.notes.extend(check_setup_known(setup))
@@ -192,9 +192,6 @@ def _load(entry, args, manifest):
     if args.current_angle_deg is not None and "current_angle_rad" not in entry.operating_point:
         op["current_angle_rad"] = math.radians(args.current_angle_deg)
     op.pop("speed_rpm", None)      # measured from the capture itself (signed)
-    additions = {key: op.get(key, 0.0) for key in ADDITION_KEYS}
-    if any(additions.values()):
-        capture.meta["addition"] = additions
     return capture, record, op
 
 
@@ -283,10 +280,22 @@ def _stated_u(manifest) -> float:
     return float(manifest.drive.get("emf_a_rising_zero_u_elec_deg", 0.0)) if manifest else 0.0
 
 
-def _check_one_drive_state(names, captures) -> None:
+#: The drive injection knob each known addition is made through (shared23.md).
+ADDITION_KNOBS = {"addition_ia_offset_a": "ia_offset_a", "addition_ib_offset_a": "ib_offset_a",
+                  "addition_gain_a_pu": "ia_gain_error_pu", "addition_dead_time_s": "dead_time_s"}
+
+
+def _check_one_drive_state(names, pairs) -> None:
     """A diagnosis is of one drive as it is: captures recorded with different injections are
-    different drives to the fit (their shares and calibration would be meaningless)."""
-    states = {json.dumps(c.meta.get("injection") or {}, sort_keys=True) for c in captures}
+    different drives to the fit (their shares and calibration would be meaningless) — apart from
+    a capture's stated known addition, made through its injection knob."""
+    states = set()
+    for capture, op in pairs:
+        injection = dict(capture.meta.get("injection") or {})
+        for key, knob in ADDITION_KNOBS.items():
+            if op.get(key):
+                injection.pop(knob, None)
+        states.add(json.dumps(injection, sort_keys=True))
     if len(states) > 1:
         raise InputError(f"the {len(names)} captures were recorded with different injections "
                          f"({'; '.join(sorted(states))}); a diagnosis is of one drive state: "

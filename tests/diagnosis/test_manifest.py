@@ -179,8 +179,8 @@ def test_cli_errors_name_the_real_problem(tmp_path, capsys):
 
 
 def test_additions_reach_the_operating_point(tmp_path):
-    """The manifest's known additions land in the capture's operating point (shared contract)
-    and in its meta, which the spectrum carries."""
+    """The manifest's known additions land in the capture's operating point (shared contract:
+    the dict spectra_from_captures and hil.diagnosis.additions take)."""
     from argparse import Namespace
 
     from hil.commands.diagnose import _load
@@ -194,4 +194,4 @@ def test_additions_reach_the_operating_point(tmp_path):
     args = Namespace(pole_pairs=None, bench=None, current_a=None, current_angle_deg=None)
     capture, record, op = _load(manifest.captures[0], args, manifest)
     assert record is None and op["current_a"] == 20.0 and op["addition_ib_offset_a"] == 0.1
-    assert capture.meta["addition"]["addition_ib_offset_a"] == 0.1
+    assert op["addition_ia_offset_a"] == 0.0 and "addition" not in capture.meta
