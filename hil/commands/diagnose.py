@@ -124,9 +124,11 @@ def run(args) -> int:
         json.dump(result.to_dict(), sys.stdout, indent=1, allow_nan=False)
         print()
     else:
-        print(result.table())
+        text = result.table()
+        print(text)
         for note in result.notes:
-            print(f"note: {note}")
+            if note not in text:            # (the additions path's table lists its own notes)
+                print(f"note: {note}")
     return 0
 
 

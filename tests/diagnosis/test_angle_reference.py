@@ -134,3 +134,41 @@ def test_rotation_is_the_angle_shift():
     tau_capture = (c_capture[None, :] * np.exp(1j * np.outer(theta + shift, m))).real.sum(1)
     tau_twin = (c_twin[None, :] * np.exp(1j * np.outer(theta, m))).real.sum(1)
     assert np.allclose(tau_capture, tau_twin)
+
+
+def test_known_additions_need_no_angle_reference(tmp_path, capsys):
+    """Standard additions (issue 23 item 1) calibrate each source's transfer, phase included, in
+    situ: on the 180°-off export with no reference stated they still give the right signs. Runs
+    where hil.diagnosis.additions exists (the additions helper's module)."""
+    pytest.importorskip("hil.diagnosis.additions")
+    from dataclasses import replace
+
+    from hil.diagnosis.twin_proof import HiddenFaults, twin_config
+    from hil.sim.engine import simulate_batch
+
+    entries = []
+    for tag, key, change in (("base", None, {}),
+                             ("adda", "addition_ia_offset_a", {"ia_offset_a": 0.5}),
+                             ("addb", "addition_ib_offset_a", {"ib_offset_a": 0.1})):
+        config = twin_config(HiddenFaults(**(HIDDEN | change)))
+        for speed, current in ((500.0, 20.0), (1000.0, 10.0)):
+            result = simulate_batch([replace(config, speed_rpm=speed, current_command_a=current)],
+                                    6.25 / (speed / 60.0 * 2), 20_000.0, settle_s=0.05,
+                                    seed=4)[0]
+            cap = result.to_capture()
+            columns = {"t": cap["time_s"], "tau_m": cap["torque_nm"],
+                       "theta_e": cap["rotor_angle_mech_rad"] * 2 + math.pi}
+            name = f"{tag}{int(speed)}.csv"
+            np.savetxt(tmp_path / name, np.column_stack(list(columns.values())), delimiter=",",
+                       header=",".join(columns), comments="", fmt="%.10g")
+            entries.append(f'[[capture]]\nfile = "{name}"\ncurrent_a = {current}\n'
+                           + (f"{key} = 0.2\n" if key else ""))
+    (tmp_path / "m.toml").write_text(
+        "[drive]\npole_pairs = 2\ncurrent_loop_bandwidth_hz = 1600.0\n"
+        "current_loop_delay_s = 75e-6\ntransducer_bandwidth_hz = 1000.0\n\n" + "\n".join(entries))
+    assert main(["diagnose", "--manifest", str(tmp_path / "m.toml")]) == 0
+    text = capsys.readouterr().out
+    for name, truth in HIDDEN.items():
+        line = next(line for line in text.splitlines() if line.strip().startswith(name))
+        value, u = (float(x) for x in line.split()[1:4:2])
+        assert abs(value - truth) <= u + 0.005, line
