@@ -166,6 +166,8 @@ def transducer_response(reference, response, order: int, *, reference_hz: float,
 
 #: Line-to-line v_ab leads phase a's line-to-neutral voltage by 30° electrical.
 LINE_TO_LINE_LEAD_DEG = 30.0
+#: Largest standard uncertainty (degrees electrical) of a measured angle reference that passes.
+MAX_REFERENCE_U_DEG = 5.0
 
 
 def emf_angle_reference(capture: Capture, pole_pairs: int, *, speed_rpm: float,
@@ -188,7 +190,8 @@ def emf_angle_reference(capture: Capture, pole_pairs: int, *, speed_rpm: float,
 
     A check dict (the record contract) with ``measured`` the reference in degrees and
     ``u_elec_deg``; when ``stated_elec_deg`` (the bench file's value) is given it passes only when
-    the two agree within U = 2·u; else it passes when the measurement is resolved (u < 5°).
+    the two agree within U = 2·u; either way only when the measurement is resolved
+    (u < :data:`MAX_REFERENCE_U_DEG`).
     """
     from hil.diagnosis.angle_reference import wrap_deg
 
@@ -237,8 +240,9 @@ def emf_angle_reference(capture: Capture, pole_pairs: int, *, speed_rpm: float,
                 f"{len(values)} electrical revolutions" + (
                     f"; the bench file states {stated_elec_deg:g}°" if stated_elec_deg is not None
                     else "; the bench file states none"))
-    if stated_elec_deg is None:
-        out["passed"] = bool(u_deg < 5.0)
+    # resolved at all: a reference known to worse than 5° (u) cannot check or sign anything
+    out["passed"] = bool(u_deg < MAX_REFERENCE_U_DEG and (stated_elec_deg is None
+                                                         or out["passed"]))
     out["u_elec_deg"] = u_deg
     out["emf_a_rising_zero_elec_deg"] = measured
     return out

@@ -8,6 +8,7 @@ import json
 import math
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from hil import selfcheck
@@ -141,3 +142,16 @@ def test_bench_self_check_against_the_stated_commutation_offset(tmp_path, stated
     assert check["passed"] is passes and (code == 0) is passes, (code, check)
     assert abs(wrap_deg(check["measured"] - OFFSET_ELEC_DEG)) <= check["tolerance"] or not passes
     assert f"states {stated_deg:g}°" in check["detail"]
+
+
+def test_an_unresolved_reference_does_not_pass():
+    """Noise far above the back EMF: the measured reference's u exceeds 5°, and the check fails
+    even against a stated value (a huge U would otherwise accept anything)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(20_000) / 20_000.0
+    theta_m = 2 * math.pi * 5.0 * t
+    v = 0.1 * np.sin(2 * theta_m) + rng.normal(0, 5.0, t.size)
+    cap = Capture(channels={"time_s": t, "rotor_angle_mech_rad": theta_m, "va_v": v},
+                  meta={"pole_pairs": 2})
+    check = selfcheck.emf_angle_reference(cap, POLE_PAIRS, speed_rpm=300.0, stated_elec_deg=0.0)
+    assert check["u_elec_deg"] > selfcheck.MAX_REFERENCE_U_DEG and not check["passed"]
