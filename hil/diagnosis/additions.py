@@ -67,12 +67,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 from typing import Callable, Iterable
 
 import numpy as np
 from scipy import stats
 
 from hil.capture import Capture
+from hil.diagnosis import parameters as P
 from hil.diagnosis import signatures as sig
 from hil.diagnosis.orders import OrderSpectrum, spectrum_from_capture
 from hil.errors import InputError
@@ -484,7 +486,10 @@ def diagnose_by_additions(items: Iterable, *, setup: sig.DriveSetup | None = Non
             m = p * kind.elec_order
             inputs = _Inputs()
             value, cov = _complex_stats(_transfer_fn(point, key, inputs, m, tolerance_pu), inputs)
-            transfers.append({"point": point.label, "addition": key, "mech_order": m,
+            transfers.append({"point": point.label, "speed_rpm": point.speed_rpm,
+                              "current_a": point.current_a,
+                              "current_angle_rad": point.current_angle_rad, "pole_pairs": p,
+                              "addition": key, "mech_order": m,
                               "sizes": [d / kind.to_unit for d, _ in point.additions[key]],
                               "unit": f"N*m/{kind.unit}", "transfer": value,
                               "standard_uncertainty": math.sqrt(max(np.trace(cov) / 2, 0.0))})
@@ -638,3 +643,82 @@ def _entry(kind, estimate, u, separable, reason, labels, *, motor_term=False, ch
             "mech_order_per_pole_pair": kind.elec_order, "motor_term_fitted": motor_term,
             "residual_chi2": chi2, "residual_dof": dof,
             "description": DESCRIPTIONS[kind.parameter]}
+
+
+# ----------------------------------------------------------------------------- cross-checks
+#: The forward model's parameter that each addition moves, and by how much per unit of it
+#: (a gain step δ on sensor a moves k_a − k_b by −δ to first order, 1 + k = 1/(1 + g)).
+MODEL_PARAMETER = {"addition_ia_offset_a": ("ia_offset_a", 1.0),
+                   "addition_ib_offset_a": ("ib_offset_a", 1.0),
+                   "addition_gain_a_pu": ("gain_k_diff", -1.0),
+                   "addition_dead_time_s": ("dead_time_us", 1.0)}
+#: Sensor gain error assumed at most this (per unit) when the fit's offset o/(1 + g) and gain
+#: k_a − k_b are compared with the additions' o and −θ_g (which differ by that factor).
+SENSOR_GAIN_BOUND_PU = 0.02
+
+
+def compare_transfers_with_models(result: AdditionsDiagnosis, setup: sig.DriveSetup,
+                                  transducer_class_pct: float = 0.0) -> list[dict]:
+    """Each calibrated transfer against the forward model's signature of the same addition
+    (:mod:`.parameters`, the bench's stated loop and transducer) within the measured
+    uncertainty and the model's own (χ², 2 dof, 99.9 %). A disagreement means the injection
+    object does not apply what it says where it says (wrong sensor, scale, sign) — or the stated
+    loop does not describe the drive; the entry says both."""
+    params = {param.name: param for param in P.controller_parameters(transducer_class_pct)}
+    limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, 2))
+    out = []
+    for t in result.transfers:
+        name, factor = MODEL_PARAMETER[t["addition"]]
+        point = SimpleNamespace(speed_rpm=t["speed_rpm"], current_a=t["current_a"],
+                                current_angle_rad=t["current_angle_rad"],
+                                pole_pairs=t["pole_pairs"])
+        m = t["mech_order"]
+        orders, rel = params[name].signature(point, setup, m)
+        model = factor * complex(orders.get(m, 0j))
+        rel_m = float(rel.get(m, 0.0)) if isinstance(rel, dict) else float(rel)
+        sigma = math.hypot(t["standard_uncertainty"], rel_m * abs(model))
+        diff = t["transfer"] - model
+        chi2 = (abs(diff) / sigma) ** 2 if sigma > 0 else math.inf
+        agrees = chi2 <= limit
+        unit = t["unit"].replace("*", "·")
+        out.append({"point": t["point"], "addition": t["addition"], "mech_order": m,
+                    "measured": t["transfer"], "model": model, "model_rel_uncertainty": rel_m,
+                    "chi2": chi2, "limit_chi2": limit, "agrees": agrees,
+                    "statement": (f"{t['addition']} at {t['point']}: measured "
+                                  f"{_fmt_c(t['transfer'], unit)}, model {_fmt_c(model, unit)}"
+                                  + ("" if agrees else
+                                     f" — disagree (χ² {chi2:.3g} > {limit:.3g}): the injection "
+                                     "does not apply what it says where it says (sensor, scale, "
+                                     "sign), or the stated loop/transducer does not describe "
+                                     "the drive"))})
+    return out
+
+
+def compare_with_fit(result: AdditionsDiagnosis, diagnosis) -> list[dict]:
+    """The additions' estimates against the forward-model fit's (:func:`.core.diagnose`), two
+    independent routes to the same parameters: they must agree within the combined standard
+    uncertainty (|z| ≤ the 99.9 % two-sided normal quantile). The fit refers the offsets to the
+    actual current, o/(1 + g), and states k_a − k_b, where the additions give o and −θ_g: the
+    difference (≤ SENSOR_GAIN_BOUND_PU of the value) enters as a rectangular uncertainty."""
+    z_limit = float(stats.norm.ppf(1.0 - (1.0 - CONTRADICTION_QUANTILE) / 2.0))
+    out = []
+    for name in ("ia_offset_a", "ib_offset_a", "gain_k_diff", "dead_time_us"):
+        mine, theirs = result.value(name), diagnosis.value(name)
+        if mine is None or theirs is None:
+            out.append({"name": name, "compared": False,
+                        "statement": f"{name}: not compared (not stated by "
+                                     f"{'the additions' if mine is None else 'the fit'})"})
+            continue
+        convert = 0.0 if name == "dead_time_us" else \
+            SENSOR_GAIN_BOUND_PU * abs(mine[0]) / math.sqrt(3.0)
+        u = math.sqrt(mine[1] ** 2 + theirs[1] ** 2 + convert ** 2)
+        z = (mine[0] - theirs[0]) / u if u > 0 else math.inf
+        agrees = abs(z) <= z_limit
+        out.append({"name": name, "compared": True, "additions": mine[0],
+                    "additions_u": mine[1], "fit": theirs[0], "fit_u": theirs[1],
+                    "combined_u": u, "z": z, "limit_z": z_limit, "agrees": agrees,
+                    "statement": f"{name}: additions {mine[0]:+.5g} ± {mine[1]:.2g}, fit "
+                                 f"{theirs[0]:+.5g} ± {theirs[1]:.2g} (standard) — "
+                                 + ("agree" if agrees else
+                                    f"DISAGREE (z = {z:+.3g}, limit ±{z_limit:.3g})")})
+    return out
