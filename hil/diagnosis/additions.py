@@ -86,6 +86,10 @@ CONTRADICTION_QUANTILE = 0.999
 MIN_RELATIVE_SINGULAR_VALUE = 0.05
 #: Default standard uncertainty of an addition, relative to its size (independent per capture).
 DEFAULT_TOLERANCE_PU = 0.01
+#: Relative standard uncertainty of the dead time's extrapolation below the base (the response
+#: through zero is not a straight line, and additions cannot check below the base): the
+#: average-voltage model's stated agreement with a time-domain run (hil.diagnosis.parameters).
+DEAD_TIME_EXTRAPOLATION_REL = P.DEAD_TIME_MODEL_REL_UNCERTAINTY
 #: Operating points within these of each other are one point.
 SAME_POINT_REL = 0.01
 SAME_ANGLE_RAD = 0.01
@@ -607,6 +611,14 @@ def _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup, 
     out = []
     for j, kind in enumerate(kinds):
         u = math.sqrt(max(c_theta[j, j], 0.0))
+        if group == "dead_time":
+            u = math.hypot(u, DEAD_TIME_EXTRAPOLATION_REL * abs(float(theta[j])))
+            notes.append(
+                f"dead_time_us: the extrapolation from the base down to zero dead time is not "
+                f"checked by the additions; the dead-time torque is not proportional to T_d near "
+                f"zero, so {100 * DEAD_TIME_EXTRAPOLATION_REL:g} % of the estimate (the "
+                "average-voltage model's stated agreement with a time-domain run) is added as "
+                "a standard uncertainty")
         out.append(_entry(kind, float(theta[j]), u, separable, reason, labels,
                           motor_term=with_motor, chi2=chi2, dof=dof))
         if kind.parameter == "gain_a_rel_b_pu":
