@@ -627,6 +627,7 @@ def _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup, 
                         "standard_uncertainty": u, "expanded_uncertainty": EXPANSION_K * u,
                         "stated": separable and math.isfinite(u) and u > 0,
                         "reason": reason, "points": labels, "mech_order": m,
+                        "motor_term_fitted": with_motor,
                         "description": "k_a − k_b (paper eqs 21-22, 1 + k = 1/(1 + g)) = "
                                        "−θ_g/(1 + g_a) ≈ −θ_g: first order in the gains "
                                        "(relative error |g_a|, not in U)"})
