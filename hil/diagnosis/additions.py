@@ -19,7 +19,10 @@ drive really has — no forward model (paper eqs 15-38) is used for it. The base
 
 * sensor offsets Δa, Δb (A, in the units of the reading, i.e. o in ``(1 + g)·i + o``): the
   order-1 phasor with the two offset transfers, a 2×2 real system (Re, Im);
-* θ_g = (1 + g_a)/(1 + g_b) − 1 (≈ g_a − g_b: how much more sensor a reads than b) from order 2;
+* θ_g = (1 + g_a)/(1 + g_b) − 1 (≈ g_a − g_b: how much more sensor a reads than b) from order 2,
+  the gain step δ measured as δ/(1 + δ): the loop regulates the sensed current, so the actual
+  current is divided by 1 + δ and the torque is linear in δ/(1 + δ), crossing zero at −θ_g
+  (measured in δ itself the twin read θ_g 2 % high with steps of 1-2 %);
   ``gain_k_diff`` = k_a − k_b (paper eqs 21-22, actual-current errors, 1 + k = 1/(1 + g)) is
   −θ_g/(1 + g_a) ≈ −θ_g (first order; its relative error is |g_a|, stated);
 * the effective dead time T_d (µs) from order 6.
@@ -107,12 +110,22 @@ class AdditionKind:
     elec_order: int
     to_unit: float
     text: str
+    #: the response is linear in this measure of the addition (default: its value × to_unit)
+    measure: Callable[[float], float] | None = None
+
+    def effective(self, value: float) -> float:
+        """The addition in the measure the torque responds to linearly (parameter unit)."""
+        return self.measure(value) if self.measure else value * self.to_unit
 
 
 KINDS = (
     AdditionKind("addition_ia_offset_a", "ia_offset_a", "A", 1, 1.0, "A on sensor a"),
     AdditionKind("addition_ib_offset_a", "ib_offset_a", "A", 1, 1.0, "A on sensor b"),
-    AdditionKind("addition_gain_a_pu", "gain_a_rel_b_pu", "1", 2, 1.0, "gain of sensor a"),
+    # the loop regulates the sensed current: sensor a's gain × (1 + δ) divides the actual
+    # current by (1 + δ) (eqs 21-22), so the torque is linear in δ/(1 + δ), not in δ; in that
+    # measure the response crosses zero exactly at −θ_g
+    AdditionKind("addition_gain_a_pu", "gain_a_rel_b_pu", "1", 2, 1.0, "gain of sensor a",
+                 measure=lambda value: value / (1.0 + value)),
     AdditionKind("addition_dead_time_s", "dead_time_us", "µs", 6, 1e6, "µs dead time"),
 )
 ADDITION_KEYS = tuple(kind.key for kind in KINDS)
@@ -211,6 +224,7 @@ class _Point:
     pole_pairs: int
     bases: list = field(default_factory=list)
     additions: dict = field(default_factory=dict)     # key -> [(δ in parameter unit, spectrum)]
+    raw: dict = field(default_factory=dict)           # key -> {id(spectrum): addition as given}
 
     @property
     def label(self) -> str:
@@ -239,7 +253,8 @@ def _group(spectra: list[OrderSpectrum]) -> list[_Point]:
         if kind is None:
             raise InputError(f"{s.label}: unknown addition {addition.get('key')!r}; known: "
                              f"{', '.join(ADDITION_KEYS)}")
-        point.additions.setdefault(kind.key, []).append((addition["value"] * kind.to_unit, s))
+        point.additions.setdefault(kind.key, []).append((kind.effective(addition["value"]), s))
+        point.raw.setdefault(kind.key, {})[id(s)] = float(addition["value"])
     return points
 
 
@@ -358,7 +373,7 @@ def _linearity(point: _Point, kind: AdditionKind, m: int, tolerance_pu: float) -
     limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, max(dof, 1)))
     u_diff = math.sqrt(max(np.trace(cov) / 2.0, 0.0))
     unit = f"N·m/{kind.unit}"
-    sizes = (small[0] / kind.to_unit, large[0] / kind.to_unit)
+    sizes = (point.raw[kind.key][id(small[1])], point.raw[kind.key][id(large[1])])
     figures = (f"{point.label}: transfer at +{_fmt_size(kind, sizes[0])} "
                f"{_fmt_c(h_small, unit)}, at +{_fmt_size(kind, sizes[1])} "
                f"{_fmt_c(h_large, unit)}; difference {abs(diff):.3g} {unit} (standard "
@@ -494,7 +509,7 @@ def diagnose_by_additions(items: Iterable, *, setup: sig.DriveSetup | None = Non
                               "current_a": point.current_a,
                               "current_angle_rad": point.current_angle_rad, "pole_pairs": p,
                               "addition": key, "mech_order": m,
-                              "sizes": [d / kind.to_unit for d, _ in point.additions[key]],
+                              "sizes": [point.raw[key][id(s)] for _, s in point.additions[key]],
                               "unit": f"N*m/{kind.unit}", "transfer": value,
                               "standard_uncertainty": math.sqrt(max(np.trace(cov) / 2, 0.0))})
             if len({round(d, 15) for d, _ in point.additions[key]}) >= 2:
@@ -604,10 +619,15 @@ def _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup, 
                      f"transducer's response) from {'; '.join(labels)}")
     if dof > 0:
         limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, dof))
+        if chi2 / dof > 1.0:
+            # the fit's convention (hil.diagnosis.fit): covariance × the Birge ratio χ²/ν
+            c_theta = c_theta * (chi2 / dof)
         if chi2 > limit:
             notes.append(f"{', '.join(names)}: the base coefficients at mechanical order {m} "
-                         f"contradict the calibrated transfers (χ² {chi2:.3g} > {limit:.3g} "
-                         f"with {dof} dof): a term the model of this path lacks")
+                         f"contradict the calibrated transfers and the motor term (χ² "
+                         f"{chi2:.3g} > {limit:.3g} with {dof} dof; the uncertainty is scaled "
+                         "by χ²/ν): a term this path lacks, or a response that is not a "
+                         "straight line through zero")
     out = []
     for j, kind in enumerate(kinds):
         u = math.sqrt(max(c_theta[j, j], 0.0))

@@ -14,11 +14,12 @@ from hil.capture import Capture
 from hil.diagnosis import diagnose
 from hil.diagnosis.additions import (compare_transfers_with_models, compare_with_fit,
                                      diagnose_by_additions, has_additions, with_addition)
+from hil.diagnosis.additions_proof import simulate_additions
 from hil.diagnosis.orders import OrderSpectrum, spectrum_from_capture
 from hil.diagnosis.twin_proof import twin_setup
 from hil.errors import InputError
 from hil.motor import MotorParameters
-from hil.sim import DriveConfig, Injection, MotorModel, simulate_batch
+from hil.sim import DriveConfig, Injection, MotorModel
 
 HIDDEN = dict(ia_offset_a=0.25, ib_offset_a=-0.15, ia_gain_error_pu=0.012,
               ib_gain_error_pu=-0.005, dead_time_s=1e-6)
@@ -34,20 +35,6 @@ DESIGN = [(SPEED_RPM, 15.0, key, value) for key, value in (
 BASES = [(SPEED_RPM, 15.0), (SPEED_RPM, 8.0), (-SPEED_RPM, 15.0)]
 
 
-def _injection(base: Injection, key: str | None, value: float) -> Injection:
-    """The drive's own faults with one known addition on top (gain: multiplied by 1 + value)."""
-    v = base.as_dict()
-    if key == "addition_ia_offset_a":
-        v["ia_offset_a"] += value
-    elif key == "addition_ib_offset_a":
-        v["ib_offset_a"] += value
-    elif key == "addition_gain_a_pu":
-        v["ia_gain_error_pu"] = (1 + v["ia_gain_error_pu"]) * (1 + value) - 1
-    elif key == "addition_dead_time_s":
-        v["dead_time_s"] += value
-    return Injection(**v)
-
-
 @pytest.fixture(scope="module")
 def twin():
     """Captures of the twin (hidden faults, cogging at mechanical 2p and 6p) at the design."""
@@ -55,19 +42,8 @@ def twin():
                        cogging=((POLE_COUNT, 0.012, 0.9), (3 * POLE_COUNT, 0.004, -2.0)))
     config = DriveConfig(injection=Injection(**HIDDEN), motor=motor)
     runs = [(s, i, None, 0.0) for s, i in BASES] + DESIGN
-    p = POLE_COUNT // 2
-    duration_s = 8.25 / (abs(SPEED_RPM) / 60.0 * p)
-    configs = [replace(config, speed_rpm=s, current_command_a=i,
-                       injection=_injection(config.injection, key, value))
-               for s, i, key, value in runs]
-    results = simulate_batch(configs, duration_s, 20_000.0, settle_s=0.05, seed=3)
-    pairs = []
-    for (s, i, key, value), result in zip(runs, results):
-        op = {"current_a": i, "label": f"{s:+g} rpm {i:g} A {key or 'base'} {value:g}"}
-        if key:
-            op[key] = value
-        pairs.append((result.to_capture(), op))
-    return config, pairs
+    return config, simulate_additions(config, runs, revolutions_elec=8, sample_rate_hz=20_000.0,
+                                      seed=3)
 
 
 def _spectra(pairs, rotate_elec_rad: float = 0.0, p: int = POLE_COUNT // 2):
@@ -164,7 +140,8 @@ def _synthetic(theta, quadratic_a=0.0, sigma=1e-6, current=20.0, speed=1000.0):
             spectrum("a+0.2", a + 0.2, b, g, d, {"addition_ia_offset_a": 0.2}),
             spectrum("a+0.4", a + 0.4, b, g, d, {"addition_ia_offset_a": 0.4}),
             spectrum("b+0.2", a, b + 0.2, g, d, {"addition_ib_offset_a": 0.2}),
-            spectrum("g+1%", a, b, g + 0.01, d, {"addition_gain_a_pu": 0.01})]
+            # the loop divides the actual current by 1 + δ: the torque moves by δ/(1 + δ)
+            spectrum("g+1%", a, b, g + 0.01 / 1.01, d, {"addition_gain_a_pu": 0.01})]
 
 
 def test_linear_synthetic_drive_is_recovered_exactly():
