@@ -7,7 +7,10 @@ Nothing is injected; the points are chosen so the sources separate (hil.diagnosi
   each speed, while a motor-side term keeps its amplitude;
 * both directions: the dead-time signature's phase follows the direction (the loop's response at
   ±6·ω_e), a term fixed in the rotor angle does not; the transducer's lag flips sign too.
-Full factorial, 8 points, current angle φ = 0.
+Full factorial, 8 points, current angle φ = 0. Sixteen electrical revolutions per point (eight
+mechanical) give the per-revolution scatter for type A; mechanical orders up to 128 are analysed
+(an encoder decimated to 56 counts per revolution or more is seen), so the sample rate is
+25 kS/s (≥ 11 samples per period of mechanical order 128 at 1000 rpm).
 
 Standard additions (issue 23 item 1, hil.diagnosis.additions): 10 more points at +1000 rpm with
 one KNOWN addition each, made through the drive's injection knobs (the ones the dc-offset, gain
@@ -19,10 +22,7 @@ and dead-time plans use), against the base points of the same speed and current:
 * 10 A: +1 % gain on sensor a (a second current separates the gain's torque from cogging);
 * −1000 rpm, 20 A: +1 µs dead time (the reverse direction separates the dead time's torque from a
   torque fixed in the rotor angle).
-1000 rpm: the shortest captures of the design (bench time) and the larger dead-time signal. Sixteen electrical revolutions per point (eight
-mechanical) give the per-revolution scatter for type A; mechanical orders up to 128 are analysed
-(an encoder decimated to 56 counts per revolution or more is seen), so the sample rate is
-25 kS/s (≥ 11 samples per period of mechanical order 128 at 1000 rpm).
+1000 rpm: the shortest captures of the design (bench time) and the larger dead-time signal.
 """
 
 from __future__ import annotations

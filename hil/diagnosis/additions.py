@@ -225,6 +225,8 @@ class _Point:
     bases: list = field(default_factory=list)
     additions: dict = field(default_factory=dict)     # key -> [(δ in parameter unit, spectrum)]
     raw: dict = field(default_factory=dict)           # key -> {id(spectrum): addition as given}
+    #: key -> relative standard uncertainty of the transfer from its measured curvature
+    curvature_rel: dict = field(default_factory=dict)
 
     @property
     def label(self) -> str:
@@ -324,11 +326,13 @@ def _transfer_fn(point: _Point, key: str, inputs: _Inputs, m: int, tolerance_pu:
     terms = [(delta, inputs.coefficient(s, m), inputs.scale(s, tolerance_pu))
              for delta, s in point.additions[key]
              if sizes is None or any(s is chosen for _, chosen in sizes)]
+    curvature = inputs._add((id(point), key, "curvature"), 1.0,
+                            point.curvature_rel.get(key, 0.0)) if sizes is None else None
 
     def transfer(x):
         num = sum(delta * scale(x) * (coef(x) - base(x)) for delta, coef, scale in terms)
         den = sum((delta * scale(x)) ** 2 for delta, _, scale in terms)
-        return num / den
+        return num / den * (x[curvature] if curvature is not None else 1.0)
     return transfer
 
 
@@ -379,7 +383,17 @@ def _linearity(point: _Point, kind: AdditionKind, m: int, tolerance_pu: float) -
                f"{_fmt_c(h_large, unit)}; difference {abs(diff):.3g} {unit} (standard "
                f"uncertainty {u_diff:.2g} per component, χ² {chi2:.3g} > {limit:.3g})")
     linear = chi2 <= limit
-    return {"point": point.label, "addition": kind.key, "mech_order": m,
+    # within the check, the curvature still moves the extrapolation to zero: for a quadratic
+    # response the slope used (secants from the base, mean size δ̄) differs from the one down to
+    # zero by ΔH·(|θ| + δ̄)/(δ2 − δ1). ΔH is taken net of its noise (|ΔH|² − 2σ², σ per
+    # component); |θ| is filled in from a first estimate (diagnose_by_additions)
+    h_mean = abs(h_small + h_large) / 2.0
+    span = abs(large[0] - small[0])
+    net = math.sqrt(max(abs(diff) ** 2 - 2.0 * u_diff ** 2, 0.0))
+    per_reach = net / h_mean / span if h_mean > 0 and span > 0 else 0.0
+    mean_size = (abs(small[0]) + abs(large[0])) / 2.0
+    return {"curvature_per_unit": per_reach, "mean_size": mean_size,
+            "point": point.label, "addition": kind.key, "mech_order": m,
             "sizes": list(sizes), "transfers": [h_small, h_large], "difference": diff,
             "difference_standard_uncertainty": u_diff, "chi2": chi2, "dof": dof,
             "limit_chi2": limit, "linear": linear,
@@ -503,6 +517,11 @@ def diagnose_by_additions(items: Iterable, *, setup: sig.DriveSetup | None = Non
         for key in point.additions:
             kind = _BY_KEY[key]
             m = p * kind.elec_order
+            if len({round(d, 15) for d, _ in point.additions[key]}) >= 2:
+                check = _linearity(point, kind, m, tolerance_pu)
+                linearity.append(check)
+                if not check["linear"]:
+                    nonlinear.add((id(point), key))
             inputs = _Inputs()
             value, cov = _complex_stats(_transfer_fn(point, key, inputs, m, tolerance_pu), inputs)
             transfers.append({"point": point.label, "speed_rpm": point.speed_rpm,
@@ -512,16 +531,27 @@ def diagnose_by_additions(items: Iterable, *, setup: sig.DriveSetup | None = Non
                               "sizes": [point.raw[key][id(s)] for _, s in point.additions[key]],
                               "unit": f"N*m/{kind.unit}", "transfer": value,
                               "standard_uncertainty": math.sqrt(max(np.trace(cov) / 2, 0.0))})
-            if len({round(d, 15) for d, _ in point.additions[key]}) >= 2:
-                check = _linearity(point, kind, m, tolerance_pu)
-                linearity.append(check)
-                if not check["linear"]:
-                    nonlinear.add((id(point), key))
 
-    estimates = []
-    for group, keys, motor in GROUPS:
-        estimates += _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup,
-                                     tolerance_pu, notes)
+    def estimate_all(notes_out):
+        out = []
+        for group, keys, motor in GROUPS:
+            out += _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup,
+                                   tolerance_pu, notes_out)
+        return out
+
+    # first pass without the curvature term, for |θ| in it; then the stated pass
+    first = {e["name"]: e["estimate"] for e in estimate_all([])}
+    for check in linearity:
+        kind = _BY_KEY[check["addition"]]
+        theta = first.get(kind.parameter)
+        point = next(pt for pt in points if pt.label == check["point"])
+        point.curvature_rel[kind.key] = check["curvature_per_unit"] * (
+            abs(theta or 0.0) + check["mean_size"])
+        check["curvature_rel_uncertainty"] = point.curvature_rel[kind.key]
+    for t in transfers:
+        point = next(pt for pt in points if pt.label == t["point"])
+        t["curvature_rel_uncertainty"] = point.curvature_rel.get(t["addition"], 0.0)
+    estimates = estimate_all(notes)
     for kind in KINDS:
         checked = any(c["addition"] == kind.key for c in linearity)
         used = any(kind.key in pt.additions for pt in points)
