@@ -31,12 +31,12 @@ from ripple_hil_testplans import diagnosis_design as design
 NAMES = ("ia_offset_a", "ib_offset_a", "gain_a_rel_b_pu", "dead_time_us")
 
 
-def draw(rng: np.random.Generator) -> tuple[dict, tuple]:
+def draw(rng: np.random.Generator, max_dead_time_s: float = 2e-6) -> tuple[dict, tuple]:
     faults = {"ia_offset_a": float(rng.uniform(-0.3, 0.3)),
               "ib_offset_a": float(rng.uniform(-0.3, 0.3)),
               "ia_gain_error_pu": float(rng.uniform(-0.02, 0.02)),
               "ib_gain_error_pu": float(rng.uniform(-0.02, 0.02)),
-              "dead_time_s": float(rng.uniform(0.0, 2e-6))}
+              "dead_time_s": float(rng.uniform(0.0, 1.0)) * max_dead_time_s}
     cogging = ((int(rng.choice((4, 12))), float(rng.uniform(0.0, 0.02)),
                 float(rng.uniform(-math.pi, math.pi))),)
     return faults, cogging
@@ -59,6 +59,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--drives", type=int, default=40)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-dead-time-us", type=float, default=2.0,
+                        help="hidden dead time drawn from 0..this (0: none, to isolate the "
+                             "dead time's interaction with the offsets)")
     parser.add_argument("--tolerance-pu", type=float, default=DEFAULT_TOLERANCE_PU,
                         help="each addition's relative standard uncertainty (the twin's are "
                              "exact: 0 shows the spectra's own share)")
@@ -69,7 +72,7 @@ def main() -> None:
     worst = []
     started = time.time()
     for drive in range(args.drives):
-        faults, cogging = draw(rng)
+        faults, cogging = draw(rng, args.max_dead_time_us * 1e-6)
         config = DriveConfig(injection=Injection(**faults), motor=MotorModel(cogging=cogging))
         pairs = simulate_additions(config, runs(), revolutions_elec=design.REVOLUTIONS_ELEC,
                                    sample_rate_hz=design.SAMPLE_RATE_HZ,

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hil.diagnosis.additions import INJECTION_KNOBS
+
 CURRENTS_A = (10.0, 20.0)
 SPEEDS_RPM = (400.0, 1000.0)
 DIRECTIONS = (1, -1)
@@ -40,8 +42,7 @@ SETTLE_S = 0.05
 
 
 #: the drive's injection knob that makes each addition (hil.sim.injection names)
-ADDITION_KNOBS = {"addition_ia_offset_a": "ia_offset_a", "addition_ib_offset_a": "ib_offset_a",
-                  "addition_gain_a_pu": "ia_gain_error_pu", "addition_dead_time_s": "dead_time_s"}
+ADDITION_KNOBS = INJECTION_KNOBS
 ADDITION_SPEED_RPM = 1000.0
 #: (speed rpm, current A, addition key, value in the key's unit)
 ADDITIONS = (

@@ -130,6 +130,27 @@ KINDS = (
 )
 ADDITION_KEYS = tuple(kind.key for kind in KINDS)
 _BY_KEY = {kind.key: kind for kind in KINDS}
+#: the drive's injection knob (hil.sim.injection names) that makes each addition on a drive with
+#: no error of that kind of its own (the diagnosis plan's points; a record's entries)
+INJECTION_KNOBS = {"addition_ia_offset_a": "ia_offset_a", "addition_ib_offset_a": "ib_offset_a",
+                   "addition_gain_a_pu": "ia_gain_error_pu",
+                   "addition_dead_time_s": "dead_time_s"}
+
+
+def additions_from_injection(injection: dict) -> dict:
+    """The operating-point keys of a recorded point's injection when it is one known addition
+    (e.g. ``{"ia_offset_a": 0.2}`` → ``{"addition_ia_offset_a": 0.2}``); ``{}`` for nothing
+    injected; InputError for an injection that is not one addition (not a standard-additions
+    capture)."""
+    present = {k: v for k, v in (injection or {}).items() if v}
+    if not present:
+        return {}
+    by_knob = {knob: key for key, knob in INJECTION_KNOBS.items()}
+    if len(present) != 1 or next(iter(present)) not in by_knob:
+        raise InputError(f"injection {present} is not one known addition (one of "
+                         f"{', '.join(by_knob)})")
+    knob, value = next(iter(present.items()))
+    return {by_knob[knob]: float(value)}
 
 #: Parameter groups estimated together, their additions, and the motor-side term fitted beside.
 GROUPS = (

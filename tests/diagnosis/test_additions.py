@@ -200,3 +200,15 @@ def test_versus_fit_flags_a_disagreement():
     swapped = compare_with_fit(result, Fit({"ia_offset_a": (-0.1, 0.002),
                                             "ib_offset_a": (0.3, 0.002)}))
     assert [r["agrees"] for r in swapped if r["compared"]] == [False, False]
+
+
+def test_a_recorded_injection_maps_to_one_addition():
+    from hil.diagnosis.additions import additions_from_injection
+
+    assert additions_from_injection({}) == {}
+    assert additions_from_injection({"ia_gain_error_pu": 0.01}) == {"addition_gain_a_pu": 0.01}
+    assert additions_from_injection({"dead_time_s": 1e-6}) == {"addition_dead_time_s": 1e-6}
+    with pytest.raises(InputError, match="not one known addition"):
+        additions_from_injection({"ia_offset_a": 0.2, "ib_offset_a": 0.2})
+    with pytest.raises(InputError, match="not one known addition"):
+        additions_from_injection({"encoder_decimation": 100})
