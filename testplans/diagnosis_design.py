@@ -12,7 +12,7 @@ mechanical) give the per-revolution scatter for type A; mechanical orders up to 
 (an encoder decimated to 56 counts per revolution or more is seen), so the sample rate is
 25 kS/s (≥ 11 samples per period of mechanical order 128 at 1000 rpm).
 
-Standard additions (issue 23 item 1, hil.diagnosis.additions): 10 more points at +1000 rpm with
+Standard additions (issue 23 item 1, hil.diagnosis.additions): 12 more points at ±1000 rpm with
 one KNOWN addition each, made through the drive's injection knobs (the ones the dc-offset, gain
 and dead-time plans use), against the base points of the same speed and current:
 * 20 A: +0.2 A and +0.4 A on sensor a, the same on sensor b (the offset transfers at order 1; two
@@ -21,7 +21,11 @@ and dead-time plans use), against the base points of the same speed and current:
   small steps leave room for the drive's own dead time);
 * 10 A: +1 % gain on sensor a (a second current separates the gain's torque from cogging);
 * −1000 rpm, 20 A: +1 µs dead time (the reverse direction separates the dead time's torque from a
-  torque fixed in the rotor angle).
+  torque fixed in the rotor angle);
+* −1000 rpm, 20 A and 10 A: +1 % gain on sensor a: the gain's estimate gets residual degrees of
+  freedom (5 instead of 1), so an order-2 torque in the base that is neither the gain nor
+  cogging widens its uncertainty instead of moving it unseen (an 8-pole twin at 1000 rpm carries
+  ≈ 0.1 mN·m of it, 5× its type-A σ, with a different phase at 10 and 20 A).
 1000 rpm: the shortest captures of the design (bench time) and the larger dead-time signal.
 """
 
@@ -52,6 +56,7 @@ ADDITIONS = (
     (1000.0, 20.0, "addition_dead_time_s", 0.5e-6), (1000.0, 20.0, "addition_dead_time_s", 1e-6),
     (1000.0, 10.0, "addition_gain_a_pu", 0.01),
     (-1000.0, 20.0, "addition_dead_time_s", 1e-6),
+    (-1000.0, 20.0, "addition_gain_a_pu", 0.01), (-1000.0, 10.0, "addition_gain_a_pu", 0.01),
 )
 
 

@@ -33,9 +33,9 @@ def test_plan_measures_the_designed_points_and_finds_the_hidden_offset(diagnosis
     assert code == 0
     record = _record(folder)
     points = [t for t in record["tests"] if t.get("kind") == "diagnosis" and t.get("capture")]
-    assert len(points) == 18
+    assert len(points) == 20
     assert all(t["verdict"] is None for t in points)
-    assert sum(t["injection"] == {} for t in points) == 8       # 8 base points, 10 additions
+    assert sum(t["injection"] == {} for t in points) == 8       # 8 base points, 12 additions
     section = record["diagnosis"]
     # standard additions: the hidden offset recovered within U, the transfers calibrated,
     # offsets and gain linear over their additions, both routes agree
@@ -47,7 +47,7 @@ def test_plan_measures_the_designed_points_and_finds_the_hidden_offset(diagnosis
         "expanded_uncertainty"]
     assert estimates["gain_a_rel_b_pu"]["stated"] and estimates["gain_a_rel_b_pu"][
         "motor_term_fitted"]
-    assert len(additions["transfers"]) == 6 and len(additions["linearity"]) == 4
+    assert len(additions["transfers"]) == 8 and len(additions["linearity"]) == 4
     linear = {c["addition"]: c["linear"] for c in additions["linearity"]}
     assert linear["addition_ia_offset_a"] and linear["addition_ib_offset_a"] and linear[
         "addition_gain_a_pu"]
