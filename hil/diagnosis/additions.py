@@ -46,7 +46,8 @@ average-voltage picture, eqs 32-38, assumes it does not). On the twin (Table I m
 a few % and 4° between 0.5 and 1 µs (the plan's additions on a drive without dead time are then
 "not linear", and the dead time is left to the forward-model fit); from 1 to 2 µs it is straight
 within 3 % at ±1000 rpm, 20 A; at +1000 rpm, 20 A it breaks beyond 2 µs (2.1 mN·m at 3 µs, 19 at
-4 µs, against 2.7 at 2 µs), at 400 rpm and at −1000 rpm it stays straight to 4 µs. Offsets and
+4 µs, against 2.7 at 2 µs), at 10 A beyond 3 µs; at −1000 rpm it is straight to 4 µs; at
+400 rpm the torque per µs grows 11 % from 0.5 to 2 µs and is flat from there to 4 µs. Offsets and
 gain enter the current linearly through the loop (eqs 15-25), so their transfers are linear as
 long as the loop is. Beyond the check, the measured curvature (the two transfers' difference net
 of its noise) is propagated into the extrapolation to zero, ΔH·(|θ| + δ̄)/(δ2 − δ1) for a
