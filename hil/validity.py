@@ -92,12 +92,15 @@ REGIONS: dict[str, Region] = {
     "pwm_resolution": Region(
         braking=True,
         why="derived duty-quantisation model; reverse rotation is taken as braking "
-            "(hil.model.pwm_resolution.forward_phasor_peak_v)"),
+            "(hil.model.pwm_resolution.forward_phasor_peak_v); the noise check's range spans the "
+            "quantised loop's trials (where the references sit within a count is unknown) and "
+            "a counter whose U covers half its range is not determinable"),
     "pwm_switching": Region(
         braking=True, floor_fraction=None,
         why="switched-circuit torque under SVPWM; reverse rotation is braking (the forward-"
             "equivalent phasor of hil.model.pwm_resolution); the plan derives its DAQ rate from "
-            "the speed and PWM frequency (hil.analysis.switching.capture_settings) and refuses "
+            "the speed and PWM frequency (hil.analysis.switching.capture_settings, judged on "
+            "every window the capture holds) and refuses "
             "itself, with the reason, a point the DAQ cannot capture or whose U covers its "
             "acceptance zone"),
     "dead_time": Region(
