@@ -42,7 +42,7 @@ CASES = [
 
 def case_id(case) -> str:
     defects, _, _ = case
-    return ",".join(f"{k}={v}" for k, v in defects.items()) + "->" + "+".join(case[2])
+    return ",".join(f"{k}={v}" for k, v in defects.items()) + "->" + "+".join(sorted(case[2]))
 
 
 @pytest.mark.parametrize("case", CASES, ids=case_id)
