@@ -228,6 +228,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
     """The bench floor against the rule's acceptance half-width at this point (docstring 5)."""
     from hil.measurement import BASELINE
     from hil.measurement import _predict as predict_plan   # the prediction measure_point judges
+    from hil.measurement import judged_prediction_pu
     from hil.model import OperatingPoint
 
     try:
@@ -242,7 +243,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
         predicted_pu, expected = 0.0, None
     else:
         scale = prediction.base_nm / nameplate_nm
-        predicted_pu = prediction.pk_pk_pu * scale
+        predicted_pu = judged_prediction_pu(prediction, plan.rule) * scale
         expected = (None if prediction.expected_range_pu is None else
                     tuple(v * scale for v in prediction.expected_range_pu))
     half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)
