@@ -74,12 +74,16 @@ REGIONS: dict[str, Region] = {
     "encoder": Region(
         braking=True, speed_rpm=(0.0, 60.0),
         why="eqs 7-9 are quasi-static (rotor stepped slowly, the loop settles within each encoder "
-            "step): the plan runs at +12 rpm whatever the bench's point; pk-pk per unit is "
-            "independent of the current, so low current is limited by the floor"),
+            "step): the plan runs at +12 rpm whatever the bench's point and judges the count "
+            "order's pk-pk 2·A_N (at standstill the current ADC's quantisation pattern, fixed in "
+            "θ, lifts the staircase's pk-pk but not A_N); per unit it is independent of the "
+            "current, so low current is limited by the floor"),
     "word_length": Region(
         braking=True,
         why="the truncation bias acts like a dc offset on both sensors (order 1), independent of "
-            "the EMF's sign; 12-bit ripple is near the floor at low current"),
+            "the EMF's sign; the computed-I_q errors reach the reading through the stated loop "
+            "and transducer (hil.model.word_length); 12-bit ripple is near the floor at low "
+            "current; a motor below the validated L/R is refused by the plan"),
     "dc_offset": Region(
         braking=True,
         why="eqs 15-20: the order-1 ripple depends on |I| and the offsets only, not on the EMF's "
