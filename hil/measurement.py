@@ -199,7 +199,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                                 current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
             prediction = _predict(plan, op)
             nameplate_nm = op.mean_torque_nm
-            predicted_pu = prediction.pk_pk_nm / nameplate_nm
+            predicted_pu = judged_prediction_pu(prediction, plan.rule) * (
+                prediction.base_nm / nameplate_nm)
             order = int(round(prediction.order)) if prediction.order is not None else None
             if order is not None and order > plan.max_order:
                 raise InputError(f"{test_id}: predicted order {order} is above max_order "
@@ -319,6 +320,18 @@ def _predict(plan: PointPlan, op: OperatingPoint) -> Prediction:
                           assumptions=["ideal sinusoidal PMSM and ideal controller: no ripple; "
                                        "what is measured is the bench's own floor"])
     return predict(plan.source, op, **plan.injection, **plan.prediction_params)
+
+
+def judged_prediction_pu(prediction: Prediction, rule: DecisionRule) -> float:
+    """The predicted value ``rule`` judges, per unit of ``prediction.base_nm``: the pk-pk, or
+    for a rule judging the named order's pk-pk (``hil.analysis.decision``) the prediction's
+    ``extras["order_pk_pk_pu"]`` (2·A_N of its waveform)."""
+    if rule.quantity == "named_order_pk_pk":
+        if "order_pk_pk_pu" not in prediction.extras:
+            raise InputError(f"the {prediction.source} prediction states no order_pk_pk_pu; its "
+                             "rule cannot judge the named order's pk-pk")
+        return float(prediction.extras["order_pk_pk_pu"])
+    return prediction.pk_pk_pu
 
 
 def predicted_order(plan: PointPlan, motor) -> int | None:

@@ -75,12 +75,16 @@ REGIONS: dict[str, Region] = {
     "encoder": Region(
         braking=True, speed_rpm=(0.0, 60.0),
         why="eqs 7-9 are quasi-static (rotor stepped slowly, the loop settles within each encoder "
-            "step): the plan runs at +12 rpm whatever the bench's point; pk-pk per unit is "
-            "independent of the current, so low current is limited by the floor"),
+            "step): the plan runs at +12 rpm whatever the bench's point and judges the count "
+            "order's pk-pk 2·A_N (at standstill the current ADC's quantisation pattern, fixed in "
+            "θ, lifts the staircase's pk-pk but not A_N); per unit it is independent of the "
+            "current, so low current is limited by the floor"),
     "word_length": Region(
         braking=True,
         why="the truncation bias acts like a dc offset on both sensors (order 1), independent of "
-            "the EMF's sign; 12-bit ripple is near the floor at low current"),
+            "the EMF's sign; the computed-I_q errors reach the reading through the stated loop "
+            "and transducer (hil.model.word_length); 12-bit ripple is near the floor at low "
+            "current; a motor below the validated L/R is refused by the plan"),
     "dc_offset": Region(
         braking=True,
         why="eqs 15-20: the order-1 ripple depends on |I| and the offsets only, not on the EMF's "
@@ -237,6 +241,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
     """The bench floor against the rule's acceptance half-width at this point (docstring 5)."""
     from hil.measurement import BASELINE
     from hil.measurement import _predict as predict_plan   # the prediction measure_point judges
+    from hil.measurement import judged_prediction_pu
     from hil.model import OperatingPoint
 
     try:
@@ -251,7 +256,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
         predicted_pu, expected = 0.0, None
     else:
         scale = prediction.base_nm / nameplate_nm
-        predicted_pu = prediction.pk_pk_pu * scale
+        predicted_pu = judged_prediction_pu(prediction, plan.rule) * scale
         expected = (None if prediction.expected_range_pu is None else
                     tuple(v * scale for v in prediction.expected_range_pu))
     half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)

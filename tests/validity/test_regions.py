@@ -126,8 +126,9 @@ def test_encoder_2_5_degrees_is_judged_at_20_a_and_refused_at_10_a():
     assert validity.refusal(test_encoder.plan(config, step), config) is None
     config = at(250.0, 10.0)
     refused = validity.refusal(test_encoder.plan(config, step), config)
-    # floor 0.001 N·m over K_t·10 A·cos 10° = 0.481 N·m: 0.208 %; half-width 0.2·0.864 % + 0.2 %
-    assert "resolvable floor" in refused and "0.208 %" in refused and "0.373 %" in refused
+    # floor 0.001 N·m over K_t·10 A·cos 10° = 0.481 N·m: 0.208 %; half-width 0.2·0.551 % + 0.2 %
+    # (the plan judges the count order's pk-pk 2·A_N, 0.551 %, not eq 9's 0.864 %)
+    assert "resolvable floor" in refused and "0.208 %" in refused and "0.31 %" in refused
     # a coarser step at the same point is judged
     assert validity.refusal(test_encoder.plan(config, {"encoder_decimation": 50}), config) is None
 
