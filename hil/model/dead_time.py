@@ -134,20 +134,29 @@ def loop_rejection(rotor_frequency_rad_s, op: OperatingPoint,
 def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: float,
                             pwm_frequency_hz: float,
                             current_loop_bandwidth_hz: float | None,
-                            current_loop_delay_s: float = 0.0) -> np.ndarray:
-    """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model."""
+                            current_loop_delay_s: float = 0.0, *,
+                            rejection=None) -> np.ndarray:
+    """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model.
+
+    ``rejection``: optional callable, rotor-frame frequencies (rad/s, array) → disturbance
+    voltage → current transfer (A/V) of another loop design (hil.diagnosis.signatures
+    .loop_disturbance); default the PI of :func:`loop_rejection` with the given bandwidth/delay.
+    """
     omega = op.elec_speed_rad_s
     eps = dead_time_s * pwm_frequency_hz * op.dc_bus_v
     bandwidth = 2 * math.pi * current_loop_bandwidth_hz if current_loop_bandwidth_hz else None
+    if rejection is None:
+        def rejection(w):
+            return loop_rejection(w, op, bandwidth, current_loop_delay_s)
     psi = theta - op.current_angle_rad
+    harmonics = np.array([n for n in range(1, HIGHEST_HARMONIC + 1, 2) if n % 3 != 0])
+    positive = harmonics % 6 == 1
+    # positive sequence n = 6k + 1 at (n − 1)·ω_e; negative n = 6k − 1 at −(n + 1)·ω_e, conj.
+    frequencies = np.where(positive, (harmonics - 1) * omega, -(harmonics + 1) * omega)
+    gains = np.asarray(rejection(frequencies.astype(float)), dtype=complex)
+    gains = np.where(positive, gains, np.conj(gains))
     delta_i = np.zeros((3, theta.size))
-    for n in range(1, HIGHEST_HARMONIC + 1, 2):
-        if n % 3 == 0:
-            continue
-        if n % 6 == 1:
-            gain = loop_rejection((n - 1) * omega, op, bandwidth, current_loop_delay_s)
-        else:
-            gain = np.conj(loop_rejection(-(n + 1) * omega, op, bandwidth, current_loop_delay_s))
+    for n, gain in zip(harmonics, gains):
         # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
         amplitude = 1j * eps * 4.0 / (math.pi * n) * gain
         delta_i += np.real(amplitude * np.exp(1j * n * (psi[None, :] - PHASE_OFFSETS_RAD[:, None])))
