@@ -84,6 +84,8 @@ class FitResult:
     residual: np.ndarray                 # complex, per observation row
     sigma_total: np.ndarray              # per component, per observation row
     fitted_contributions: np.ndarray     # complex n×p: J·p of the full least-squares solution
+    #: the truncated-SVD solution without NaN (weak directions at their minimum-norm share)
+    solution: np.ndarray = None
 
     def standard_uncertainty(self) -> np.ndarray:
         return np.sqrt(np.diag(self.covariance))
@@ -297,4 +299,4 @@ def fit(problem: LinearProblem) -> FitResult:
                      identifiable=keep, chi2=chi2, dof=dof, birge_ratio=birge,
                      singular_values_rel=s_rel, weak_directions=weak,
                      condition_number=condition, residual=residual, sigma_total=sigma_total,
-                     fitted_contributions=contributions)
+                     fitted_contributions=contributions, solution=x)

@@ -148,18 +148,26 @@ def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: 
     if rejection is None:
         def rejection(w):
             return loop_rejection(w, op, bandwidth, current_loop_delay_s)
-    psi = theta - op.current_angle_rad
     harmonics = np.array([n for n in range(1, HIGHEST_HARMONIC + 1, 2) if n % 3 != 0])
     positive = harmonics % 6 == 1
     # positive sequence n = 6k + 1 at (n − 1)·ω_e; negative n = 6k − 1 at −(n + 1)·ω_e, conj.
     frequencies = np.where(positive, (harmonics - 1) * omega, -(harmonics + 1) * omega)
     gains = np.asarray(rejection(frequencies.astype(float)), dtype=complex)
     gains = np.where(positive, gains, np.conj(gains))
-    delta_i = np.zeros((3, theta.size))
-    for n, gain in zip(harmonics, gains):
-        # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
-        amplitude = 1j * eps * 4.0 / (math.pi * n) * gain
-        delta_i += np.real(amplitude * np.exp(1j * n * (psi[None, :] - PHASE_OFFSETS_RAD[:, None])))
+    # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
+    amplitudes = 1j * eps * 4.0 / (math.pi * harmonics) * gains
+    size = theta.size
+    uniform = (size > 2 * HIGHEST_HARMONIC and theta[0] == 0.0
+               and np.allclose(np.diff(theta), 2 * math.pi / size, rtol=0, atol=1e-12))
+    delta_i = np.zeros((3, size))
+    for x, offset in enumerate(PHASE_OFFSETS_RAD):
+        coefficients = amplitudes * np.exp(-1j * harmonics * (op.current_angle_rad + offset))
+        if uniform:     # θ_k = 2πk/N: the sum over n is an inverse DFT (same value, fast)
+            line = np.zeros(size, dtype=complex)
+            line[harmonics] = coefficients
+            delta_i[x] = np.real(np.fft.ifft(line) * size)
+        else:
+            delta_i[x] = np.real(np.exp(1j * np.outer(theta, harmonics)) @ coefficients)
     emf_shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])  # e_x / E
     ideal = 1.5 * math.cos(op.current_angle_rad)
     return (ideal + np.sum(emf_shape * delta_i, axis=0) / op.current_a) / ideal
