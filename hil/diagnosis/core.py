@@ -126,15 +126,12 @@ def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
         signatures = _encoder_angle_uncertainty(signatures, params, encoder, notes)
     currents = _current_signatures(model_spectra, params, setup) if use_currents else None
     problem = _problem(model_spectra, params, signatures, fit_orders, currents, setup)
+    problem.alternatives = _loop_alternatives(model_spectra, params, setup, max_mech,
+                                              fit_orders, use_currents, problem, notes)
     result = fit(problem)
-    loop_terms = _loop_terms(model_spectra, params, setup, max_mech, fit_orders, use_currents,
-                             problem, result, notes)
-    problem.systematic = loop_terms
-    if loop_terms:
-        result = fit(problem)
     if dead_time and encoder.get("detected"):
-        problem.systematic = loop_terms + _dwell_terms(model_spectra, params, problem, result,
-                                                       encoder, setup, max_mech, notes)
+        problem.systematic = _dwell_terms(model_spectra, params, problem, result, encoder,
+                                          setup, max_mech, notes)
         result = fit(problem)
 
     estimates = _estimates(params, result, nuisance)
@@ -229,30 +226,25 @@ def _problem(spectra, params, signatures, fit_orders, currents=None,
                          model_rel=np.array(rel), rows=rows)
 
 
-def _loop_terms(spectra, params, setup, max_mech, fit_orders, use_currents, problem, result,
-                notes) -> list[SystematicTerm]:
+def _loop_alternatives(spectra, params, setup, max_mech, fit_orders, use_currents, problem,
+                       notes) -> list[np.ndarray]:
     """The current loop's model uncertainty, propagated by evaluating the forward model over the
-    loops the bench's statement allows (``DriveSetup.loop_variants``): for each variant v the
-    torque the fitted parameters would make through it minus through the nominal loop,
-    (J_v − J)·p̂, is a term common to all points; the variants are taken as equally likely
-    (standard uncertainty 1/√N each: the covariance is the mean of the estimate shifts' outer
-    products, the second moment of the family about the nominal). The spread of each
-    signature's complex transfer over the variants (magnitude in %, phase in degrees) is
-    stated in the notes and ``setup_loop_spread``."""
+    loops the bench's statement allows (``DriveSetup.loop_variants``): the fit is re-solved
+    with each variant's Jacobian (fit.LinearProblem.alternatives; not linearised, so a loop
+    that rejects the dead-time voltage five times better moves T_d five times) and
+    Σ_v δ_v·δ_vᵀ/k² of the shifts is added to the covariance: the drive has one of these loops,
+    not known which, so each variant's shift is kept within U (k = 2). The spread of each signature's complex
+    transfer over the variants (magnitude in %, phase in degrees) is stated in the notes."""
     variants = setup.loop_variants()
     if not variants:
         return []
-    p_hat = np.nan_to_num(result.solution)
-    terms, spread = [], {}
-    for index, variant in enumerate(variants):
+    out, spread = [], {}
+    for variant in variants:
         signatures = [[param.signature(s, variant, max_mech) for param in params]
                       for s in spectra]
         currents = _current_signatures(spectra, params, variant) if use_currents else None
         jacobian = _problem(spectra, params, signatures, fit_orders, currents, setup).jacobian
-        terms.append(SystematicTerm(name=f"loop_variant_{index}",
-                                    rows=(jacobian - problem.jacobian) @ p_hat,
-                                    standard_uncertainty=1.0 / math.sqrt(len(variants)),
-                                    common=True))
+        out.append(jacobian)
         for j, param in enumerate(params):
             if not param.controller:
                 continue
@@ -269,9 +261,9 @@ def _loop_terms(spectra, params, setup, max_mech, fit_orders, use_currents, prob
     notes.append(f"current loop: {setup.loop_text()}; its model uncertainty is the spread of "
                  f"the signatures over {len(variants)} loops the statement allows (largest "
                  f"deviation from the nominal, magnitude / phase, over the points and orders: "
-                 f"{text}), propagated into every parameter's U as an error common to all points "
-                 "(hil.diagnosis.core._loop_terms)")
-    return terms
+                 f"{text}), propagated into every parameter's U by re-solving the fit through "
+                 "each (hil.diagnosis.core._loop_alternatives)")
+    return out
 
 
 def _encoder_angle_uncertainty(signatures, params, encoder, notes):

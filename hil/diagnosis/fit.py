@@ -23,7 +23,7 @@ full least-squares solution (the torque the weak combination shares is fitted, n
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -35,6 +35,8 @@ WEAK_SINGULAR_VALUE = 0.05
 #: Loading of a parameter in a weak direction above which it is reported as not identifiable.
 WEAK_LOADING = 0.1
 MODEL_WEIGHT_ITERATIONS = 4
+#: Coverage factor the alternatives' shifts are kept within (the diagnosis states U at k = 2).
+ALTERNATIVES_K = 2.0
 #: Share of a source's model variance taken as differing from point to point; the rest is common
 #: to all points. Unknown, so split evenly.
 COMMON_SHARE_COMPLEMENT = 0.5
@@ -53,6 +55,13 @@ class LinearProblem:
     rows: list[tuple[int, int]] = field(default_factory=list)   # (spectrum index, mech order)
     #: Terms not fitted but bounded: their torque only widens the covariance (SystematicTerm).
     systematic: list["SystematicTerm"] = field(default_factory=list)
+    #: Alternative Jacobians (e.g. the forward model through other plausible current loops):
+    #: the problem is re-solved with each and Σ_v δ_v·δ_vᵀ / k² of the solution's shifts δ_v is
+    #: added to the covariance (the drive has one of them, which is not known: every
+    #: alternative's shift lies within U = k·u of each parameter, k = :data:`ALTERNATIVES_K`);
+    #: the estimates stay those of ``jacobian``. Not linearised: a signature whose scale differs
+    #: by a factor between the alternatives moves its parameter by that factor.
+    alternatives: list[np.ndarray] = field(default_factory=list)
 
 
 @dataclass
@@ -260,6 +269,19 @@ def _bounded_covariance(problem: LinearProblem, operator: np.ndarray,
     return cov
 
 
+def _alternatives_covariance(problem: LinearProblem, sigma_total: np.ndarray, live: np.ndarray,
+                             x: np.ndarray) -> np.ndarray:
+    """Σ_v δ_v·δ_vᵀ / k² of the solution's shifts δ_v when ``jacobian`` is replaced by each of
+    ``problem.alternatives`` (same weights, same truncation): each |δ_v,j| ≤ k·u_j."""
+    size = len(problem.names)
+    cov = np.zeros((size, size))
+    for jacobian in problem.alternatives:
+        a, b = _real_system(replace(problem, jacobian=jacobian), sigma_total)
+        shift = _solve(a, b, live)[0] - x
+        cov += np.outer(shift, shift) / ALTERNATIVES_K ** 2
+    return cov
+
+
 def fit(problem: LinearProblem) -> FitResult:
     """Solve ``problem`` (module docstring)."""
     sigma_total = problem.sigma.copy()
@@ -292,6 +314,7 @@ def fit(problem: LinearProblem) -> FitResult:
     cov = cov + (1.0 - COMMON_SHARE_COMPLEMENT) * _systematic_covariance(problem, full, operator,
                                                                          sigma_total)
     cov = cov + _bounded_covariance(problem, operator, sigma_total)
+    cov = cov + _alternatives_covariance(problem, sigma_total, live, x)
     estimate = np.where(keep, x, np.nan)
     cov[~keep, :] = np.nan
     cov[:, ~keep] = np.nan

@@ -13,7 +13,7 @@ Model uncertainty (standard, relative to the source's own torque at that point):
   loop is modelled in continuous time while the firmware samples it (on the twin this term
   covers the sampled PI's errors of 0.4 % of k_a − k_b). What the loop *is* is a separate
   uncertainty: the diagnosis evaluates every signature over the loops the bench's statement
-  allows (``DriveSetup.loop_variants``: bandwidth ± 20 % and delay ± half a PWM period for a
+  allows (``DriveSetup.loop_variants``: bandwidth ± 10 % and delay ± half a PWM period for a
   stated design, a family from a slow PI to a fast 2-DOF loop for "unknown") and propagates the
   spread, complex, into the covariance (hil.diagnosis.core._loop_terms);
 * dead time: 10 % at electrical order 6, the stated agreement of the average-voltage model with a

@@ -55,7 +55,7 @@ from hil.motor import TABLE_I, MotorParameters
 LOOP_DESIGNS = ("continuous", "discrete", "2dof", "unknown")
 #: A stated design is known to within this fraction of its stated bandwidth (and half a PWM
 #: period of its delay): the variants whose spread is its model uncertainty.
-STATED_LOOP_BANDWIDTH_FRACTION = 0.2
+STATED_LOOP_BANDWIDTH_FRACTION = 0.1
 #: "unknown": the family spans these multiples of the stated bandwidth (0.5 to 5: a PI at half
 #: the bandwidth to a near-ideal 2-DOF loop five times faster), each design, with and without
 #: decoupling for the PIs.
