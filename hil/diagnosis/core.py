@@ -393,6 +393,13 @@ def _separate_by(names: list[str], params) -> str:
         return "add a second current angle φ or a phase-current capture"
     if "gain_mismatch" in sources and "motor_cogging" in sources:
         return "add a second current (gain ripple scales with current, cogging does not)"
+    if "dead_time" in sources and sources & {"dc_offset", "gain_mismatch"}:
+        return ("add a second speed and the reverse direction, or a standard addition (a known "
+                "dead-time step, or a known offset/gain step on one sensor: hil run --source "
+                "diagnosis with additions)")
+    if "gain_mismatch" in sources and "motor_emf" in sources:
+        return ("a standard addition (a known gain step on one sensor): gain and EMF torque "
+                "both scale with current")
     if "dead_time" in sources and ("motor_cogging" in sources or "motor_emf" in sources):
         return ("add a second speed and the reverse direction (the loop rejects the dead-time "
                 "harmonics differently at each speed; a motor term keeps its angle)")

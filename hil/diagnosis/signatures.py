@@ -60,6 +60,10 @@ STATED_LOOP_BANDWIDTH_FRACTION = 0.1
 #: the bandwidth to a near-ideal 2-DOF loop five times faster), each design, with and without
 #: decoupling for the PIs.
 UNKNOWN_LOOP_BANDWIDTH_FACTORS = (0.5, 1.0, 2.0, 5.0)
+#: A plausible loop ("unknown" family): its bandwidth times its delay at most this many radians
+#: (a PI's phase margin 90° − ω_c·τ ≥ ≈ 33°) and at most this fraction of the PWM frequency.
+MAX_LOOP_BANDWIDTH_DELAY_RAD = 1.0
+MAX_LOOP_BANDWIDTH_PER_PWM = 0.25
 #: "unknown" without a stated bandwidth: this fraction of the PWM frequency (1 kHz at 20 kHz).
 UNKNOWN_LOOP_BANDWIDTH_PER_PWM = 0.05
 #: "unknown" without a stated delay: 1.5 PWM periods (one of computation, half of PWM hold).
@@ -149,7 +153,9 @@ class DriveSetup:
         delay ± half a PWM period; "unknown": continuous and discrete PI (with and without
         decoupling, no angle compensation) and the 2-DOF loop (angle compensation), each at the
         bandwidths :data:`UNKNOWN_LOOP_BANDWIDTH_FACTORS` × the stated (or default) bandwidth,
-        at the stated (or default) delay. Ideal regulation: none (nothing to vary)."""
+        at the stated (or default) delay, leaving out those a drive would not run (ω_c·τ above
+        :data:`MAX_LOOP_BANDWIDTH_DELAY_RAD`, or above :data:`MAX_LOOP_BANDWIDTH_PER_PWM` of
+        the PWM frequency; the stated bandwidth is always kept). Ideal regulation: none."""
         if self.loop_is_ideal:
             return []
         half_period = 0.5 / self.pwm_frequency_hz
@@ -164,6 +170,11 @@ class DriveSetup:
         delay = self.current_loop_delay_s or UNKNOWN_LOOP_DELAY_PERIODS / self.pwm_frequency_hz
         out = []
         for factor in UNKNOWN_LOOP_BANDWIDTH_FACTORS:
+            if (factor != 1.0 and (2 * math.pi * bandwidth * factor * delay
+                                   > MAX_LOOP_BANDWIDTH_DELAY_RAD
+                                   or bandwidth * factor
+                                   > MAX_LOOP_BANDWIDTH_PER_PWM * self.pwm_frequency_hz)):
+                continue                  # not a loop a drive would run with this delay
             common = dict(current_loop_bandwidth_hz=bandwidth * factor,
                           current_loop_delay_s=delay, current_loop_emf_feedforward=False)
             for design in ("continuous", "discrete"):

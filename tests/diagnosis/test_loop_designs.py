@@ -19,7 +19,7 @@ from ripple_hil_testplans import diagnosis_design as design
 
 MAX_MECH = 128
 SIGMA_NM = 2e-5
-STATED_1K = sig.DriveSetup(current_loop_bandwidth_hz=1000.0, current_loop_delay_s=75e-6,
+STATED_1K = sig.DriveSetup(current_loop_bandwidth_hz=1000.0, current_loop_delay_s=25e-6,
                            transducer_bandwidth_hz=1000.0)
 #: the drive's real loop: a 2-DOF complex-vector PI five times faster, angle-compensated
 REAL_5K_2DOF = replace(STATED_1K, current_loop_bandwidth_hz=5000.0, current_loop_design="2dof",
@@ -117,26 +117,30 @@ def test_a_loop_stated_wrongly_is_inside_u_when_the_design_is_unknown():
     assert right.value("ib_offset_a")[1] < unknown.value("ib_offset_a")[1]
 
 
-def test_twin_fast_discrete_decoupled_loop_stated_is_covered():
-    """The twin with a discrete, decoupled, fast loop (0.15 of the PWM, half a period of
-    computation delay), its loop stated in DriveSetup: every parameter within U; "unknown"
-    covers too, with a wider U. (Stated as a continuous PI at the same bandwidth the twin is
-    covered as well: the stated design's ±20 % bandwidth spread spans the discrete design's
-    lower loop gain; the synthetic test above is the one a wrong statement fails.)"""
-    faults = HiddenFaults(ia_offset_a=0.2, ib_offset_a=-0.15, ia_gain_error_pu=0.012,
-                          dead_time_s=1.5e-6)
-    firmware = FirmwareModel(design="discrete", decoupling=True, bandwidth_per_pwm=0.15,
-                             delay_periods=0.5)
-    config = replace(twin_config(faults), firmware=firmware)
+def test_twin_discrete_decoupled_loop_stated_is_covered():
+    """The twin with a discrete (pole-matched) PI and decoupling, its loop stated in DriveSetup:
+    every parameter within U. The same bandwidth and delay stated as a continuous PI without
+    decoupling (what a DriveSetup without the design took): the dead time misses its U (the
+    discrete design's lower loop gain rejects less of the dead-time voltage)."""
+    faults = HiddenFaults(ia_offset_a=0.3, ib_offset_a=-0.1, ia_gain_error_pu=0.015,
+                          dead_time_s=1e-6)
+    config = replace(twin_config(faults), firmware=FirmwareModel(design="discrete",
+                                                                 decoupling=True))
     spectra = simulate_points(config, design.design_points(), **SETTINGS)
     stated = diagnose(spectra, setup=twin_setup(config),
                       transducer_class_pct=config.transducer.accuracy_class_pct)
     checks = check_estimates(stated, faults)[:4]
     assert all(c["identifiable"] and c["covered"] for c in checks), checks
-    # stating the loop narrows the offsets' U against "unknown" (which also covers)
+    plain = replace(twin_setup(config), current_loop_design="continuous",
+                    current_loop_decoupling=False)
+    wrong = diagnose(spectra, setup=plain,
+                     transducer_class_pct=config.transducer.accuracy_class_pct)
+    dead = [c for c in check_estimates(wrong, faults) if c["name"] == "dead_time_us"][0]
+    assert not dead["covered"], dead
+    # "unknown" covers too, with a wider U
     unknown = diagnose(spectra, setup=replace(twin_setup(config), current_loop_design="unknown"),
                        transducer_class_pct=config.transducer.accuracy_class_pct)
-    assert all(c["covered"] for c in check_estimates(unknown, faults)[:3])
+    assert all(c["covered"] for c in check_estimates(unknown, faults)[:4])
     assert stated.value("ia_offset_a")[1] < unknown.value("ia_offset_a")[1]
 
 
