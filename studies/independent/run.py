@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 from pathlib import Path
 
@@ -52,7 +53,8 @@ def generate(spec: dict, out_dir: str | Path, *, timeout_s: float = 1800.0) -> P
     out_dir = Path(out_dir)
     proc = subprocess.run([str(VENV_PYTHON), str(GENERATOR), "-", str(out_dir)],
                           input=json.dumps(spec), text=True, capture_output=True,
-                          timeout=timeout_s, env={"PATH": "/usr/bin:/bin", "PYTHONHASHSEED": "0"})
+                          timeout=timeout_s, env={k: v for k, v in os.environ.items()
+                                                  if k != "PYTHONPATH"})
     if proc.returncode != 0:
         raise RuntimeError(f"motulator generator failed (exit {proc.returncode}):\n"
                            f"{proc.stderr[-3000:]}")
