@@ -90,8 +90,16 @@ def _diagnose_bridge(manifest: Path) -> dict:
     from hil.diagnosis import diagnose, spectra_from_captures
     from hil.diagnosis.bench_setup import setup_from_bench_dict
 
+    from dataclasses import fields
+
+    from hil.diagnosis.signatures import DriveSetup
+
     data = tomllib.loads(manifest.read_text())
     drive, motor = data.get("drive", {}), data.get("motor", {})
+    added = [e["file"] for e in data["capture"] if any(k.startswith("addition_") for k in e)]
+    if added:
+        raise RuntimeError(f"captures with known additions ({', '.join(added)}) need `hil "
+                           "diagnose --manifest` (helpers diagin + additions); this tree has none")
     pole_pairs = int(drive["pole_pairs"])
     reference = drive.get("emf_a_rising_zero_elec_deg")
     pairs = []
@@ -110,12 +118,11 @@ def _diagnose_bridge(manifest: Path) -> dict:
                                 "current_angle_rad": math.radians(
                                     entry.get("current_angle_deg", 0.0)),
                                 "label": entry["file"]}))
+    # every [drive] key this tree's DriveSetup knows (the loop design keys once they exist)
+    known = {f.name for f in fields(DriveSetup)}
     setup, class_pct = setup_from_bench_dict(
         {"motor": motor, "drive": drive},
-        current_loop_bandwidth_hz=drive.get("current_loop_bandwidth_hz"),
-        current_loop_delay_s=drive.get("current_loop_delay_s"),
-        pwm_frequency_hz=drive.get("pwm_frequency_hz"),
-        transducer_bandwidth_hz=drive.get("transducer_bandwidth_hz"))
+        **{k: v for k, v in drive.items() if k in known})
     result = diagnose(spectra_from_captures(pairs, max_mech_order=128), setup=setup,
                       transducer_class_pct=class_pct)
     return json.loads(json.dumps(result.to_dict()))
@@ -181,13 +188,18 @@ def run_drive(spec: dict, out_dir: Path, use_cli: bool) -> dict:
 
 
 def with_additions(spec: dict) -> dict:
-    """The drive plus the standard additions (issue 23 item 1, shared23.md keys) at its first
-    point: +0.2 A on each sensor, +1 % gain on sensor a, +1 µs dead time, and a second offset
-    size (+0.4 A on a) for the linearity check."""
-    first = spec["points"][0]
-    extra = [dict(first, addition_ia_offset_a=0.2), dict(first, addition_ia_offset_a=0.4),
-             dict(first, addition_ib_offset_a=0.2), dict(first, addition_gain_a_pu=0.01),
-             dict(first, addition_dead_time_s=1e-6)]
+    """The drive plus standard additions (issue 23 item 1, shared23.md keys), as the diagnosis
+    plan designs them (testplans/diagnosis_design.py on the additions branch) but at this
+    drive's own points: at its fast high-current point (the second) +0.2/+0.4 A on each sensor,
+    +1/+2 % gain on sensor a, +0.5/+1 µs dead time; at its low-current point (the third) +1 %
+    gain on a. Two sizes each: the linearity check."""
+    fast, low = spec["points"][1], spec["points"][2]
+    extra = [dict(fast, **{key: value}) for key, value in (
+        ("addition_ia_offset_a", 0.2), ("addition_ia_offset_a", 0.4),
+        ("addition_ib_offset_a", 0.2), ("addition_ib_offset_a", 0.4),
+        ("addition_gain_a_pu", 0.01), ("addition_gain_a_pu", 0.02),
+        ("addition_dead_time_s", 0.5e-6), ("addition_dead_time_s", 1e-6))]
+    extra.append(dict(low, addition_gain_a_pu=0.01))
     return dict(spec, points=list(spec["points"]) + extra)
 
 

@@ -292,6 +292,14 @@ def _toml_value(value) -> str:
     return repr(float(value)) if isinstance(value, float) else str(value)
 
 
+#: What the manifest states for each of motulator's current controllers, in the vocabulary of
+#: shared23.md / the bench file: its continuous design IS the complex-vector 2-DOF PI
+#: (feedback L·(2α + (α² + jω_e·α)/s), "2dof"); its direct discrete-time design (Awan 2019) has no
+#: name there, so it is stated "unknown" (the diagnosis then propagates a family of loops).
+#: ``loop.state_design`` in the spec overrides (e.g. to state a wrong design on purpose).
+STATED_DESIGN = {"continuous": "2dof", "discrete": "unknown"}
+
+
 def manifest_text(spec: dict, files: list[tuple[str, dict]], emf_deg: float) -> str:
     """manifest.toml (shared23.md) for the captures: drive, motor and one [[capture]] each."""
     motor, loop = spec["motor"], spec["loop"]
@@ -304,11 +312,11 @@ def manifest_text(spec: dict, files: list[tuple[str, dict]], emf_deg: float) -> 
               "current_loop_bandwidth_hz": float(loop["bandwidth_hz"]),
               # one sampling period (T_s = 1/(2 f_pwm)) of computation + half of it for the ZOH
               "current_loop_delay_s": 1.5 * 0.5 / f_pwm,
-              "current_loop_design": "discrete" if discrete else "continuous",
-              # the complex-vector integrator (k_i + j·ω·k_t)/s cancels the dq cross coupling
-              "current_loop_decoupling": True,
+              "current_loop_design": loop.get("state_design") or STATED_DESIGN[loop["design"]],
+              "current_loop_decoupling": False,
               "current_loop_emf_feedforward": False,
-              # continuous design: voltage angle advanced by 1.5·T_s·ω (k_comp = 1.5)
+              # continuous design: voltage angle advanced by 1.5·T_s·ω (k_comp = 1.5); the
+              # discrete design includes the delay in its own design (k_comp = 0)
               "current_loop_angle_compensation": not discrete}
     ke_peak = int(motor["pole_pairs"]) * float(motor["psi_f_vs"])
     motor_table = {"pole_count": 2 * int(motor["pole_pairs"]), "dc_bus_v": float(motor["u_dc_v"]),
