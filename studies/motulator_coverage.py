@@ -53,7 +53,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(HERE))
-from independent.run import generate, issue23_drive, random_drive  # noqa: E402
+from independent.run import generate, issue23_drive, random_drive, restate  # noqa: E402
 
 RESULTS = HERE / "results" / "motulator_coverage.md"
 PARAMETERS = ("ia_offset_a", "ib_offset_a", "gain_k_diff", "dead_time_us")
@@ -171,9 +171,12 @@ def table(cases: list[dict]) -> list[dict]:
     return out
 
 
-def run_drive(spec: dict, out_dir: Path, use_cli: bool) -> dict:
+def run_drive(spec: dict, out_dir: Path, use_cli: bool | None, *,
+              simulate: bool = True) -> dict:
+    """Simulate ``spec`` into ``out_dir`` (unless ``simulate`` is False: captures already
+    there), diagnose, check."""
     started = time.perf_counter()
-    manifest = generate(spec, out_dir)
+    manifest = generate(spec, out_dir) if simulate else restate(out_dir)
     simulated = time.perf_counter() - started
     truth = json.loads((out_dir / "truth.json").read_text())
     try:
@@ -204,7 +207,8 @@ def with_additions(spec: dict) -> dict:
 
 
 # ------------------------------------------------------------------------------ replay
-def replay_rows(work: Path, use_cli: bool, pwm_model: str) -> list[dict]:
+def replay_rows(work: Path, use_cli: bool | None, pwm_model: str, *,
+                simulate: bool = True) -> list[dict]:
     """Issue 23's table rows and the angle-reference cases on its fixed drive."""
     three = [(500.0, 20.0), (1000.0, 20.0), (1000.0, 10.0)]
     cases = [("500 + 1000 rpm at 20 A, + 1000 rpm at 10 A", issue23_drive(
@@ -215,7 +219,7 @@ def replay_rows(work: Path, use_cli: bool, pwm_model: str) -> list[dict]:
                  dead_time_s=1e-6, points=[(500.0, 20.0)], pwm_model=pwm_model))]
     out = []
     for index, (title, spec) in enumerate(cases):
-        result = run_drive(spec, work / f"replay{index}", use_cli)
+        result = run_drive(spec, work / f"replay{index}", use_cli, simulate=simulate)
         result["title"] = title
         out.append(result)
     # the capture as exported: same captures as row 1, the manifest without the reference
@@ -329,20 +333,30 @@ def main(argv=None) -> int:
     parser.add_argument("--work", default=None, help="folder for the captures (default: a "
                         "temporary folder under /tmp)")
     parser.add_argument("--write", default=str(RESULTS), help="markdown result file ('' = none)")
+    parser.add_argument("--captures-from", default=None, metavar="WORK",
+                        help="diagnose the captures a previous run left in WORK again (no "
+                             "simulation; e.g. after the diagnosis changed)")
     args = parser.parse_args(argv)
     import tempfile
-    work = Path(args.work or tempfile.mkdtemp(prefix="motulator-coverage-"))
+    simulate = args.captures_from is None
+    work = Path(args.captures_from or args.work or tempfile.mkdtemp(prefix="motulator-coverage-"))
     use_cli = cli_has_manifest()
     rng = np.random.default_rng(args.seed)
     specs = [random_drive(rng, mech_revolutions=args.mech_revolutions,
                           pwm_model=args.pwm_model) for _ in range(args.drives)]
     if args.additions:
         specs = [with_additions(s) for s in specs]
+    if not simulate:
+        folders = sorted(work.glob("drive[0-9][0-9][0-9]"))
+        specs = [json.loads((f / "truth.json").read_text())["spec"] for f in folders]
+        args.drives = len(specs)
     started = time.perf_counter()
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         cases = list(pool.map(lambda item: run_drive(item[1], work / f"drive{item[0]:03d}",
-                                                     use_cli), enumerate(specs)))
-    replay = [] if args.no_replay else replay_rows(work, use_cli, args.pwm_model)
+                                                     use_cli, simulate=simulate),
+                              enumerate(specs)))
+    replay = [] if args.no_replay else replay_rows(work, use_cli, args.pwm_model,
+                                                   simulate=simulate)
     wall = time.perf_counter() - started
     text = report(args, cases, replay, wall, use_cli)
     print(text)

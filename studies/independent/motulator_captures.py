@@ -378,9 +378,27 @@ def generate(spec: dict, out_dir: Path) -> Path:
     return out_dir / "manifest.toml"
 
 
+def restate(out_dir: Path) -> Path:
+    """Rewrite ``out_dir/manifest.toml`` from its ``truth.json`` with this version's statement
+    (no simulation: the captures stay as they are)."""
+    truth = json.loads((out_dir / "truth.json").read_text())
+    spec = _merge(truth["spec"])
+    files = [(_label(point) + ".csv", point) for point in spec["points"]]
+    missing = [name for name, _ in files if not (out_dir / name).is_file()]
+    if missing:
+        raise FileNotFoundError(f"{out_dir}: captures {missing} missing")
+    (out_dir / "manifest.toml").write_text(
+        manifest_text(spec, files, truth["motulator_emf_a_rising_zero_elec_deg"]))
+    return out_dir / "manifest.toml"
+
+
 def main(argv: list[str]) -> int:
+    if len(argv) == 2 and argv[0] == "--restate":
+        print(restate(Path(argv[1])))
+        return 0
     if len(argv) != 2:
-        print("usage: motulator_captures.py SPEC.json|- OUT_DIR", file=sys.stderr)
+        print("usage: motulator_captures.py SPEC.json|- OUT_DIR\n"
+              "       motulator_captures.py --restate OUT_DIR", file=sys.stderr)
         return 2
     text = sys.stdin.read() if argv[0] == "-" else Path(argv[0]).read_text()
     print(generate(json.loads(text), Path(argv[1])))

@@ -64,6 +64,18 @@ def generate(spec: dict, out_dir: str | Path, *, timeout_s: float = 1800.0) -> P
     return manifest
 
 
+def restate(out_dir: str | Path) -> Path:
+    """Rewrite a capture folder's manifest with the generator's current statement (no
+    simulation)."""
+    if not available():
+        raise SimulatorMissing(f"{VENV_PYTHON} does not exist: run .ci/setup-motulator")
+    proc = subprocess.run([str(VENV_PYTHON), str(GENERATOR), "--restate", str(out_dir)],
+                          text=True, capture_output=True, timeout=120)
+    if proc.returncode != 0:
+        raise RuntimeError(f"restating {out_dir} failed: {proc.stderr[-2000:]}")
+    return Path(out_dir) / "manifest.toml"
+
+
 def random_drive(rng, *, mech_revolutions: int = 3, pwm_model: str = "carrier",
                  motor: str | None = None) -> dict:
     """One random drive's spec (``rng``: numpy Generator)."""
