@@ -233,8 +233,9 @@ def _loop_alternatives(spectra, params, setup, max_mech, fit_orders, use_current
     with each variant's Jacobian (fit.LinearProblem.alternatives; not linearised, so a loop
     that rejects the dead-time voltage five times better moves T_d five times) and
     Σ_v δ_v·δ_vᵀ/k² of the shifts is added to the covariance: the drive has one of these loops,
-    not known which, so each variant's shift is kept within U (k = 2). The spread of each signature's complex
-    transfer over the variants (magnitude in %, phase in degrees) is stated in the notes."""
+    not known which, so each variant's shift is kept within U (k = 2). The spread of each
+    signature's complex transfer over the variants (magnitude in %, phase in degrees) is
+    stated in the notes."""
     variants = setup.loop_variants()
     if not variants:
         return []

@@ -67,8 +67,8 @@ def dwell_pulse_orders(op, setup: sig.DriveSetup, leg: str, start_rad: float,
     """Per volt of average error in ``leg`` during the dwell [start, start + width), electrical-order
     torque coefficients (N·m) and the dc of the actual phase currents as dc_a + j·dc_b (A). The
     pulse's harmonics e^{jmθ} are seen by the loop at (m − 1)·ω_e (loop_disturbance with the
-    bench's loop design; its synchronous-frame integrator does not remove a stationary dc), and the
-    current error enters the torque sum of eq 7 as every signature's does."""
+    bench's loop design; its synchronous-frame integrator does not remove a stationary dc), and
+    the current error enters the torque sum of eq 7 as every signature's does."""
     n = PULSE_GRID_POINTS
     m = np.fft.fftfreq(n, 1.0 / n)
     safe = np.where(m == 0, 1.0, m)

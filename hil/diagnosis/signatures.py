@@ -48,7 +48,7 @@ import numpy as np
 
 from hil.errors import InputError
 from hil.model import OperatingPoint
-from hil.model.dead_time import average_model_torque_pu, loop_rejection  # noqa: F401
+from hil.model.dead_time import average_model_torque_pu, loop_rejection
 from hil.motor import TABLE_I, MotorParameters
 
 #: Loop designs a bench file can state (``[drive] current_loop_design``).
