@@ -88,7 +88,10 @@ def operating_point_of(capture_path: Path, capture: Capture, record: dict | None
 def check_setup_known(setup: DriveSetup) -> list[str]:
     """Warnings for what the bench does not state (the fit then assumes the ideal case)."""
     out = []
-    if setup.current_loop_bandwidth_hz is None:
+    if setup.current_loop_design == "unknown":
+        out.append(f"current-loop design unknown: a family of {len(setup.loop_variants())} "
+                   "plausible loops is propagated into every U (state the loop to narrow it)")
+    elif setup.current_loop_bandwidth_hz is None:
         out.append("current-loop bandwidth not stated: ideal current regulation assumed "
                    "(the paper's assumption)")
     if setup.transducer_bandwidth_hz is None:

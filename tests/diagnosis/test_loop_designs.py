@@ -165,3 +165,18 @@ def test_one_capture_with_dead_time_says_the_gain_is_not_separable():
     # the offsets, alone at order 2, stay determined and right
     value, u = result.value("ia_offset_a")
     assert abs(value - faults.expected()["ia_offset_a"]) <= 2 * u
+
+
+def test_bench_file_keys_reach_the_setup():
+    from hil.diagnosis.bench_setup import check_setup_known, setup_from_bench_dict
+
+    setup, _ = setup_from_bench_dict({"drive": {
+        "current_loop_bandwidth_hz": 1600.0, "current_loop_delay_s": 75e-6,
+        "current_loop_design": "discrete", "current_loop_decoupling": True,
+        "current_loop_emf_feedforward": True, "current_loop_angle_compensation": True}})
+    assert (setup.current_loop_design, setup.current_loop_decoupling,
+            setup.current_loop_emf_feedforward, setup.current_loop_angle_compensation) == \
+        ("discrete", True, True, True)
+    unknown = replace(setup, current_loop_design="unknown", current_loop_bandwidth_hz=None)
+    assert any("design unknown" in w for w in check_setup_known(unknown))
+    assert unknown.loop_variants() and not sig.DriveSetup().loop_variants()
