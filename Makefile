@@ -18,10 +18,11 @@ run: $(STAMP)
 	$(BIN)/hil run
 
 test: $(STAMP)
+	.ci/setup-motulator
 	$(BIN)/python -m pytest
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) .venv-motulator build *.egg-info

@@ -118,23 +118,40 @@ def loop_rejection(rotor_frequency_rad_s, op: OperatingPoint,
 def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: float,
                             pwm_frequency_hz: float,
                             current_loop_bandwidth_hz: float | None,
-                            current_loop_delay_s: float = 0.0) -> np.ndarray:
-    """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model."""
+                            current_loop_delay_s: float = 0.0, *,
+                            rejection=None) -> np.ndarray:
+    """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model.
+
+    ``rejection``: optional callable, rotor-frame frequencies (rad/s, array) → disturbance
+    voltage → current transfer (A/V) of another loop design (hil.diagnosis.signatures
+    .loop_disturbance); default the PI of :func:`loop_rejection` with the given bandwidth/delay.
+    """
     omega = op.elec_speed_rad_s
     eps = dead_time_s * pwm_frequency_hz * op.dc_bus_v
     bandwidth = 2 * math.pi * current_loop_bandwidth_hz if current_loop_bandwidth_hz else None
-    psi = theta - op.current_angle_rad
-    delta_i = np.zeros((3, theta.size))
-    for n in range(1, HIGHEST_HARMONIC + 1, 2):
-        if n % 3 == 0:
-            continue
-        if n % 6 == 1:
-            gain = loop_rejection((n - 1) * omega, op, bandwidth, current_loop_delay_s)
+    if rejection is None:
+        def rejection(w):
+            return loop_rejection(w, op, bandwidth, current_loop_delay_s)
+    harmonics = np.array([n for n in range(1, HIGHEST_HARMONIC + 1, 2) if n % 3 != 0])
+    positive = harmonics % 6 == 1
+    # positive sequence n = 6k + 1 at (n − 1)·ω_e; negative n = 6k − 1 at −(n + 1)·ω_e, conj.
+    frequencies = np.where(positive, (harmonics - 1) * omega, -(harmonics + 1) * omega)
+    gains = np.asarray(rejection(frequencies.astype(float)), dtype=complex)
+    gains = np.where(positive, gains, np.conj(gains))
+    # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
+    amplitudes = 1j * eps * 4.0 / (math.pi * harmonics) * gains
+    size = theta.size
+    uniform = (size > 2 * HIGHEST_HARMONIC and theta[0] == 0.0
+               and np.allclose(np.diff(theta), 2 * math.pi / size, rtol=0, atol=1e-12))
+    delta_i = np.zeros((3, size))
+    for x, offset in enumerate(PHASE_OFFSETS_RAD):
+        coefficients = amplitudes * np.exp(-1j * harmonics * (op.current_angle_rad + offset))
+        if uniform:     # θ_k = 2πk/N: the sum over n is an inverse DFT (same value, fast)
+            line = np.zeros(size, dtype=complex)
+            line[harmonics] = coefficients
+            delta_i[x] = np.real(np.fft.ifft(line) * size)
         else:
-            gain = np.conj(loop_rejection(-(n + 1) * omega, op, bandwidth, current_loop_delay_s))
-        # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
-        amplitude = 1j * eps * 4.0 / (math.pi * n) * gain
-        delta_i += np.real(amplitude * np.exp(1j * n * (psi[None, :] - PHASE_OFFSETS_RAD[:, None])))
+            delta_i[x] = np.real(np.exp(1j * np.outer(theta, harmonics)) @ coefficients)
     emf_shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])  # e_x / E
     ideal = 1.5 * math.cos(op.current_angle_rad)
     return (ideal + np.sum(emf_shape * delta_i, axis=0) / op.current_a) / ideal
