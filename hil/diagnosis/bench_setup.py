@@ -33,6 +33,10 @@ def setup_from_bench_dict(bench: dict, **overrides) -> tuple[DriveSetup, float]:
                 "current_loop_emf_feedforward", "current_loop_angle_compensation"):
         if drive.get(key) is not None:
             values[key] = drive[key]
+    # a bench (or a foreign capture's manifest) that does not say how its loop is built: the
+    # family of plausible loops, not the first-order PI (issue 23: a 2-DOF loop read as a PI
+    # biased the offsets beyond U)
+    values.setdefault("current_loop_design", "unknown")
     values.update({k: v for k, v in overrides.items() if v is not None})
     class_pct = 0.0
     for entry in bench.get("instrument", []) or []:
