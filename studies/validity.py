@@ -219,12 +219,33 @@ def _reason_kind(reason: str | None) -> str:
     return (reason or "?").split(":")[0][:60]
 
 
+def with_base(row: dict, base_json: Path, sources: set[str]) -> dict:
+    """``row`` (a run of only ``sources``) completed with the other plans' tests of the same
+    motor and point in an earlier full study (``base_json``), which are kept as they were."""
+    rows = json.loads(base_json.read_text())["rows"]
+    for base in rows:
+        if (base["motor"], base["speed_rpm"], base["current_a"]) == \
+                (row["motor"], row["speed_rpm"], row["current_a"]):
+            kept = [t for t in base["tests"] if t["source"] not in sources]
+            rerun = [t for t in row["tests"] if t["source"] in sources]
+            return {**row, "tests": kept + rerun,
+                    "rerun": f"{', '.join(sorted(sources))} re-run; other plans from "
+                             f"{base_json.name}"}
+    raise SystemExit(f"{base_json}: no row for {row['motor']} {row['speed_rpm']:g} rpm "
+                     f"{row['current_a']:g} A")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reduced", action="store_true", help="the small CI grid")
     parser.add_argument("--out", type=Path, default=Path("validity-study"))
     parser.add_argument("--motor", action="append", choices=sorted(MOTORS),
                         help="only these motors (repeatable)")
+    parser.add_argument("--source", action="append", default=[],
+                        help="run only these plans (repeatable; hil run --source)")
+    parser.add_argument("--base-json", type=Path,
+                        help="with --source: a full study's validity.json whose rows keep their "
+                             "other plans' tests; only the re-run plans' tests are replaced")
     parser.add_argument("--from-json", type=Path,
                         help="only write the table again from a study's validity.json")
     args = parser.parse_args(argv)
@@ -240,7 +261,10 @@ def main(argv=None) -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for index, (name, (speed, current)) in enumerate(plan):
-            row = run_point(name, speed, current, Path(tmp) / f"p{index}")
+            row = run_point(name, speed, current, Path(tmp) / f"p{index}",
+                            sources=args.source)
+            if args.base_json:
+                row = with_base(row, args.base_json, set(args.source))
             rows.append(row)
             c = counts(row)
             print(f"{name} {speed:g} rpm {current:g} A: {dict(c)} ({row['seconds']} s)",
