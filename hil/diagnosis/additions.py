@@ -35,7 +35,9 @@ No ``emf_a_rising_zero_elec_deg`` is needed for this path.
 **Assumption: linearity over the addition** — the response is a straight line through zero over
 [0, θ + δ_max] (the classical standard-additions assumption). It is CHECKED over the added
 range with two addition sizes: the transfers (c_δ1 − c_0)/δ1 and (c_δ2 − c_0)/δ2 must agree
-within their propagated uncertainty (χ² of the complex difference, 99.9 % quantile); otherwise
+within their propagated uncertainty and the stated linearity tolerance (``LINEARITY_TOLERANCE``:
+1 % in magnitude, 1° in phase for the offsets and gain; χ² of the complex difference, 99.9 %
+quantile); otherwise
 "not linear over the addition: <figures>" and the parameters that need that transfer are not
 estimated. The extrapolation below the base (from θ to 0) cannot be checked by additions.
 Where it fails: the dead time's torque is not proportional to T_d while the dead-time voltage
@@ -810,7 +812,8 @@ def compare_transfers_with_models(result: AdditionsDiagnosis, setup: sig.DriveSe
                                   ) -> list[dict]:
     """Each calibrated transfer against the forward model's signature of the same addition
     (:mod:`.parameters`, the bench's stated loop and transducer) within the measured
-    uncertainty and the model's own (χ², 2 dof, 99.9 %). A disagreement means the injection
+    uncertainty, the model's own and its stated tolerance against a correct drive
+    (``MODEL_TOLERANCE_REL``) (χ², 2 dof, 99.9 %). A disagreement means the injection
     object does not apply what it says where it says (wrong sensor, scale, sign) — or the stated
     loop does not describe the drive; the entry says both.
 
