@@ -113,7 +113,8 @@ def main() -> None:
           f"{time.time() - started:.0f} s; largest:")
     for key, (rel, deg, model) in worst.items():
         print(f"  {key:<22} two sizes: magnitude {100 * rel:.3f} %, phase {deg:.2f}°; "
-              f"transfer vs model {100 * model:.2f} %")
+              + ("transfer vs model not run" if args.linearity_only else
+                 f"transfer vs model {100 * model:.2f} %"))
 
 
 if __name__ == "__main__":
