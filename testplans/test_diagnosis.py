@@ -9,7 +9,10 @@ from them, estimates the same parameters relative to the additions, and fails wh
 is not linear over its size, a parameter cannot be stated, a calibrated transfer contradicts the
 forward model of the same addition (the injection does not apply what it says where it says —
 wrong sensor, scale or sign — or the stated loop does not describe the drive), or the two routes
-disagree. The additions, transfers, linearity checks and cross-checks go into the record's
+disagree (family-wise 99.9 % over the parameters both state). A transfer whose model the
+addition's plan's validity region refuses at the point (hil.validity; e.g. the dead time at
++1000 rpm, 20 A on a 2-pole 24 V motor: no voltage headroom) is recorded "not compared:
+<reason>", neither passed nor failed. The additions, transfers, linearity checks and cross-checks go into the record's
 ``diagnosis`` section under ``additions``. Every injection is removed after its point
 (hil.measurement restores and reads back the knobs on every path, failures included).
 
@@ -88,7 +91,35 @@ def test_diagnosis(bench, record):
     assert not unstated, f"the diagnosis cannot state: {'; '.join(unstated)}"
 
 
-def test_diagnosis_by_additions(record):
+#: The plan whose validity region (hil.validity.REGIONS) holds the forward model of each addition.
+ADDITION_SOURCES = {"addition_ia_offset_a": "dc_offset", "addition_ib_offset_a": "dc_offset",
+                    "addition_gain_a_pu": "gain_mismatch", "addition_dead_time_s": "dead_time"}
+
+
+def model_refusal(config):
+    """``refusal(transfer)`` for :func:`additions.compare_transfers_with_models`: why the
+    addition's plan's validity region (hil.validity: direction, speed, voltage headroom with the
+    largest addition applied — the pre-flight's limits) refuses its model at the transfer's
+    point, or None. The bench-floor limit is not applied: it bounds a pk-pk verdict, while a
+    transfer carries its own measured uncertainty."""
+    from hil.validity import problems
+
+    def refusal(transfer):
+        plan = PointPlan(source=ADDITION_SOURCES[transfer["addition"]],
+                         injection={additions.INJECTION_KNOBS[transfer["addition"]]:
+                                    max(transfer["sizes"], key=abs)},
+                         speed_rpm=transfer["speed_rpm"], current_a=transfer["current_a"],
+                         current_angle_rad=transfer["current_angle_rad"],
+                         revolutions=design.REVOLUTIONS_ELEC, max_order=64,
+                         sample_rate_hz=design.SAMPLE_RATE_HZ, settle_s=design.SETTLE_S,
+                         rule=None, kind="diagnosis")
+        found = problems(plan, config)
+        return (f"the {plan.source} model's validity region refuses the point: "
+                f"{'; '.join(found)}") if found else None
+    return refusal
+
+
+def test_diagnosis_by_additions(bench, record):
     """Standard additions: every parameter stated (linear over its addition, separable), every
     calibrated transfer consistent with the forward model of its addition, and the estimates
     consistent with the fit's (two independent routes)."""
@@ -99,7 +130,8 @@ def test_diagnosis_by_additions(record):
              if (point.speed_rpm, point.current_a) in points]
     added = additions.spectra_with_additions(pairs, max_mech_order=design.MAX_MECH_ORDER)
     result = additions.diagnose_by_additions(bases + added, setup=_FIT["setup"])
-    models = additions.compare_transfers_with_models(result, _FIT["setup"], _FIT["class_pct"])
+    models = additions.compare_transfers_with_models(result, _FIT["setup"], _FIT["class_pct"],
+                                                     refusal=model_refusal(bench.config))
     routes = additions.compare_with_fit(result, _FIT["result"])
     section = _FIT["result"].to_dict()
     section["additions"] = result.to_dict() | {
@@ -114,7 +146,8 @@ def test_diagnosis_by_additions(record):
                 for e in result.estimates if not e["stated"]
                 and not (e["name"] in DEAD_TIME_NAMES
                          and e["reason"].startswith("not linear over the addition"))]
-    problems += [m["statement"] for m in models if not m["agrees"]]
+    # a transfer whose model's region refuses the point is recorded "not compared", not judged
+    problems += [m["statement"] for m in models if m["compared"] and not m["agrees"]]
     problems += [r["statement"] for r in routes if r["compared"] and not r["agrees"]]
     missing = [name for name in REQUIRED if result.value(name) is None]
     problems += [f"{name}: not stated by the additions" for name in missing

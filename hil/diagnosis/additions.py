@@ -35,7 +35,9 @@ No ``emf_a_rising_zero_elec_deg`` is needed for this path.
 **Assumption: linearity over the addition** — the response is a straight line through zero over
 [0, θ + δ_max] (the classical standard-additions assumption). It is CHECKED over the added
 range with two addition sizes: the transfers (c_δ1 − c_0)/δ1 and (c_δ2 − c_0)/δ2 must agree
-within their propagated uncertainty (χ² of the complex difference, 99.9 % quantile); otherwise
+within their propagated uncertainty and the stated linearity tolerance (``LINEARITY_TOLERANCE``:
+1 % in magnitude, 1° in phase for the offsets and gain; χ² of the complex difference, 99.9 %
+quantile); otherwise
 "not linear over the addition: <figures>" and the parameters that need that transfer are not
 estimated. The extrapolation below the base (from θ to 0) cannot be checked by additions.
 Where it fails: the dead time's torque is not proportional to T_d while the dead-time voltage
@@ -104,6 +106,24 @@ DEFAULT_TOLERANCE_PU = 0.01
 #: through zero is not a straight line, and additions cannot check below the base): the
 #: average-voltage model's stated agreement with a time-domain run (hil.diagnosis.parameters).
 DEAD_TIME_EXTRAPOLATION_REL = P.DEAD_TIME_MODEL_REL_UNCERTAINTY
+#: Linearity tolerance of each addition's response: the standard uncertainty of the difference
+#: of two sizes' transfers, relative to their mean (magnitude, phase rad), in quadrature with
+#: the type A and the additions' tolerance (the addition's tolerance is a scale error along the
+#: transfer's own direction, so without it the difference's covariance is near-degenerate and a
+#: 0.6° turn that is physically negligible failed a correct drive). Calibration set
+#: (``studies/additions_linearity_tolerance.py --drives 6 --seed 0``: Table I twin, random
+#: offsets, gains, dead time, cogging) differs by at most 0.41 % and 0.30° between +0.2/+0.4 A
+#: and +1/+2 %; the tolerance is that rounded up with margin for what the twin lacks (the bench's
+#: DAQ and transducer): 1 % and 1°, checked on held-out drives (6- and 8-pole motors, other
+#: seeds; hil/diagnosis/README.md "linearity tolerance"). A transfer that moves by more than
+#: ≈ 3.7 % (or 3.7°) over the added range fails the 99.9 % χ² limit. The dead time has none: its
+#: check stays as measured, and failing it only leaves the dead time to the fit (its response
+#: near zero is known non-linear, docstring).
+LINEARITY_TOLERANCE = {
+    "addition_ia_offset_a": (0.01, math.radians(1.0)),
+    "addition_ib_offset_a": (0.01, math.radians(1.0)),
+    "addition_gain_a_pu": (0.01, math.radians(1.0)),
+}
 #: Operating points within these of each other are one point.
 SAME_POINT_REL = 0.01
 SAME_ANGLE_RAD = 0.01
@@ -391,6 +411,20 @@ def _fmt_c(c: complex, unit: str) -> str:
     return f"{abs(c):.4g} {unit} ∠ {math.degrees(np.angle(c)):+.1f}°"
 
 
+def linearity_tolerance_cov(kind: AdditionKind, h_mean: complex) -> np.ndarray:
+    """Covariance (Re, Im; (N·m per unit)²) the linearity tolerance of ``kind`` gives the
+    difference of two transfers of mean ``h_mean``: ``rel·|H̄|`` along H̄ (magnitude) and
+    ``phase·|H̄|`` across it (phase, rad), standard, independent (``LINEARITY_TOLERANCE``)."""
+    rel, phase_rad = LINEARITY_TOLERANCE.get(kind.key, (0.0, 0.0))
+    size = abs(h_mean)
+    if size == 0.0:
+        return np.zeros((2, 2))
+    along = np.array([h_mean.real, h_mean.imag]) / size
+    across = np.array([-along[1], along[0]])
+    return (rel * size) ** 2 * np.outer(along, along) + \
+        (phase_rad * size) ** 2 * np.outer(across, across)
+
+
 def _linearity(point: _Point, kind: AdditionKind, m: int, tolerance_pu: float) -> dict:
     """Transfers of the smallest and the largest addition compared (χ² of the difference)."""
     entries = sorted(point.additions[kind.key], key=lambda e: abs(e[0]))
@@ -405,15 +439,19 @@ def _linearity(point: _Point, kind: AdditionKind, m: int, tolerance_pu: float) -
     hs, hl, d = values.reshape(3, 2)
     cov = full[4:, 4:]
     h_small, h_large, diff = complex(*hs), complex(*hl), complex(*d)
-    chi2, dof = _chi2(np.array([diff.real, diff.imag]), cov)
+    tol_cov = linearity_tolerance_cov(kind, (h_small + h_large) / 2.0)
+    chi2, dof = _chi2(np.array([diff.real, diff.imag]), cov + tol_cov)
     limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, max(dof, 1)))
     u_diff = math.sqrt(max(np.trace(cov) / 2.0, 0.0))
+    rel_tol, phase_tol_rad = LINEARITY_TOLERANCE.get(kind.key, (0.0, 0.0))
     unit = f"N·m/{kind.unit}"
     sizes = (point.raw[kind.key][id(small[1])], point.raw[kind.key][id(large[1])])
     figures = (f"{point.label}: transfer at +{_fmt_size(kind, sizes[0])} "
                f"{_fmt_c(h_small, unit)}, at +{_fmt_size(kind, sizes[1])} "
                f"{_fmt_c(h_large, unit)}; difference {abs(diff):.3g} {unit} (standard "
-               f"uncertainty {u_diff:.2g} per component, χ² {chi2:.3g} > {limit:.3g})")
+               f"uncertainty {u_diff:.2g} per component, in quadrature with the linearity "
+               f"tolerance {100 * rel_tol:g} % in magnitude and "
+               f"{math.degrees(phase_tol_rad):g}° in phase: χ² {chi2:.3g} > {limit:.3g})")
     linear = chi2 <= limit
     # within the check, the curvature still moves the extrapolation to zero: for a quadratic
     # response the slope used (secants from the base, mean size δ̄) differs from the one down to
@@ -427,7 +465,10 @@ def _linearity(point: _Point, kind: AdditionKind, m: int, tolerance_pu: float) -
     return {"curvature_per_unit": per_reach, "mean_size": mean_size,
             "point": point.label, "addition": kind.key, "mech_order": m,
             "sizes": list(sizes), "transfers": [h_small, h_large], "difference": diff,
-            "difference_standard_uncertainty": u_diff, "chi2": chi2, "dof": dof,
+            "difference_standard_uncertainty": u_diff,
+            "linearity_tolerance": {"magnitude_rel": rel_tol,
+                                    "phase_deg": math.degrees(phase_tol_rad)},
+            "chi2": chi2, "dof": dof,
             "limit_chi2": limit, "linear": linear,
             "statement": ("linear over the addition" if linear else
                           "not linear over the addition: " + figures)}
@@ -747,23 +788,53 @@ MODEL_PARAMETER = {"addition_ia_offset_a": ("ia_offset_a", 1.0),
                    "addition_ib_offset_a": ("ib_offset_a", 1.0),
                    "addition_gain_a_pu": ("gain_k_diff", -1.0),
                    "addition_dead_time_s": ("dead_time_us", 1.0)}
+#: Stated tolerance of the forward model of each addition against a correct drive's transfer
+#: (standard, relative to the model's transfer, isotropic in the complex plane), in quadrature
+#: with the transfer's uncertainty and the model's own: the offsets' and gain's models (eqs
+#: 15-25 through the stated loop) are continuous-time; the sampled loop, PWM and the current's
+#: ripple move the transfer by a few %. Calibration set (``studies/additions_linearity_tolerance.py
+#: --drives 6 --seed 0``, Table I twin, random faults): |H − model|/|model| at most 2.41 % over
+#: the plan's offset and gain points; the tolerance is that rounded up, 2.5 %, so the 99.9 % χ²
+#: limit (3.7 σ) fails a departure beyond ≈ 9 %. Holdout (6 poles seed 2, 8 poles seed 1, 4
+#: drives each): at most 2.75 % and 3.24 %, inside. A wrong scale (1.2×: 20 %), a wrong sensor
+#: (120° turn) or sign (180°) stays far outside it. The dead time has none here: its model
+#: carries its own 10 % (hil.diagnosis.parameters) and its region (refusal) applies.
+MODEL_TOLERANCE_REL = {"addition_ia_offset_a": 0.025, "addition_ib_offset_a": 0.025,
+                       "addition_gain_a_pu": 0.025}
 #: Sensor gain error assumed at most this (per unit) when the fit's offset o/(1 + g) and gain
 #: k_a − k_b are compared with the additions' o and −θ_g (which differ by that factor).
 SENSOR_GAIN_BOUND_PU = 0.02
 
 
 def compare_transfers_with_models(result: AdditionsDiagnosis, setup: sig.DriveSetup,
-                                  transducer_class_pct: float = 0.0) -> list[dict]:
+                                  transducer_class_pct: float = 0.0,
+                                  refusal: Callable[[dict], str | None] | None = None
+                                  ) -> list[dict]:
     """Each calibrated transfer against the forward model's signature of the same addition
     (:mod:`.parameters`, the bench's stated loop and transducer) within the measured
-    uncertainty and the model's own (χ², 2 dof, 99.9 %). A disagreement means the injection
+    uncertainty, the model's own and its stated tolerance against a correct drive
+    (``MODEL_TOLERANCE_REL``) (χ², 2 dof, 99.9 %). A disagreement means the injection
     object does not apply what it says where it says (wrong sensor, scale, sign) — or the stated
-    loop does not describe the drive; the entry says both."""
+    loop does not describe the drive; the entry says both.
+
+    ``refusal(transfer)`` (a transfer dict of ``result.transfers``) gives the reason the model
+    of that addition is outside its validity region at the transfer's point (the addition's
+    plan's region, :mod:`hil.validity`; None: inside): such a transfer is recorded
+    "not compared: <reason>" (``compared`` False, ``agrees`` None), never passed or failed."""
     params = {param.name: param for param in P.controller_parameters(transducer_class_pct)}
     limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, 2))
     out = []
     for t in result.transfers:
         name, factor = MODEL_PARAMETER[t["addition"]]
+        reason = refusal(t) if refusal is not None else None
+        if reason:
+            out.append({"point": t["point"], "addition": t["addition"],
+                        "mech_order": t["mech_order"], "measured": t["transfer"],
+                        "compared": False, "agrees": None, "reason": reason,
+                        "statement": f"{t['addition']} at {t['point']}: measured "
+                                     f"{_fmt_c(t['transfer'], t['unit'].replace('*', '·'))}; "
+                                     f"not compared: {reason}"})
+            continue
         point = SimpleNamespace(speed_rpm=t["speed_rpm"], current_a=t["current_a"],
                                 current_angle_rad=t["current_angle_rad"],
                                 pole_pairs=t["pole_pairs"])
@@ -771,14 +842,17 @@ def compare_transfers_with_models(result: AdditionsDiagnosis, setup: sig.DriveSe
         orders, rel = params[name].signature(point, setup, m)
         model = factor * complex(orders.get(m, 0j))
         rel_m = float(rel.get(m, 0.0)) if isinstance(rel, dict) else float(rel)
-        sigma = math.hypot(t["standard_uncertainty"], rel_m * abs(model))
+        tol = MODEL_TOLERANCE_REL.get(t["addition"], 0.0)
+        sigma = math.sqrt(t["standard_uncertainty"] ** 2 + (rel_m * abs(model)) ** 2
+                          + (tol * abs(model)) ** 2)
         diff = t["transfer"] - model
         chi2 = (abs(diff) / sigma) ** 2 if sigma > 0 else math.inf
         agrees = chi2 <= limit
         unit = t["unit"].replace("*", "·")
         out.append({"point": t["point"], "addition": t["addition"], "mech_order": m,
                     "measured": t["transfer"], "model": model, "model_rel_uncertainty": rel_m,
-                    "chi2": chi2, "limit_chi2": limit, "agrees": agrees,
+                    "model_tolerance_rel": tol,
+                    "chi2": chi2, "limit_chi2": limit, "compared": True, "agrees": agrees,
                     "statement": (f"{t['addition']} at {t['point']}: measured "
                                   f"{_fmt_c(t['transfer'], unit)}, model {_fmt_c(model, unit)}"
                                   + ("" if agrees else
@@ -794,11 +868,25 @@ def compare_with_fit(result: AdditionsDiagnosis, diagnosis) -> list[dict]:
     independent routes to the same parameters: they must agree within the combined standard
     uncertainty (|z| ≤ the 99.9 % two-sided normal quantile). The fit refers the offsets to the
     actual current, o/(1 + g), and states k_a − k_b, where the additions give o and −θ_g: the
-    difference (≤ SENSOR_GAIN_BOUND_PU of the value) enters as a rectangular uncertainty."""
-    z_limit = float(stats.norm.ppf(1.0 - (1.0 - CONTRADICTION_QUANTILE) / 2.0))
+    difference (≤ SENSOR_GAIN_BOUND_PU of the value) enters as a rectangular uncertainty.
+
+    Family-wise limit: the comparisons made in one run share one 0.1 % false-alarm rate
+    (Bonferroni: each at 1 − 0.001/n two-sided, n the comparisons made; 4 → |z| ≤ 3.66 instead
+    of 3.29). A parameter is compared only when BOTH routes state it (the additions' dead time
+    is stated only where its two sizes were linear; the fit's only where identifiable): a
+    correct drive with four comparisons at 99.9 % each fails 0.4 % of runs by chance alone, and
+    the dead time's additions are known non-linear near zero (its 10 % extrapolation term
+    covers the model's stated agreement, not a drive read 0.18 µs off zero — p8_48v 250 rpm,
+    5 A: z = −3.38, inside the family-wise 3.66)."""
+    names = ("ia_offset_a", "ib_offset_a", "gain_k_diff", "dead_time_us")
+    both = {name: (result.value(name), diagnosis.value(name)) for name in names}
+    n_compared = sum(1 for mine, theirs in both.values()
+                     if mine is not None and theirs is not None)
+    z_limit = float(stats.norm.ppf(
+        1.0 - (1.0 - CONTRADICTION_QUANTILE) / 2.0 / max(n_compared, 1)))
     out = []
-    for name in ("ia_offset_a", "ib_offset_a", "gain_k_diff", "dead_time_us"):
-        mine, theirs = result.value(name), diagnosis.value(name)
+    for name in names:
+        mine, theirs = both[name]
         if mine is None or theirs is None:
             out.append({"name": name, "compared": False,
                         "statement": f"{name}: not compared (not stated by "
@@ -811,7 +899,8 @@ def compare_with_fit(result: AdditionsDiagnosis, diagnosis) -> list[dict]:
         agrees = abs(z) <= z_limit
         out.append({"name": name, "compared": True, "additions": mine[0],
                     "additions_u": mine[1], "fit": theirs[0], "fit_u": theirs[1],
-                    "combined_u": u, "z": z, "limit_z": z_limit, "agrees": agrees,
+                    "combined_u": u, "z": z, "limit_z": z_limit,
+                    "comparisons_in_family": n_compared, "agrees": agrees,
                     "statement": f"{name}: additions {mine[0]:+.5g} ± {mine[1]:.2g}, fit "
                                  f"{theirs[0]:+.5g} ± {theirs[1]:.2g} (standard) — "
                                  + ("agree" if agrees else

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from hil.capture import Capture
+from hil.diagnosis import additions as additions_module
 from hil.diagnosis import diagnose
 from hil.diagnosis.additions import (compare_transfers_with_models, compare_with_fit,
                                      diagnose_by_additions, has_additions, with_addition)
@@ -157,7 +158,9 @@ def test_linear_synthetic_drive_is_recovered_exactly():
 
 
 def test_linearity_check_fails_on_a_non_linear_response():
-    result = diagnose_by_additions(_synthetic((0.3, -0.1, 0.015, 0.0), quadratic_a=0.01),
+    # sensor a's offset transfer moves by 0.2·q = 0.004 N·m/A between +0.2 and +0.4 A, 6 % of
+    # itself: beyond the stated 1 % linearity tolerance's 99.9 % limit (≈ 3.7 %)
+    result = diagnose_by_additions(_synthetic((0.3, -0.1, 0.015, 0.0), quadratic_a=0.02),
                                    tolerance_pu=0.0)
     check = next(c for c in result.linearity if c["addition"] == "addition_ia_offset_a")
     assert not check["linear"]
@@ -171,6 +174,83 @@ def test_linearity_check_fails_on_a_non_linear_response():
     noisy = diagnose_by_additions(_synthetic((0.3, -0.1, 0.015, 0.0), quadratic_a=1e-6,
                                              sigma=1e-5), tolerance_pu=0.0)
     assert all(c["linear"] for c in noisy.linearity)
+
+
+def _gain_sizes(turn_deg: float, stretch: float, sigma: float = 2e-6):
+    """Spectra (p = 2, +1000 rpm, 20 A) of a base and +1 %, +2 % gain on sensor a whose second
+    step's transfer is turned by ``turn_deg`` and scaled by ``stretch`` against the first."""
+    def spectrum(label, c4, addition):
+        c = np.zeros(30, dtype=complex)
+        c[0], c[4] = 1.0, c4
+        s = OrderSpectrum(label=label, speed_rpm=1000.0, current_a=20.0, current_angle_rad=0.0,
+                          pole_pairs=2, coefficients_nm=c, sigma_nm=np.full(30, sigma),
+                          revolutions=8)
+        return with_addition(s, dict(addition, label=label))
+    base = 0.5 * np.exp(-0.6j) * 0.01
+    h1, h2 = H_G, H_G * stretch * np.exp(1j * math.radians(turn_deg))
+    return [spectrum("base", base, {}),
+            spectrum("g+1%", base + h1 * 0.01 / 1.01, {"addition_gain_a_pu": 0.01}),
+            spectrum("g+2%", base + h2 * 0.02 / 1.02, {"addition_gain_a_pu": 0.02})]
+
+
+def test_linearity_tolerance_passes_a_negligible_turn_and_fails_a_real_one(monkeypatch):
+    """The validity study's correct drives: two gain sizes' transfers 0.6° apart and 0.1 % in
+    magnitude, with a 1 % addition tolerance (a scale error along the transfer) and a small type
+    A across it. Without a linearity tolerance the difference's near-degenerate covariance
+    called that "not linear"; with the stated 1 %/1° it is linear. A 5° turn or an 8 % stretch
+    between the sizes (along the transfer the two additions' own 1 % also count) is still not
+    linear."""
+    def check(turn_deg, stretch):
+        result = diagnose_by_additions(_gain_sizes(turn_deg, stretch), tolerance_pu=0.01)
+        return next(c for c in result.linearity if c["addition"] == "addition_gain_a_pu")
+
+    negligible = check(0.6, 0.999)
+    assert negligible["linear"], negligible["statement"]
+    assert negligible["linearity_tolerance"]["magnitude_rel"] == pytest.approx(0.01)
+    for turn_deg, stretch in ((5.0, 1.0), (0.0, 1.08)):
+        bad = check(turn_deg, stretch)
+        assert not bad["linear"]
+        assert "linearity tolerance 1 % in magnitude and 1° in phase" in bad["statement"]
+    monkeypatch.setattr(additions_module, "LINEARITY_TOLERANCE", {})
+    assert not check(0.6, 0.999)["linear"]      # the defect this tolerance fixes
+
+
+def test_a_transfer_whose_model_region_refuses_the_point_is_not_compared(twin):
+    """The plan's region refusal (e.g. no voltage headroom for the dead time at the point):
+    recorded "not compared: <reason>", neither agreeing nor disagreeing; the others judged."""
+    config, pairs = twin
+    result = diagnose_by_additions(_spectra(pairs), setup=twin_setup(config))
+    reason = "the dead_time model's validity region refuses the point: voltage headroom"
+    checks = compare_transfers_with_models(
+        result, twin_setup(config), config.transducer.accuracy_class_pct,
+        refusal=lambda t: reason if t["addition"] == "addition_dead_time_s" else None)
+    dead = [c for c in checks if c["addition"] == "addition_dead_time_s"]
+    assert dead and all(not c["compared"] and c["agrees"] is None for c in dead)
+    assert all(c["statement"].endswith("not compared: " + reason) for c in dead)
+    others = [c for c in checks if c["addition"] != "addition_dead_time_s"]
+    assert others and all(c["compared"] and c["agrees"] for c in others), \
+        [c["statement"] for c in others]
+
+
+def test_plan_refuses_the_dead_time_model_where_its_region_does(tmp_path):
+    """testplans/test_diagnosis.model_refusal on the validity study's motors: the 2-pole 24 V
+    motor has no voltage headroom for +1 µs dead time at +1000 rpm, 20 A (the dead-time plan's
+    region refuses it); Table I has, in both directions; the offsets' region holds on both."""
+    from hil.config import load_bench
+    from studies.validity import bench_copy
+    from ripple_hil_testplans.test_diagnosis import model_refusal
+
+    def transfer(key, speed, size):
+        return {"addition": key, "sizes": [size], "speed_rpm": speed, "current_a": 20.0,
+                "current_angle_rad": 0.0}
+    p2 = model_refusal(load_bench(bench_copy("p2_24v", 250.0, 10.0, tmp_path)))
+    table_i = model_refusal(load_bench(bench_copy("table_i", 500.0, 10.0, tmp_path)))
+    reason = p2(transfer("addition_dead_time_s", 1000.0, 1e-6))
+    assert reason and "dead_time model's validity region" in reason and "voltage headroom" \
+        in reason
+    assert table_i(transfer("addition_dead_time_s", 1000.0, 1e-6)) is None
+    assert table_i(transfer("addition_dead_time_s", -1000.0, 1e-6)) is None
+    assert p2(transfer("addition_ia_offset_a", 1000.0, 0.4)) is None
 
 
 def test_refusals_and_detection():
@@ -200,6 +280,29 @@ def test_versus_fit_flags_a_disagreement():
     swapped = compare_with_fit(result, Fit({"ia_offset_a": (-0.1, 0.002),
                                             "ib_offset_a": (0.3, 0.002)}))
     assert [r["agrees"] for r in swapped if r["compared"]] == [False, False]
+
+
+def test_versus_fit_limit_is_family_wise():
+    """Bonferroni over the comparisons made: z = −3.4 disagrees when it is the only comparison
+    (limit 3.29) and agrees among four (limit 3.66); z = −4 disagrees among four."""
+    class Stated:
+        def __init__(self, values):
+            self.values = values
+
+        def value(self, name):
+            return self.values.get(name)
+    others = {"ia_offset_a": (0.1, 0.01), "ib_offset_a": (0.1, 0.01), "gain_k_diff": (0.01, 0.001)}
+
+    def dead_time(z, with_others):
+        mine = Stated(({**others} if with_others else {}) | {"dead_time_us": (z * 0.05, 0.05)})
+        theirs = Stated(({**others} if with_others else {}) | {"dead_time_us": (0.0, 0.0)})
+        rows = compare_with_fit(mine, theirs)
+        return next(r for r in rows if r["name"] == "dead_time_us")
+    alone, among = dead_time(-3.4, False), dead_time(-3.4, True)
+    assert alone["limit_z"] == pytest.approx(3.29, abs=0.01) and not alone["agrees"]
+    assert among["comparisons_in_family"] == 4 and among["limit_z"] == pytest.approx(3.66, abs=0.01)
+    assert among["agrees"]
+    assert not dead_time(-4.0, True)["agrees"]
 
 
 def test_a_recorded_injection_maps_to_one_addition():
