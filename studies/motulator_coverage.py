@@ -210,6 +210,8 @@ def with_additions(spec: dict) -> dict:
 def replay_rows(work: Path, use_cli: bool | None, pwm_model: str, *,
                 simulate: bool = True) -> list[dict]:
     """Issue 23's table rows and the angle-reference cases on its fixed drive."""
+    if not simulate and not (work / "replay2" / "truth.json").is_file():
+        return []                                     # that run has no (finished) replay
     three = [(500.0, 20.0), (1000.0, 20.0), (1000.0, 10.0)]
     cases = [("500 + 1000 rpm at 20 A, + 1000 rpm at 10 A", issue23_drive(
                  dead_time_s=0.0, points=three, pwm_model=pwm_model)),
@@ -271,7 +273,9 @@ def report(args, cases, replay, wall, use_cli) -> str:
              f"Run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: `PYTHONPATH=. "
              f".venv/bin/python studies/motulator_coverage.py --drives {args.drives} "
              f"--seed {args.seed} --pwm-model {args.pwm_model}"
-             f"{' --additions' if args.additions else ''}` ({wall:.0f} s wall). Diagnosis "
+             f"{' --additions' if args.additions else ''}"
+             f"{' --captures-from ' + args.captures_from if args.captures_from else ''}` "
+             f"({wall:.0f} s wall). Diagnosis "
              f"through {'`hil diagnose --manifest --json`' if use_cli else 'the bridge (no `--manifest` in this tree yet: manifest read by the study, angle rotated by the stated reference, `hil.diagnosis.diagnose` with the manifest loop)'}.",
              "", "covered: |est − truth| ≤ U (k = 2); confident wrong: |est − truth| > 3U with "
              f"U < {SMALL_U_SHARE:.0%} of the drawn range (offsets 0.15 A, k_a − k_b 2 %, dead "
@@ -346,15 +350,19 @@ def main(argv=None) -> int:
                           pwm_model=args.pwm_model) for _ in range(args.drives)]
     if args.additions:
         specs = [with_additions(s) for s in specs]
+    folders = []
     if not simulate:
-        folders = sorted(work.glob("drive[0-9][0-9][0-9]"))
+        folders = sorted(f for f in work.glob("drive[0-9][0-9][0-9]")
+                         if (f / "truth.json").is_file())     # finished drives only
         specs = [json.loads((f / "truth.json").read_text())["spec"] for f in folders]
         args.drives = len(specs)
     started = time.perf_counter()
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        cases = list(pool.map(lambda item: run_drive(item[1], work / f"drive{item[0]:03d}",
-                                                     use_cli, simulate=simulate),
-                              enumerate(specs)))
+        targets = ([work / f"drive{i:03d}" for i in range(len(specs))] if simulate
+                   else folders)
+        cases = list(pool.map(lambda item: run_drive(item[1], item[0], use_cli,
+                                                     simulate=simulate),
+                              zip(targets, specs)))
     replay = [] if args.no_replay else replay_rows(work, use_cli, args.pwm_model,
                                                    simulate=simulate)
     wall = time.perf_counter() - started
