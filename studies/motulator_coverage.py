@@ -334,6 +334,9 @@ def main(argv=None) -> int:
     parser.add_argument("--mech-revolutions", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=2, help="drives simulated at once")
     parser.add_argument("--no-replay", action="store_true")
+    parser.add_argument("--start", type=int, default=0, metavar="K",
+                        help="simulate only drives K.. of the seed's sequence (to share a run "
+                             "between processes; join them with --captures-from)")
     parser.add_argument("--work", default=None, help="folder for the captures (default: a "
                         "temporary folder under /tmp)")
     parser.add_argument("--write", default=str(RESULTS), help="markdown result file ('' = none)")
@@ -358,8 +361,11 @@ def main(argv=None) -> int:
         args.drives = len(specs)
     started = time.perf_counter()
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        targets = ([work / f"drive{i:03d}" for i in range(len(specs))] if simulate
-                   else folders)
+        if simulate:
+            targets = [work / f"drive{i:03d}" for i in range(args.start, len(specs))]
+            specs = specs[args.start:]
+        else:
+            targets = folders
         cases = list(pool.map(lambda item: run_drive(item[1], item[0], use_cli,
                                                      simulate=simulate),
                               zip(targets, specs)))
