@@ -48,7 +48,8 @@ from independent import run as independent  # noqa: E402  (studies/ put on sys.p
 
 needs_motulator = pytest.mark.skipif(
     not independent.available(),
-    reason=f"{independent.VENV_PYTHON} absent: run .ci/setup-motulator (needs Python 3.12/3.13)")
+    reason=f"{independent.VENV_PYTHON.parent.parent} absent or unfinished: run "
+           ".ci/setup-motulator (needs Python 3.12/3.13)")
 
 TRUTH = {"hidden": {"ia_offset_a": 0.2, "ib_offset_a": -0.15, "ia_gain_error_pu": 0.0,
                     "ib_gain_error_pu": 0.0, "dead_time_s": 1e-6}}
@@ -99,7 +100,8 @@ def _offsets_drive() -> dict:
 @pytest.fixture(scope="module")
 def offsets_captures(tmp_path_factory):
     if not independent.available():
-        pytest.skip(f"{independent.VENV_PYTHON} absent: run .ci/setup-motulator")
+        pytest.skip(f"{independent.VENV_PYTHON.parent.parent} absent or unfinished: run "
+                    ".ci/setup-motulator")
     out = tmp_path_factory.mktemp("motulator_offsets")
     independent.generate(_offsets_drive(), out)
     return out
