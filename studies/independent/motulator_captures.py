@@ -47,7 +47,9 @@ What is motulator's and what is added here
   (``PWM``: min/max zero-sequence injection). The only part replaced is the *reference*
   generation: :class:`FixedCurrentReference` commands the operating point's current vector
   (amplitude, angle φ: i_d = −I·sin φ, i_q = I·cos φ, the current lagging the EMF by φ as in
-  paper eq 4) instead of motulator's torque-to-current MTPA generator.
+  paper eq 4) instead of motulator's torque-to-current MTPA generator. The manifest states the
+  loop in the bench file's vocabulary (:data:`STATED_DESIGN`): the continuous design as "2dof"
+  with angle compensation, the discrete one as "unknown"; bandwidth and delay 1.5·T_s as built.
 
 Output per operating point (``OUT_DIR/<label>.csv``): one row per PWM (carrier) period —
 ``time_s`` (the period's centre), ``torque_nm`` (motulator's electromagnetic torque ``tau_M``
