@@ -224,28 +224,43 @@ def replay_rows(work: Path, use_cli: bool | None, pwm_model: str, *,
         result = run_drive(spec, work / f"replay{index}", use_cli, simulate=simulate)
         result["title"] = title
         out.append(result)
-    # the capture as exported: same captures as row 1, the manifest without the reference
+    # the capture as exported (torque + angle): same captures as row 1, with and without the
+    # reference; and not stated but with the phase currents (the diagnosis may measure it)
     source = work / "replay0"
-    unstated = work / "replay0_unstated"
-    unstated.mkdir(parents=True, exist_ok=True)
-    for path in source.iterdir():
-        text = path.read_text()
-        if path.name == "manifest.toml":
-            text = "\n".join(line for line in text.splitlines()
-                             if not line.startswith("emf_a_rising_zero_elec_deg")) + "\n"
-        (unstated / path.name).write_text(text)
     truth = json.loads((source / "truth.json").read_text())
-    for title, folder in (("as exported, angle reference stated", source),
-                          ("as exported, angle reference NOT stated", unstated)):
+    for title, reference, currents in (
+            ("as exported, angle reference stated", True, False),
+            ("as exported, angle reference NOT stated", False, False),
+            ("reference NOT stated, phase currents in the CSV", False, True)):
+        folder = export_copy(source, work / f"replay0_{'stated' if reference else 'unstated'}"
+                             f"{'_currents' if currents else ''}", reference=reference,
+                             currents=currents)
         try:
-            diagnosis = diagnose_manifest(folder / "manifest.toml", use_cli=use_cli)
+            diagnosis = diagnose_manifest(folder, use_cli=use_cli)
         except Exception as exc:  # noqa: BLE001
             out.append({"title": title, "error": f"{type(exc).__name__}: {exc}", "checks": []})
             continue
         out.append({"title": title, "checks": check(diagnosis, truth), "diagnosis": diagnosis,
-                    "truth": truth, "angle_case": True,
-                    "reference_stated": folder == source})
+                    "truth": truth, "angle_case": True, "reference_stated": reference})
     return out
+
+
+def export_copy(source: Path, target: Path, *, reference: bool, currents: bool) -> Path:
+    """A copy of a capture folder as another bench would export it: the manifest with or
+    without its ``emf_a_rising_zero_elec_deg`` line, the CSVs with or without the phase-current
+    columns (torque and angle only). Returns the copy's manifest."""
+    target.mkdir(parents=True, exist_ok=True)
+    for path in source.iterdir():
+        text = path.read_text()
+        if path.name == "manifest.toml" and not reference:
+            text = "\n".join(line for line in text.splitlines()
+                             if not line.startswith("emf_a_rising_zero_elec_deg")) + "\n"
+        elif path.suffix == ".csv" and not currents:
+            rows = [line.split(",") for line in text.splitlines()]
+            keep = [i for i, name in enumerate(rows[0]) if name not in ("ia_a", "ib_a", "ic_a")]
+            text = "\n".join(",".join(row[i] for i in keep) for row in rows) + "\n"
+        (target / path.name).write_text(text)
+    return target / "manifest.toml"
 
 
 def signed_calibration(diagnosis: dict) -> dict:

@@ -107,18 +107,14 @@ def offsets_captures(tmp_path_factory):
     return out
 
 
-def _restate(folder: Path, target: Path, line: str | None) -> Path:
-    """A copy of the captures whose manifest states ``line`` for the angle reference (None:
-    the line dropped)."""
+def _restate(folder: Path, target: Path, line: str) -> Path:
+    """A copy of the captures whose manifest states ``line`` for the angle reference."""
     target.mkdir(parents=True, exist_ok=True)
     for path in folder.iterdir():
         text = path.read_text()
         if path.name == "manifest.toml":
-            text = "\n".join((line if line is not None else None)
-                             if row.startswith("emf_a_rising_zero_elec_deg") else row
-                             for row in text.splitlines()
-                             if line is not None or not row.startswith("emf_a_rising"))
-            text += "\n"
+            text = "\n".join(line if row.startswith("emf_a_rising_zero_elec_deg") else row
+                             for row in text.splitlines()) + "\n"
         (target / path.name).write_text(text)
     return target / "manifest.toml"
 
@@ -150,8 +146,11 @@ def test_angle_reference_measured_and_signs(offsets_captures, tmp_path):
 @pytest.mark.xfail(strict=True, reason="issue 23 item 0: needs `hil diagnose --manifest` "
                    "(helper diagin) refusing signed calibration without an angle reference")
 def test_unstated_reference_gives_no_signed_calibration(offsets_captures, tmp_path):
-    manifest = _restate(offsets_captures, tmp_path / "unstated", None)
+    # as another bench exports it: torque and angle only, no reference stated
+    manifest = study.export_copy(offsets_captures, tmp_path / "unstated", reference=False,
+                                 currents=False)
     assert "emf_a_rising" not in manifest.read_text()
+    assert "ia_a" not in next(manifest.parent.glob("*.csv")).read_text().splitlines()[0]
     diagnosis = study.diagnose_manifest(manifest)
     calibration = study.signed_calibration(diagnosis)
     assert calibration["ia_offset_correction_a"] is None
