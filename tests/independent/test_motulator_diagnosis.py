@@ -16,6 +16,10 @@ What each test proves:
   fit changes land): 3 random drives (both motors, both loop designs), every identifiable
   estimate within U or at most one miss, and no confident wrong answer.
 
+Both xfail markers were checked against main + h-diagin + h-diagfit + h-additions merged (with
+diagin's manifest accepting "2dof" and its pwm_frequency_hz double keyword fixed): both tests
+pass there (XPASS → strict failure), so the markers go when those branches merge.
+
 The motulator tests skip ONLY when ``.venv-motulator`` is absent (``.ci/setup-motulator``
 creates it; it needs Python 3.12/3.13), with that reason. They use motulator's averaged PWM
 model (ZOH, 20 kHz, double update) and 2 mechanical revolutions per capture to stay under
