@@ -148,6 +148,8 @@ def check(diagnosis: dict, truth: dict) -> list[dict]:
         row = {"name": name, "hidden": hidden[name]}
         if p is None or not p.get("identifiable") or p.get("estimate") is None:
             row["identifiable"] = False
+        elif p.get("sign_identifiable") is False:   # angle reference unknown: no signed value
+            row |= {"identifiable": False, "sign_unknown": True}
         else:
             est, u = p["estimate"], p["expanded_uncertainty"]
             err = abs(est - hidden[name])
@@ -272,7 +274,7 @@ def signed_calibration(diagnosis: dict) -> dict:
 # ------------------------------------------------------------------------------ report
 def _cell(row: dict, scale: float = 1.0, unit: str = "") -> str:
     if not row["identifiable"]:
-        return "not identifiable"
+        return "sign not identifiable" if row.get("sign_unknown") else "not identifiable"
     mark = "✔" if row["covered"] else ("✘ confident wrong" if row["confident_wrong"] else "✘")
     return (f"{row['estimate'] * scale:+.4g} ± {row['U'] * scale:.2g}{unit} {mark} "
             f"(truth {row['hidden'] * scale:+.4g})")

@@ -77,6 +77,13 @@ def test_check_flags_a_confident_wrong_estimate_and_passes_a_covered_one():
     assert not rows["dead_time_us"]["covered"] and not rows["dead_time_us"]["confident_wrong"]
 
 
+def test_check_unsigned_estimate_is_not_judged():
+    diagnosis = _diag(ia_offset_a=(-0.2, 0.003))
+    diagnosis["parameters"][0]["sign_identifiable"] = False      # angle reference unknown
+    row = study.check(diagnosis, TRUTH)[0]
+    assert row["identifiable"] is False and row["sign_unknown"]
+
+
 def test_check_wide_interval_is_never_confident_wrong():
     # 0.5 A off with U 0.16 A (> 25 % of the 0.6 A range): wrong, but U is not small
     rows = {r["name"]: r for r in study.check(_diag(ia_offset_a=(0.7, 0.16)), TRUTH)}
