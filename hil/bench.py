@@ -90,6 +90,9 @@ class Bench:
         self.torque = torque
         self.simulated = simulated
         self.safe_state_reports: list[SafeStateReport] = []
+        #: the angle reference the self-check measured (hil.selfcheck.emf_angle_reference), as
+        #: capture meta keys; every later capture of the run records it (hil.measurement)
+        self.angle_reference_meta: dict = {}
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod

@@ -28,6 +28,7 @@ ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi}
 TORQUE_UNITS = {"nm": 1.0, "mnm": 1e-3, "ncm": 1e-2, "kgfm": 9.80665, "lbfin": 0.1129848290276167,
                 "lbfft": 1.3558179483314004, "ozfin": 0.007061551814226}
 SPEED_UNITS = {"rpm": 1.0, "rad/s": 60.0 / (2.0 * math.pi), "hz": 60.0}
+CURRENT_UNITS = {"a": 1.0, "ma": 1e-3}
 ANGLE_KINDS = ("mech", "elec")
 
 
@@ -93,10 +94,12 @@ def import_capture(path: str | Path, *, time_col: str, torque_col: str,
                    angle_col: str | None = None, speed_col: str | None = None,
                    time_unit: str = "s", torque_unit: str = "nm", angle_unit: str = "rad",
                    speed_unit: str = "rpm", angle_kind: str = "mech",
-                   pole_pairs: int) -> Capture:
+                   pole_pairs: int, ia_col: str | None = None, ib_col: str | None = None,
+                   current_unit: str = "a") -> Capture:
     """A :class:`Capture` (SI channels, ``meta`` pole pairs and provenance) from a foreign file.
 
     Exactly one of ``angle_col`` (rotor angle) and ``speed_col`` (shaft speed) is needed.
+    ``ia_col``/``ib_col``: the phase currents a and b (channels ``ia_a``, ``ib_a``), optional.
     """
     if (angle_col is None) == (speed_col is None):
         raise InputError("give the rotor angle (--angle-col) or the speed (--speed-col), one of "
@@ -123,4 +126,83 @@ def import_capture(path: str | Path, *, time_col: str, torque_col: str,
         channels["speed_rpm"] = _column(columns, speed_col, "--speed-col") * _unit(
             "speed", SPEED_UNITS, speed_unit)
         provenance["speed"] = f"{speed_col} [{speed_unit}]"
+    for column, channel in ((ia_col, "ia_a"), (ib_col, "ib_a")):
+        if column is not None:
+            channels[channel] = _column(columns, column, f"--{channel[:2]}-col") * _unit(
+                "current", CURRENT_UNITS, current_unit)
+            provenance[channel] = f"{column} [{current_unit}]"
     return Capture(channels=channels, meta={"pole_pairs": pole_pairs, "imported": provenance})
+
+
+#: Column names tried, in order, when an import option does not name the column.
+DEFAULT_COLUMNS = {"time_col": ("time_s", "time", "t", "t_s"),
+                   "torque_col": ("torque_nm", "torque", "tau_m", "tau", "T_m"),
+                   "angle_col": ("rotor_angle_mech_rad", "theta_m_rad", "theta_m", "theta_mech",
+                                 "angle_mech_rad"),
+                   "elec_angle_col": ("theta_e_rad", "theta_e", "rotor_angle_elec_rad"),
+                   "ia_col": ("ia_a", "ia", "i_a"), "ib_col": ("ib_a", "ib", "i_b")}
+
+
+def is_ripple_hil_capture(path: Path) -> bool:
+    """True for a capture file written by :meth:`hil.capture.Capture.save`."""
+    if not path.is_file() or not zipfile.is_zipfile(path):
+        return False
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return "__header__.npy" in archive.namelist()
+    except (OSError, zipfile.BadZipFile):
+        return False
+
+
+def import_with_defaults(path: str | Path, *, pole_pairs: int, **options) -> Capture:
+    """:func:`import_capture` with the columns that ``options`` does not name found by their
+    usual names (:data:`DEFAULT_COLUMNS`); a missing torque or angle column is named."""
+    path = Path(path)
+    columns = read_columns(path)
+    have = ", ".join(sorted(columns)) or "no 1-D columns"
+
+    def pick(option: str) -> str | None:
+        return next((name for name in DEFAULT_COLUMNS[option] if name in columns), None)
+
+    options = dict(options)
+    for option, what in (("time_col", "time"), ("torque_col", "torque")):
+        if option not in options:
+            options[option] = pick(option)
+            if options[option] is None:
+                key = "time_column" if option == "time_col" else "torque_column"
+                raise InputError(f"{str(path)!r}: no {what} column (tried "
+                                 f"{', '.join(DEFAULT_COLUMNS[option])}; the file has: {have}); "
+                                 f"name it with {key} = \"...\" in the manifest")
+    if "angle_col" not in options and "speed_col" not in options:
+        if pick("angle_col"):
+            options["angle_col"] = pick("angle_col")
+        elif pick("elec_angle_col"):
+            options["angle_col"], options["angle_kind"] = pick("elec_angle_col"), "elec"
+        else:
+            tried = DEFAULT_COLUMNS["angle_col"] + DEFAULT_COLUMNS["elec_angle_col"]
+            raise InputError(f"{str(path)!r}: no rotor-angle column (tried {', '.join(tried)}"
+                             f"; the file has: {have}); the diagnosis needs the rotor angle "
+                             "(the torque's phase is referred to it): name it with "
+                             "angle_column = \"...\" and angle_kind = \"mech\" or \"elec\"")
+    for option in ("ia_col", "ib_col"):
+        if option not in options and pick(option):
+            options[option] = pick(option)
+    return import_capture(path, pole_pairs=pole_pairs, **options)
+
+
+def check_torque(capture: Capture, name: str) -> None:
+    """Refuse a capture whose torque channel is missing or holds NaN/inf samples, saying how
+    many and where."""
+    if "torque_nm" not in capture:
+        raise InputError(f"{name}: no torque channel 'torque_nm' (channels: "
+                         f"{', '.join(sorted(capture.channels))})")
+    torque = np.asarray(capture["torque_nm"], dtype=float)
+    bad = ~np.isfinite(torque)
+    if bad.any():
+        index = np.flatnonzero(bad)
+        column = (capture.meta.get("imported") or {}).get("torque", "torque_nm")
+        where = f"sample {index[0]}" + (f" (t = {float(capture['time_s'][index[0]]):.6g} s)"
+                                         if "time_s" in capture else "")
+        raise InputError(f"{name}: torque column {column} has {index.size} NaN/inf sample(s) of "
+                         f"{torque.size}, the first at {where}, the last at sample {index[-1]}; "
+                         "export the capture without gaps (or cut it to a span without them)")

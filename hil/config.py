@@ -139,6 +139,11 @@ class DaqConfig:
     parity: str = _key("E", "str", choices=DAQ_PARITIES)
     stopbits: int = _key(1, "int", choices=DAQ_STOPBITS)
     requests_in_flight: int = _key(8, "int", lo=1, hi=64)
+    #: The angle channel's electrical angle (degrees) at which phase a's back EMF crosses zero
+    #: going positive (the bench encoder's commutation offset; hil/diagnosis/README.md), when
+    #: known: the self-check measures it and fails when the two disagree beyond its uncertainty.
+    #: None: not stated (the self-check's measurement is recorded and used).
+    emf_a_rising_zero_elec_deg: float | None = _key(None, "float", lo=-180.0, hi=180.0)
 
     def _check(self, path: str, ctx: "_Context") -> None:
         need, other = (("host", "port"), ("serial_port", "baudrate")) if self.transport == "tcp" \

@@ -68,6 +68,11 @@ class PointPlan:
     #: in the entry's ``verdict`` as ``phase``; the verdict's decision is the worse of magnitude
     #: and phase (:func:`hil.analysis.decision.with_phase`), so a wrong phase fails the point.
     phase: Callable | None = field(default=None, compare=False)
+    #: False: the drive stays disabled (gates off, no current) while the dyno turns the motor —
+    #: the self-check's back-EMF angle reference (hil.selfcheck.emf_angle_reference)
+    drive_enabled: bool = True
+    #: DAQ channels captured besides those the analysis reads (e.g. ``vab_v``)
+    extra_channels: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -102,7 +107,7 @@ class PointPlan:
         transfer is the cost), plus the phase currents ``Bench.check_capture`` checks against
         the current limit."""
         return ("ia_a", "ib_a", "rotor_angle_mech_rad") + (
-            ("torque_nm",) if self.analysis == "torque" else ())
+            ("torque_nm",) if self.analysis == "torque" else ()) + tuple(self.extra_channels)
 
 
 @dataclass
@@ -194,7 +199,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                                 current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
             prediction = _predict(plan, op)
             nameplate_nm = op.mean_torque_nm
-            predicted_pu = prediction.pk_pk_nm / nameplate_nm
+            predicted_pu = judged_prediction_pu(prediction, plan.rule) * (
+                prediction.base_nm / nameplate_nm)
             order = int(round(prediction.order)) if prediction.order is not None else None
             if order is not None and order > plan.max_order:
                 raise InputError(f"{test_id}: predicted order {order} is above max_order "
@@ -276,7 +282,8 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
         bench.drive.set_injection(**plan.injection, current_angle_rad=plan.current_angle_rad)
         bench.daq.set_dyno_speed_rpm(plan.speed_rpm)
         bench.drive.set_current_command_a(plan.current_a)
-        bench.drive.enable()
+        if plan.drive_enabled:
+            bench.drive.enable()
         bench.check_health()
         failure = None
         try:
@@ -291,7 +298,8 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
             capture, failure = exc.capture, exc
         capture.meta.update(test_id=test_id, source=plan.source,
                             injection=dict(plan.injection), captured_utc=utc_now(),
-                            wall_time_unix_s=time.time())
+                            wall_time_unix_s=time.time(),
+                            **getattr(bench, "angle_reference_meta", {}))
         record.save_capture(test_id, capture)          # raw data first, before any check
         if failure is not None:
             raise failure
@@ -312,6 +320,18 @@ def _predict(plan: PointPlan, op: OperatingPoint) -> Prediction:
                           assumptions=["ideal sinusoidal PMSM and ideal controller: no ripple; "
                                        "what is measured is the bench's own floor"])
     return predict(plan.source, op, **plan.injection, **plan.prediction_params)
+
+
+def judged_prediction_pu(prediction: Prediction, rule: DecisionRule) -> float:
+    """The predicted value ``rule`` judges, per unit of ``prediction.base_nm``: the pk-pk, or
+    for a rule judging the named order's pk-pk (``hil.analysis.decision``) the prediction's
+    ``extras["order_pk_pk_pu"]`` (2·A_N of its waveform)."""
+    if rule.quantity == "named_order_pk_pk":
+        if "order_pk_pk_pu" not in prediction.extras:
+            raise InputError(f"the {prediction.source} prediction states no order_pk_pk_pu; its "
+                             "rule cannot judge the named order's pk-pk")
+        return float(prediction.extras["order_pk_pk_pu"])
+    return prediction.pk_pk_pu
 
 
 def predicted_order(plan: PointPlan, motor) -> int | None:

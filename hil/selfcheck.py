@@ -10,6 +10,10 @@ Run on one capture with nothing injected, at a point where the drive regulates i
 * **speed** — the speed from the encoder counts against the dyno setpoint: catches a wrong time
   base (dropped or duplicated samples) or encoder scaling;
 * **sampling** — the number of samples against the capture length × rate, uniform time base;
+* **angle reference** — with no current (drive disabled or at 0 A) and the dyno turning the motor,
+  the phase voltages are the back EMF: the electrical angle of phase a's back-EMF rising zero
+  crossing against the DAQ's angle channel (:func:`emf_angle_reference`), recorded for the
+  diagnosis (hil/diagnosis/README.md) and checked against the bench file's stated value;
 * **transducer dynamics** — one injected ripple order measured at two speeds: the ratio of the
   two phasors against the bench file's first-order transducer bandwidth (amplitude and phase;
   :func:`transducer_response`): catches a transducer that lags more than the bench file states.
@@ -158,3 +162,87 @@ def transducer_response(reference, response, order: int, *, reference_hz: float,
               f"{stated} (a 1 ms longer lag moves it by "
               f"{2 * math.pi * (response_hz - reference_hz) * 1e-3:.3f} rad)"),
     ]
+
+
+#: Line-to-line v_ab leads phase a's line-to-neutral voltage by 30° electrical.
+LINE_TO_LINE_LEAD_DEG = 30.0
+#: Largest standard uncertainty (degrees electrical) of a measured angle reference that passes.
+MAX_REFERENCE_U_DEG = 5.0
+
+
+def emf_angle_reference(capture: Capture, pole_pairs: int, *, speed_rpm: float,
+                        stated_elec_deg: float | None = None,
+                        encoder_counts_per_rev: int | None = None,
+                        channel_skew_bound_s: float | None = None) -> dict:
+    """The capture's angle reference from its voltage channels while no current flows: the
+    back EMF of phase a is e_a = s·E·sin(θ_c − ref) (s the sign of the speed; paper eq 7's e_a =
+    E·sin θ_e with the capture's electrical angle θ_c = θ_e + ref). Phase a's line-to-neutral
+    ``va_v``, else line-to-line ``vab_v`` (which leads it by 30°), is fitted per electrical
+    revolution on {cos θ_c, sin θ_c, 1}; ref = atan2(−s·A, s·B).
+
+    Standard uncertainty (degrees electrical): the scatter of the per-revolution values (type A),
+    the angle channel's quantisation (a count of ``encoder_counts_per_rev``, ×p electrical, /√12)
+    and the time skew between the voltage and the angle channels, bounded by
+    ``channel_skew_bound_s`` (default: one sample period — a multiplexed DAQ samples its channels
+    within one; a voltage averaged over a PWM period lags by up to half of one), rectangular:
+    360°·f_e·bound/√3 — measure at a low speed to make it small. It assumes no current flows
+    (with current, R·i + L·di/dt shifts the terminal voltage's phase).
+
+    A check dict (the record contract) with ``measured`` the reference in degrees and
+    ``u_elec_deg``; when ``stated_elec_deg`` (the bench file's value) is given it passes only when
+    the two agree within U = 2·u; either way only when the measurement is resolved
+    (u < :data:`MAX_REFERENCE_U_DEG`).
+    """
+    from hil.diagnosis.angle_reference import wrap_deg
+
+    if "va_v" in capture:
+        volts, lead_deg, channel = np.asarray(capture["va_v"], dtype=float), 0.0, "va_v"
+    elif "vab_v" in capture:
+        volts, lead_deg, channel = (np.asarray(capture["vab_v"], dtype=float),
+                                    LINE_TO_LINE_LEAD_DEG, "vab_v")
+    else:
+        return check("angle reference (back EMF)", math.nan, stated_elec_deg or 0.0, "deg", 0.0,
+                     "the capture has no voltage channel (va_v or vab_v): the back EMF's angle "
+                     "cannot be measured")
+    theta = np.unwrap(np.asarray(capture["rotor_angle_mech_rad"], dtype=float)) * pole_pairs
+    direction = 1.0 if speed_rpm >= 0 else -1.0
+    turns = np.floor((theta - theta[0]) * direction / (2 * math.pi))
+    values = []
+    for turn in np.unique(turns)[:-1]:
+        pick = turns == turn
+        if pick.sum() < 16:
+            continue
+        basis = np.column_stack([np.cos(theta[pick]), np.sin(theta[pick]), np.ones(pick.sum())])
+        (a, b, _), *_ = np.linalg.lstsq(basis, volts[pick], rcond=None)
+        values.append(math.atan2(-direction * a, direction * b))
+    if len(values) < 2:
+        return check("angle reference (back EMF)", math.nan, stated_elec_deg or 0.0, "deg", 0.0,
+                     "fewer than two electrical revolutions in the capture")
+    phasors = np.exp(1j * np.array(values))
+    mean = float(np.angle(phasors.mean()))
+    spread = np.angle(phasors * np.exp(-1j * mean))
+    u_a = math.degrees(float(np.std(spread, ddof=1)) / math.sqrt(spread.size))
+    u_q = (360.0 * pole_pairs / encoder_counts_per_rev / math.sqrt(12.0)
+           if encoder_counts_per_rev else 0.0)
+    time_s = np.asarray(capture["time_s"], dtype=float)
+    skew_s = (channel_skew_bound_s if channel_skew_bound_s is not None
+              else float(np.median(np.diff(time_s))))
+    elec_hz = abs(speed_rpm) / 60.0 * pole_pairs
+    u_skew = 360.0 * elec_hz * skew_s / math.sqrt(3.0)
+    u_deg = math.sqrt(u_a ** 2 + u_q ** 2 + u_skew ** 2)
+    measured = wrap_deg(math.degrees(mean) + lead_deg)
+    expected = measured if stated_elec_deg is None else float(stated_elec_deg)
+    diff = wrap_deg(measured - expected)
+    tolerance = 2.0 * u_deg if stated_elec_deg is not None else 0.0
+    out = check("angle reference (back EMF)", expected + diff, expected, "deg", tolerance,
+                f"phase a's back-EMF rising zero crossing at {measured:.4g}° ± {2 * u_deg:.2g}° "
+                f"(k = 2) of the angle channel's electrical angle, from {channel} over "
+                f"{len(values)} electrical revolutions" + (
+                    f"; the bench file states {stated_elec_deg:g}°" if stated_elec_deg is not None
+                    else "; the bench file states none"))
+    # resolved at all: a reference known to worse than 5° (u) cannot check or sign anything
+    out["passed"] = bool(u_deg < MAX_REFERENCE_U_DEG and (stated_elec_deg is None
+                                                         or out["passed"]))
+    out["u_elec_deg"] = u_deg
+    out["emf_a_rising_zero_elec_deg"] = measured
+    return out

@@ -12,9 +12,10 @@ What a region checks, in the order a refusal names it:
 2. **Speed** |n| within the range the model assumes (the encoder plan runs at its own 12 rpm).
 3. **Voltage headroom.** The peak phase voltage the inverter must give — the steady phasor with
    the signed speed (braking in reverse) plus the dead time's (4/π)·T_d·f_pwm·V_dc along the
-   current — within the SVPWM limit less the on-times the dead time swallows,
-   (V_dc/√3)·(1 − 2·T_d·f_pwm) (``hil.model.voltage``); beyond it the current is not regulated or
-   pulses are dropped, and no model of the paper applies.
+   current — within the SVPWM limit less the dead times every edge must keep inside the period,
+   (V_dc/√3)·(1 − 4·T_d·f_pwm) (``hil.model.voltage.linear_limit_v``, the one limit, its reason
+   there); beyond it the current is not regulated or the highest leg clips and its dead-time
+   error vanishes, and no model of the paper applies.
 4. **Capture.** The DAQ's rate and buffer, the Nyquist order of the analysed band
    (rate / (2·f_e) ≥ max_order). The PWM-switching plan adapts its capture instead: its DAQ rate
    and revolutions are derived from the speed and PWM frequency
@@ -74,12 +75,16 @@ REGIONS: dict[str, Region] = {
     "encoder": Region(
         braking=True, speed_rpm=(0.0, 60.0),
         why="eqs 7-9 are quasi-static (rotor stepped slowly, the loop settles within each encoder "
-            "step): the plan runs at +12 rpm whatever the bench's point; pk-pk per unit is "
-            "independent of the current, so low current is limited by the floor"),
+            "step): the plan runs at +12 rpm whatever the bench's point and judges the count "
+            "order's pk-pk 2·A_N (at standstill the current ADC's quantisation pattern, fixed in "
+            "θ, lifts the staircase's pk-pk but not A_N); per unit it is independent of the "
+            "current, so low current is limited by the floor"),
     "word_length": Region(
         braking=True,
         why="the truncation bias acts like a dc offset on both sensors (order 1), independent of "
-            "the EMF's sign; 12-bit ripple is near the floor at low current"),
+            "the EMF's sign; the computed-I_q errors reach the reading through the stated loop "
+            "and transducer (hil.model.word_length); 12-bit ripple is near the floor at low "
+            "current; a motor below the validated L/R is refused by the plan"),
     "dc_offset": Region(
         braking=True,
         why="eqs 15-20: the order-1 ripple depends on |I| and the offsets only, not on the EMF's "
@@ -91,18 +96,25 @@ REGIONS: dict[str, Region] = {
     "pwm_resolution": Region(
         braking=True,
         why="derived duty-quantisation model; reverse rotation is taken as braking "
-            "(hil.model.pwm_resolution.forward_phasor_peak_v)"),
+            "(hil.model.pwm_resolution.forward_phasor_peak_v); the noise check's range spans the "
+            "quantised loop's trials (where the references sit within a count is unknown) and "
+            "a counter whose U covers half its range is not determinable"),
     "pwm_switching": Region(
         braking=True, floor_fraction=None,
         why="switched-circuit torque under SVPWM; reverse rotation is braking (the forward-"
             "equivalent phasor of hil.model.pwm_resolution); the plan derives its DAQ rate from "
-            "the speed and PWM frequency (hil.analysis.switching.capture_settings) and refuses "
+            "the speed and PWM frequency (hil.analysis.switching.capture_settings, judged on "
+            "every window the capture holds) and refuses "
             "itself, with the reason, a point the DAQ cannot capture or whose U covers its "
             "acceptance zone"),
     "dead_time": Region(
         braking=True,
-        why="average-voltage model with the loop's rejection (signed electrical speed); the "
-            "order-6 ripple is small (0.2-1 %), so low current and 1 us reach the floor"),
+        why="current-clamping model (average leg error from the current at each leg's edges: "
+            "PWM ripple and zero-current clamping at the crossings, the stated loop and "
+            "transducer, signed speed: braking in reverse); needs every edge's dead time inside "
+            "the period (the voltage limit with 1 - 4*T_d*f_pwm); the order-6 ripple is small "
+            "(0.1-1 %) and, on a motor whose loop rejects order 6 at low electrical frequency "
+            "(2 poles, low speed), below what the bench resolves"),
     "baseline": Region(
         braking=True,
         why="nothing injected, judged against the 1 % ceiling; needs a regulated current"),
@@ -174,7 +186,8 @@ def voltage_problems(plan, config: BenchConfig) -> list[str]:
     if needed <= available:
         return []
     limit = ("V_dc/√3, SVPWM" if dead_time_s == 0 else
-             f"V_dc/√3·(1 − 2·T_d·f_pwm), SVPWM with on-times > {dead_time_s * 1e6:g} us")
+             f"V_dc/√3·(1 − 4·T_d·f_pwm), SVPWM whose every edge keeps its "
+             f"{dead_time_s * 1e6:g} us dead time within the period")
     return [f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
             f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us included) vs "
             f"{available:.2f} V ({limit})"]
@@ -228,6 +241,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
     """The bench floor against the rule's acceptance half-width at this point (docstring 5)."""
     from hil.measurement import BASELINE
     from hil.measurement import _predict as predict_plan   # the prediction measure_point judges
+    from hil.measurement import judged_prediction_pu
     from hil.model import OperatingPoint
 
     try:
@@ -242,7 +256,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
         predicted_pu, expected = 0.0, None
     else:
         scale = prediction.base_nm / nameplate_nm
-        predicted_pu = prediction.pk_pk_pu * scale
+        predicted_pu = judged_prediction_pu(prediction, plan.rule) * scale
         expected = (None if prediction.expected_range_pu is None else
                     tuple(v * scale for v in prediction.expected_range_pu))
     half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)

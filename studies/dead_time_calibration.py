@@ -1,7 +1,11 @@
 """Study: the dead-time models against the simulated drive, calibration and holdout sets.
 
 Run: ``.venv/bin/python studies/dead_time_calibration.py [--set calibration|holdout|both]
-[--quick]`` (both sets ≈ 30 s on one core; ``--quick``: every 4th point, for CI).
+[--quick] [--rel-tol 0.35 --phase-tol-deg 5 --a6-tol 0.15]`` (the plan's bands for the holdout) (both sets ≈ 30 s on one core; ``--quick``: every 4th point, for CI).
+
+Each point must lie in the plan's validity region first (``hil.model.voltage.linear_limit_v``
+and the bench floor against half the pk-pk acceptance half-width, ``hil.validity``); a point
+outside it is printed as refused and not judged, as the plan would refuse it.
 
 Every point is captured as the dead-time plan captures it (``hil.measurement.PointPlan``
 defaults: transducer torque, 8 electrical revolutions after 0.05 s, the plan's sample rate,
@@ -19,8 +23,8 @@ max (|m − p| + U − abs_tol)/p) and the largest phase error + U, then the sam
 holdout set and whether every holdout point passes with the calibration's tolerances.
 
 Sets (disjoint in motor, operating point and seed):
-* calibration: Table I (4 poles, 12 V, L/R 0.70 ms), 250/500/1000 rpm × 10/20/40 A, forward,
-  dead times 1, 2, 4 µs, seed 1;
+* calibration: Table I (4 poles, 12 V, L/R 0.70 ms), 250/500/1000 rpm × 10/20/40 A and
+  500/1000 rpm × 5 A, forward, dead times 1, 2, 4 µs, seed 1;
 * holdout: motor B (10 poles, 48 V, 0.12 Ω, 400 µH: L/R 3.3 ms) and motor C (2 poles, 24 V,
   0.4 Ω, 80 µH: L/R 0.20 ms) at other speeds and currents, both directions, dead times 1.5, 3 µs,
   seeds 11.., plus Table I at reverse rotation and other points.
@@ -38,8 +42,9 @@ from hil.analysis import InstrumentUncertainty, analyze_torque
 from hil.errors import InputError
 from hil.measurement import PointPlan
 from hil.model import OperatingPoint, predict
-from hil.model.dead_time import dead_time_linear_voltage_limit_v, dead_time_voltage_command_v
+from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
 from hil.motor import TABLE_I, MotorParameters
+from hil.validity import FLOOR_COUNTS, FLOOR_FRACTION, acceptance_half_width_pu
 from hil.sim import DriveConfig, DriveTwin, MotorModel, TransducerModel
 
 PWM_HZ = 20_000.0
@@ -49,6 +54,8 @@ TRANSDUCER_HZ = 1000.0
 ABS_TOL_PU = 0.001
 INSTRUMENTS = InstrumentUncertainty(transducer_accuracy_class_pct=0.1,
                                     transducer_full_scale_nm=5.0)
+#: the simulated bench's torque resolution, N·m (hil/examples/sim-bench.toml): the region's floor
+TORQUE_RESOLUTION_NM = 0.0005
 
 MOTOR_B = MotorParameters(pole_count=10, dc_bus_v=48.0, phase_resistance_ohm=0.12,
                           phase_inductance_h=400e-6, max_reactance_ohm=0.5,
@@ -69,8 +76,11 @@ class Point:
 
 
 def calibration_set() -> list[Point]:
-    return [Point("TableI", s, i, t, 1) for s in (250.0, 500.0, 1000.0)
-            for i in (10.0, 20.0, 40.0) for t in (1e-6, 2e-6, 4e-6)]
+    """Table I forward, seed 1: 250/500/1000 rpm × 10/20/40 A, and 5 A at 500/1000 rpm (low
+    current, where the PWM ripple's dead zone at the crossings matters), × 1/2/4 µs."""
+    points = [(s, i) for s in (250.0, 500.0, 1000.0) for i in (10.0, 20.0, 40.0)]
+    points += [(500.0, 5.0), (1000.0, 5.0)]
+    return [Point("TableI", s, i, t, 1) for s, i in points for t in (1e-6, 2e-6, 4e-6)]
 
 
 def holdout_set() -> list[Point]:
@@ -123,11 +133,21 @@ def evaluate(point: Point) -> dict | None:
     except InputError as exc:
         print(f"  {point}: refused by the model ({exc})")
         return None
-    command = dead_time_voltage_command_v(op, point.dead_time_s, PWM_HZ)
-    limit = dead_time_linear_voltage_limit_v(point.dead_time_s, PWM_HZ, op.dc_bus_v)
-    if command > limit:
-        print(f"  {point}: refused, voltage command {command:.2f} V > {limit:.2f} V "
-              "(dead-time edges dropped)")
+    needed = inverter_voltage_needed_v(motor, point.speed_rpm, point.current_a, 0.0,
+                                       dead_time_s=point.dead_time_s, pwm_frequency_hz=PWM_HZ)
+    limit = linear_limit_v(motor.dc_bus_v, point.dead_time_s, PWM_HZ)
+    if needed > limit:
+        print(f"  {point}: refused (the plan's region), needs {needed:.2f} V > {limit:.2f} V "
+              "(hil.model.voltage.linear_limit_v)")
+        return None
+    from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE
+
+    floor_pu = FLOOR_COUNTS * TORQUE_RESOLUTION_NM / op.mean_torque_nm
+    half_width = acceptance_half_width_pu(DEAD_TIME_RULE, clamping.pk_pk_nm / op.mean_torque_nm,
+                                          None)
+    if floor_pu > FLOOR_FRACTION * half_width:
+        print(f"  {point}: refused (the plan's region), floor {100 * floor_pu:.3f} % > "
+              f"{FLOOR_FRACTION} x half-width {100 * half_width:.3f} %")
         return None
     plan = PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
                      speed_rpm=point.speed_rpm, current_a=point.current_a)
@@ -137,7 +157,10 @@ def evaluate(point: Point) -> dict | None:
     expanded = result.uncertainty.expanded_pu * abs(result.mean_torque_nm) / nameplate
     amp6 = result.amplitude_nm[5]
     phase_u = 2.0 * result.amplitude_u_nm[5] / amp6 if amp6 > 0 else math.inf
+    amp6_predicted = clamping.extras["order6_amplitude_pu"] * abs(clamping.base_nm)
     return {"point": point, "measured": measured, "U": expanded,
+            "a6_ratio": amp6 / amp6_predicted,
+            "a6_U_rel": 2.0 * result.amplitude_u_nm[5] / amp6_predicted,
             "six_step": six_step.pk_pk_nm / nameplate,
             "clamping": clamping.pk_pk_nm / nameplate,
             "phase_measured": result.phase_rad[5],
@@ -145,36 +168,46 @@ def evaluate(point: Point) -> dict | None:
             "phase_U": phase_u}
 
 
-def report(name: str, rows: list[dict], rel_tol: float | None, phase_tol: float | None):
+def report(name: str, rows: list[dict], rel_tol: float | None, phase_tol: float | None,
+           a6_tol: float | None = None):
     print(f"\n== {name}: {len(rows)} points (pk-pk % of nameplate; phase deg) ==")
     print(f"{'motor':>6} {'rpm':>7} {'A':>5} {'Td us':>5} {'meas':>7} {'U':>6} {'6-step':>7} "
-          f"{'ratio':>6} {'clamp':>7} {'ratio':>6} {'ph meas':>8} {'ph pred':>8} {'U':>6}")
-    needed, phase_needed, fails = [], [], []
+          f"{'ratio':>6} {'clamp':>7} {'ratio':>6} {'ph meas':>8} {'ph pred':>8} {'U':>6} "
+          f"{'A6 m/p':>6} {'U':>5}")
+    needed, phase_needed, a6_needed, fails = [], [], [], []
     for r in rows:
         p = r["point"]
         err = abs(r["measured"] - r["clamping"])
         needed.append((err + r["U"] - ABS_TOL_PU) / r["clamping"])
         dphi = abs(wrap(r["phase_measured"] - r["phase_predicted"]))
         phase_needed.append(dphi + r["phase_U"])
+        a6_needed.append(abs(r["a6_ratio"] - 1.0) + r["a6_U_rel"])
         print(f"{p.motor:>6} {p.speed_rpm:7g} {p.current_a:5g} {1e6 * p.dead_time_s:5g} "
               f"{100 * r['measured']:7.3f} {100 * r['U']:6.3f} {100 * r['six_step']:7.3f} "
               f"{r['measured'] / r['six_step']:6.2f} {100 * r['clamping']:7.3f} "
               f"{r['measured'] / r['clamping']:6.2f} {math.degrees(r['phase_measured']):8.1f} "
-              f"{math.degrees(r['phase_predicted']):8.1f} {math.degrees(r['phase_U']):6.1f}")
+              f"{math.degrees(r['phase_predicted']):8.1f} {math.degrees(r['phase_U']):6.1f} "
+              f"{r['a6_ratio']:6.3f} {r['a6_U_rel']:5.3f}")
+        a6_fails = (a6_tol is not None and a6_tol > r["a6_U_rel"]
+                    and abs(r["a6_ratio"] - 1.0) > a6_tol - r["a6_U_rel"])
         if rel_tol is not None and (err > rel_tol * r["clamping"] + ABS_TOL_PU - r["U"]
-                                    or dphi > phase_tol - r["phase_U"]):
+                                    or dphi > phase_tol - r["phase_U"] or a6_fails):
             fails.append(p)
     ratios = [r["measured"] / r["clamping"] for r in rows]
     six = [r["measured"] / r["six_step"] for r in rows]
+    a6 = [r["a6_ratio"] for r in rows]
     print(f"measured/current-clamping: {min(ratios):.2f} … {max(ratios):.2f}; "
-          f"measured/six-step: {min(six):.2f} … {max(six):.2f}")
+          f"measured/six-step: {min(six):.2f} … {max(six):.2f}; order-6 amplitude "
+          f"measured/model: {min(a6):.3f} … {max(a6):.3f}")
     print(f"rel_tol needed for a guarded pass of every point: {max(needed):.3f}; "
-          f"phase tolerance needed (|Δφ| + U): {math.degrees(max(phase_needed)):.1f} deg")
+          f"phase tolerance needed (|Δφ| + U): {math.degrees(max(phase_needed)):.1f} deg; "
+          f"order-6 amplitude tolerance needed (|A6 ratio − 1| + U): {max(a6_needed):.3f}")
     if rel_tol is not None:
-        print(f"with rel_tol {rel_tol:.2f} and phase tolerance {math.degrees(phase_tol):.0f} deg "
-              f"from the calibration: {len(rows) - len(fails)}/{len(rows)} holdout points pass"
+        print(f"with rel_tol {rel_tol:.2f}, phase tolerance {math.degrees(phase_tol):.0f} deg and "
+              f"order-6 amplitude ±{a6_tol:.2f} (the calibration's, or the options given): "
+              f"{len(rows) - len(fails)}/{len(rows)} holdout points pass"
               + "".join(f"\n  FAILS: {p}" for p in fails))
-    return max(needed), max(phase_needed)
+    return max(needed), max(phase_needed), max(a6_needed)
 
 
 def main() -> int:
@@ -184,21 +217,27 @@ def main() -> int:
     parser.add_argument("--rel-tol", type=float, default=None,
                         help="judge the holdout with this rel_tol (default: the calibration's)")
     parser.add_argument("--phase-tol-deg", type=float, default=None)
+    parser.add_argument("--a6-tol", type=float, default=None,
+                        help="order-6 amplitude band for the holdout (default: the calibration's)")
     args = parser.parse_args()
     step = 4 if args.quick else 1
     rel_tol, phase_tol = args.rel_tol, (math.radians(args.phase_tol_deg)
                                         if args.phase_tol_deg else None)
     if args.set in ("calibration", "both"):
         rows = [r for r in map(evaluate, calibration_set()[::step]) if r]
-        cal_rel, cal_phase = report("calibration (Table I, forward, seed 1)", rows, None, None)
+        cal_rel, cal_phase, cal_a6 = report("calibration (Table I, forward, seed 1)", rows, None,
+                                            None)
         rel_tol = rel_tol if rel_tol is not None else cal_rel
         phase_tol = phase_tol if phase_tol is not None else cal_phase
+        a6_tol = args.a6_tol if args.a6_tol is not None else cal_a6
     if args.set in ("holdout", "both"):
-        if rel_tol is None or phase_tol is None:
-            parser.error("--set holdout needs --rel-tol and --phase-tol-deg")
+        if args.set == "holdout":
+            a6_tol = args.a6_tol
+        if rel_tol is None or phase_tol is None or a6_tol is None:
+            parser.error("--set holdout needs --rel-tol, --phase-tol-deg and --a6-tol")
         rows = [r for r in map(evaluate, holdout_set()[::step]) if r]
         report("holdout (motors B, C; Table I reverse/other points; seeds 11..)", rows,
-               rel_tol, phase_tol)
+               rel_tol, phase_tol, a6_tol)
     return 0
 
 

@@ -7,8 +7,10 @@ default drive: 1.6 kHz loop, 1.5 periods of delay, 1 kHz transducer) is captured
 the settling time) and the non-synchronous RMS (``hil.analysis.nonsync``) is taken, with the
 floor of a reference capture at the drive's default 2000 counts removed in quadrature (its own
 modelled quantisation noise first taken out of it), exactly as the PWM-resolution plan does.
-Printed per point: measured / model (twin ÷ quantised-loop model) and the additive white-noise
-form's ratio; at the end the spread of both ratios, from which ``NOISE_RANGE_FACTORS`` is set.
+Printed per point: measured / model (twin ÷ quantised-loop model), the additive white-noise
+form's ratio, and the twin against the smallest and the largest of the model's trials (the
+expected range is [low·smallest, high·largest]); at the end the spread of each, from which
+``NOISE_RANGE_FACTORS`` is set (twin ÷ smallest trial ≥ low, twin ÷ largest trial ≤ high).
 The model never sees the twin's numbers.
 """
 
@@ -60,7 +62,7 @@ def main() -> int:
     parser.add_argument("--speeds", type=float, nargs="+", default=[250, 500, 1000, 1500])
     parser.add_argument("--currents", type=float, nargs="+", default=[10, 20, 40])
     args = parser.parse_args()
-    ratios, white = [], []
+    ratios, white, of_low, of_high = [], [], [], []
     print(f"R = {args.revolutions} revolutions, orders 0..{MAX_ORDER} removed; "
           "cells: twin % / model % (ratio; white-noise ratio)")
     for speed in args.speeds:
@@ -82,13 +84,18 @@ def main() -> int:
                                          - floor2, 0.0))
                 ratios.append(measured / model.rms_pu)
                 white.append(measured / model.white_noise_rms_pu)
+                of_low.append(measured / min(model.trials_rms_pu))
+                of_high.append(measured / max(model.trials_rms_pu))
                 cells.append(f"C{counts} {100 * measured:.3f}/{100 * model.rms_pu:.3f} "
-                             f"({ratios[-1]:.2f}; {white[-1]:.2f})")
+                             f"({ratios[-1]:.2f}; {white[-1]:.2f}; trials' ends "
+                             f"{of_low[-1]:.2f}/{of_high[-1]:.2f})")
             print(f"{speed:g} rpm {current:g} A, floor {100 * math.sqrt(floor2):.3f} %: "
                   + "  ".join(cells), flush=True)
     print(f"\ntwin / quantised-loop model over {len(ratios)} points: "
           f"{min(ratios):.2f} … {max(ratios):.2f} (median {sorted(ratios)[len(ratios) // 2]:.2f})")
     print(f"twin / white-noise model: {min(white):.2f} … {max(white):.2f}")
+    print(f"twin / smallest trial >= {min(of_low):.2f}; twin / largest trial <= "
+          f"{max(of_high):.2f} (NOISE_RANGE_FACTORS must hold both)")
     return 0
 
 

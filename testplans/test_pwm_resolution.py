@@ -80,10 +80,28 @@ def test_pwm_resolution_noise_reference(measure, bench):
     assert outcome.passed, outcome.summary()
 
 
+def noise_decision(value_pu: float, expanded_pu: float, low_pu: float, high_pu: float) -> str:
+    """One counter's decision against the noise model's range: simple acceptance (ILAC-G8, w = 0),
+    as for the derived models' own ranges (conditions.DERIVED_RANGE_SIMPLE_RULE): the range's
+    factors were set from the simulated drive's *measured* values, whose scatter (this U) they
+    already hold, so guarding by U again would count it twice — a "conditional pass" (inside the
+    range, U reaching past its edge) is a pass. Outside the range: "fail", unless U is more than
+    FLOOR_FRACTION of the range's half-width and the interval reaches into the range — then the
+    measurement cannot tell (the floor-removed RMS of a counter whose noise is near the bench's
+    own floor): "not determinable". An interval wholly outside is always a fail."""
+    from hil.validity import FLOOR_FRACTION
+
+    if low_pu <= value_pu <= high_pu:
+        return "pass"
+    reaches = value_pu + expanded_pu >= low_pu and value_pu - expanded_pu <= high_pu
+    if reaches and expanded_pu > FLOOR_FRACTION * (high_pu - low_pu) / 2.0:
+        return "not determinable"
+    return "fail"
+
+
 def test_pwm_resolution_noise(record, bench):
     """Each counter's non-synchronous torque RMS, floor removed, lies in the quantised-loop
-    noise model's range (ILAC-G8 guarded: U of the measurement as the guard band)."""
-    from hil.analysis import classify
+    noise model's range (simple acceptance, :func:`noise_decision`)."""
     from hil.analysis.nonsync import floor_removed, nonsynchronous_rms_of_capture
     from hil.capture import Capture
     from hil.model import OperatingPoint
@@ -127,8 +145,8 @@ def test_pwm_resolution_noise(record, bench):
         # sqrt(raw² − floor²) and its U (k = 2), both standard uncertainties propagated
         value, expanded = floor_removed(raw_pu, raw_u, ref_pu, ref_u, ref_model.rms_pu)
         low, high = model.expected_range_pu
-        decision = classify(value, expanded, low, high)
-        accepted &= decision == "pass"
+        decision = noise_decision(value, expanded, low, high)
+        accepted &= decision != "fail"
         rows.append({"pwm_period_counts": counts, "measured_rms_pu": value,
                      "expanded_uncertainty_pu": expanded, "raw_rms_pu": raw_pu,
                      "predicted_rms_pu": model.rms_pu, "limits_pu": [low, high],
@@ -140,11 +158,19 @@ def test_pwm_resolution_noise(record, bench):
         f"{100 * r['expanded_uncertainty_pu']:.3f} vs {100 * r['predicted_rms_pu']:.3f} % "
         f"[{100 * r['limits_pu'][0]:.3f}, {100 * r['limits_pu'][1]:.3f}] → {r['decision']}"
         for r in rows)
+    judged = [r for r in rows if r["decision"] != "not determinable"]
     record.set_section("pwm_resolution_noise", {
+        "rule": "simple acceptance against the model's range; outside with U > "
+                "FLOOR_FRACTION of its half-width and reaching into it: not determinable",
         "statistic": "hil.analysis.nonsync: RMS of the torque less its synchronous average "
                      f"(orders 0..{MAX_ORDER}), per unit of K_t·I·cos φ",
         "floor_rms_pu": floor_pu, "reference_rms_pu": ref_pu,
         "reference_model_rms_pu": ref_model.rms_pu,
         "reference_counts": NOISE_REFERENCE_COUNTS, "points": rows,
-        "accepted": accepted, "statement": statement})
+        "accepted": accepted if judged else None, "statement": statement})
     assert accepted, f"pwm_resolution noise: {statement} (floor {100 * floor_pu:.3f} %)"
+    if not judged:
+        from hil.outcome_kinds import not_determinable
+
+        pytest.skip(not_determinable(f"pwm_resolution noise: no counter resolved: {statement} "
+                                     f"(floor {100 * floor_pu:.3f} %)"))

@@ -79,3 +79,45 @@ def test_transducer_dynamics(request, measure, bench, record):
     outcome = measure(dynamics_point(op, op.speed_rpm, response))
     assert reference.passed, reference.summary()
     assert outcome.passed, outcome.summary()
+
+
+#: DAQ channel of the motor's line-to-line terminal voltage a − b (drivers/data/daq_registers.toml)
+EMF_CHANNEL = "vab_v"
+
+
+def angle_reference_point(op, checks):
+    """Drive disabled (gates off, no current), the dyno turning the motor at the operating
+    point's speed: the terminal voltages are the back EMF."""
+    return c.point(op, "self_check", {}, None, kind="self_check", current_a=0.0,
+                   drive_enabled=False, extra_channels=(EMF_CHANNEL,), checks=checks)
+
+
+def test_angle_reference(measure, bench):
+    """Phase a's back-EMF rising zero crossing against the DAQ's angle channel (issue 23 item 0):
+    measured, checked against the bench file's ``[daq] emf_a_rising_zero_elec_deg`` when it
+    states one, and recorded in every later capture's meta for the diagnosis."""
+    register_map = getattr(bench.daq, "map", None)
+    if register_map is not None and EMF_CHANNEL not in {ch.name for ch in register_map.channels}:
+        pytest.skip(not_determinable(
+            f"the DAQ's register map has no {EMF_CHANNEL} channel: the back EMF's angle cannot "
+            "be measured; captures carry no angle reference (the diagnosis then measures it "
+            "from the phase currents or reports signs as not identifiable)"))
+    config = bench.config
+    found = {}
+
+    def checks(capture, result, plan, bench):
+        check = selfcheck.emf_angle_reference(
+            capture, config.motor.pole_pairs, speed_rpm=plan.speed_rpm,
+            stated_elec_deg=config.daq.emf_a_rising_zero_elec_deg,
+            encoder_counts_per_rev=capture.meta.get("encoder_counts_per_rev"))
+        found.update(check)
+        return [check]
+
+    outcome = measure(angle_reference_point(config.operating_point, checks))
+    if "emf_a_rising_zero_elec_deg" in found:
+        bench.angle_reference_meta = {
+            "emf_a_rising_zero_elec_deg": found["emf_a_rising_zero_elec_deg"],
+            "emf_a_rising_zero_u_elec_deg": found["u_elec_deg"],
+            "emf_a_rising_zero_source": "self-check: back EMF (drive disabled) against the "
+                                        "DAQ's angle channel"}
+    assert outcome.passed, outcome.summary()

@@ -366,6 +366,7 @@ class DaqDevice:
         # the twin computes only what this capture stores (the counter is the DAQ's own clock)
         asked = [channel.name for channel in channels
                  if counter is None or channel.name != counter.name]
+        asked = _twin_channels(asked)
         try:
             with self.twin.lock:
                 if config["settle_ms"]:
@@ -380,6 +381,7 @@ class DaqDevice:
                     except Refusal:
                         log.error("dyno speed setpoint %s rpm refused by the twin",
                                   self._speed_setpoint_rpm)
+            data = _daq_view(self.twin, data, asked)
             columns, first_values = [], {}
             for channel in channels:
                 values = ticks if counter is not None and channel.name == counter.name \
@@ -403,6 +405,37 @@ class DaqDevice:
              self._first_values) = outcome
             self._flags = flags
             self._page = self._pointer = 0
+
+
+#: DAQ channels the twin does not compute itself: name -> the twin channels it is made of.
+DERIVED_CHANNELS = {"vab_v": ("va_v", "vb_v")}
+
+
+def _twin_channels(asked: list[str]) -> list[str]:
+    out = []
+    for name in asked:
+        for twin_name in DERIVED_CHANNELS.get(name, (name,)):
+            if twin_name not in out:
+                out.append(twin_name)
+    return out
+
+
+def _daq_view(twin, data, asked: list[str]) -> dict:
+    """The twin's channels as the DAQ's inputs see them: the differential voltage v_ab, and the
+    encoder counter with the test-only ``encoder_commutation_offset_elec_deg`` defect (the
+    counter's zero that far, in electrical degrees, ahead of the rotor's electrical zero)."""
+    view = {name: data[name] for name in asked if name in data}
+    if "va_v" in view and "vb_v" in view:
+        view["vab_v"] = np.asarray(data["va_v"]) - np.asarray(data["vb_v"])
+    offset_deg = float(getattr(getattr(twin, "defects", None),
+                               "encoder_commutation_offset_elec_deg", 0.0) or 0.0)
+    if offset_deg and "encoder_counts" in view:
+        counts = _twin_setting(twin, "sensors", "encoder_counts_per_rev")
+        pole_pairs = _twin_setting(twin, "motor", "parameters", "pole_pairs")
+        if counts and pole_pairs:
+            shift = int(round(offset_deg / 360.0 / pole_pairs * counts))
+            view["encoder_counts"] = np.asarray(data["encoder_counts"]) + shift
+    return view
 
 
 def drop_every_nth(twin) -> int:

@@ -15,6 +15,13 @@ Signature: the predicted order must be the dominant order of the measured spectr
 decision "fail" whatever the magnitude (the measured ripple is not the predicted source's).
 ``guarded_pass`` — the binary rule for CI gating — is True only for "pass".
 
+Quantity (``quantity``): ``"pk_pk"`` (default) judges ``pk_pk_pu``; ``"named_order_pk_pk"``
+judges the pk-pk 2·A_N/|mean| of the predicted order N alone (its sinusoid), against the
+prediction's ``extras["order_pk_pk_pu"]``, with the U of that amplitude
+(:func:`named_order_value`). It is for a source whose ripple sits at one order and its
+harmonics while the drive's own floor is spread over all orders (the encoder staircase at
+standstill, where the current ADC's fixed quantisation pattern lifts the pk-pk but not A_N).
+
 Upper bound (``upper_bound=True``): where the closed form is a worst-case bound (word length,
 eq 14) or a ceiling (the baseline), the zone is one-sided, ``[0, p_pred + T]``: pass when
 ``x + w`` is at or below the limit, conditional pass when only ``x`` is, and so on.
@@ -29,6 +36,8 @@ from hil.analysis.metrics import RippleResult
 from hil.errors import InputError
 
 DECISIONS = ("pass", "conditional pass", "conditional fail", "fail")
+#: What a rule judges (module docstring): the pk-pk, or the predicted order's own pk-pk 2·A_N.
+QUANTITIES = ("pk_pk", "named_order_pk_pk")
 
 
 @dataclass(frozen=True)
@@ -45,8 +54,11 @@ class DecisionRule:
     #: widened by ``abs_tol_pu`` (the bench floor) and ``rel_tol`` of each end, instead of
     #: prediction ± T.
     expected_range: bool = False
+    #: One of QUANTITIES (module docstring).
+    quantity: str = "pk_pk"
 
     def __post_init__(self) -> None:
+        _require(self.quantity in QUANTITIES, "quantity", self.quantity, ", ".join(QUANTITIES))
         _require(0.0 <= self.rel_tol <= 10.0, "rel_tol", self.rel_tol, "0..10")
         _require(0.0 <= self.abs_tol_pu <= 10.0, "abs_tol_pu", self.abs_tol_pu, "0..10 pu")
         _require(0.0 <= self.guard_band_factor <= 10.0, "guard_band_factor",
@@ -126,8 +138,13 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
     if measured.uncertainty is None:
         raise InputError("the measurement was analysed without its uncertainty budget "
                          "(analyze_torque(uncertainty_budget=False)); a verdict needs its U")
-    value = measured.pk_pk_pu * base_scale
-    expanded = measured.uncertainty.expanded_pu * base_scale
+    if rule.quantity == "named_order_pk_pk":
+        if predicted_order is None:
+            raise InputError("a rule judging the named order's pk-pk needs the predicted order")
+        value, expanded = (v * base_scale for v in named_order_value(measured, predicted_order))
+    else:
+        value = measured.pk_pk_pu * base_scale
+        expanded = measured.uncertainty.expanded_pu * base_scale
     if not (math.isfinite(value) and math.isfinite(expanded)):
         raise InputError(f"the measurement has no finite pk_pk_pu ({value!r}) or expanded "
                          f"uncertainty ({expanded!r}); a verdict needs >= 2 revolutions and a "
@@ -159,7 +176,8 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
                             or (rule.min_order_share is not None
                                 and share >= rule.min_order_share))
     decision = "fail" if signature_ok is False else magnitude
-    reason = (f"pk-pk {value:.4g} pu ± {guard:.2g} vs prediction {predicted_pk_pk_pu:.4g} pu, "
+    what = "pk-pk" if rule.quantity == "pk_pk" else f"order-{predicted_order} pk-pk (2·A)"
+    reason = (f"{what} {value:.4g} pu ± {guard:.2g} vs prediction {predicted_pk_pk_pu:.4g} pu, "
               f"tolerance zone [{lower:.4g}, {upper:.4g}]: {magnitude}")
     if signature_ok is False:
         reason += (f"; signature wrong: dominant order {measured.dominant_order}, predicted order "
@@ -173,6 +191,34 @@ def decide(measured: RippleResult, predicted_pk_pk_pu: float, predicted_order: i
                    predicted_order=predicted_order, dominant_order=measured.dominant_order,
                    predicted_order_share=share, signature_ok=signature_ok, reason=reason,
                    rule=rule)
+
+
+def named_order_value(measured: RippleResult, order: int) -> tuple[float, float]:
+    """(2·A_N/|mean|, its expanded U), per unit of the measured mean torque.
+
+    U (k = the budget's coverage factor): type A from the scatter of the order's coefficient
+    between revolutions (``amplitude_u_nm``, doubled for the pk-pk of the sinusoid); the
+    transducer's accuracy class as the budget states it for a pk-pk (a span: class % of it) and
+    on the mean (sensitivity value/|mean|), rescaled to this value; the DAQ resolution as a
+    rectangular ±LSB/2 on each of the M samples the Fourier sum averages, LSB/√12·√(2/M) on A_N
+    (the budget's pk-pk row takes two readings, which does not apply to an order's amplitude).
+    The pk-pk's residual noise bias does not apply either: A_N of a coherent ripple well above
+    the scatter is unbiased to first order.
+    """
+    budget = measured.uncertainty
+    mean_abs = abs(measured.mean_torque_nm)
+    value = 2.0 * float(measured.amplitude_nm[order - 1]) / mean_abs
+    type_a = 2.0 * float(measured.amplitude_u_nm[order - 1]) / mean_abs
+    parts = [type_a]
+    scale = value / measured.pk_pk_pu if measured.pk_pk_pu else 0.0
+    samples = measured.revolutions * measured.samples_per_rev
+    for row in budget.rows:
+        if row.source.startswith("type B: transducer accuracy class"):
+            parts.append(row.contribution_pu * scale)
+        elif row.source.startswith("type B: DAQ resolution"):
+            parts.append(2.0 * row.value / math.sqrt(12.0) * math.sqrt(2.0 / samples) / mean_abs)
+    expanded = budget.coverage_factor * math.sqrt(sum(p * p for p in parts))
+    return value, expanded
 
 
 # ------------------------------------------------------------------------------ order phase

@@ -1,9 +1,14 @@
 """``hil diagnose CAPTURE…``: which controller faults cause the measured ripple (issue 15).
 
-Each capture's operating point comes from the run record it sits in (``<record>/captures/``), else
-from its meta (simulated captures), else from ``--current-a``; the speed is measured from the
-capture. The drive's current loop, the transducer's bandwidth and accuracy class come from the
-record's bench (or ``--bench FILE``); options override them.
+Each capture's operating point is what is stated for it (``FILE@CURRENT_A[,ANGLE_DEG]`` or a
+``--manifest`` entry, hil.diagnosis.manifest), else the run record it sits in
+(``<record>/captures/``), else its meta (simulated captures), else ``--current-a``; the speed is
+measured from the capture. Foreign files (CSV, ``.npz`` of arrays) are imported with
+:mod:`hil.capture_import`. The drive's current loop, the transducer's bandwidth and accuracy
+class come from the record's bench (or ``--bench FILE``), then the manifest's [drive]/[motor],
+then the options. Each capture's angle reference (hil/diagnosis/README.md) is stated
+(``--emf-a-zero-elec-deg``, the manifest), recorded (the capture's meta), measured from its phase
+currents, or unknown (no signed calibration then).
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ import math
 import sys
 from pathlib import Path
 
+from hil.diagnosis.manifest import ADDITION_KEYS
 from hil.errors import InputError
 
 
@@ -23,8 +29,19 @@ def register(subparsers) -> None:
         description="Fit the forward models of every ripple source to the captures' order "
                     "spectra; print the attribution table, the calibration and what the captures "
                     "cannot separate.")
-    parser.add_argument("captures", nargs="+", metavar="CAPTURE.npz",
-                        help="capture files of the same drive (one or more operating points)")
+    parser.add_argument("captures", nargs="*", metavar="CAPTURE[@CURRENT_A[,ANGLE_DEG]]",
+                        help="capture files of the same drive (one or more operating points); "
+                             "FILE@20 or FILE@20,15 states a capture's peak phase current (A) "
+                             "and current angle (degrees)")
+    parser.add_argument("--manifest", metavar="FILE.toml",
+                        help="captures with their operating points, the drive and the motor "
+                             "(hil/diagnosis/manifest.py)")
+    parser.add_argument("--emf-a-zero-elec-deg", type=float, default=None, metavar="DEG",
+                        help="the captures' angle reference: their electrical angle (degrees) "
+                             "at which phase a's back EMF crosses zero going positive")
+    parser.add_argument("--pole-pairs", type=int, default=None, metavar="P",
+                        help="pole pairs of imported captures (default: the manifest, else the "
+                             "bench's motor)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bench", metavar="FILE", help="bench file (default: the record's bench)")
     parser.add_argument("--current-a", type=float, default=None, metavar="A",
@@ -67,53 +84,220 @@ def _bench_dict(args, records: list[dict | None]) -> dict:
 
 
 def run(args) -> int:
-    from hil.capture import Capture
     from hil.diagnosis import diagnose, spectra_from_captures
-    from hil.diagnosis.bench_setup import (check_setup_known, find_record, operating_point_of,
-                                           setup_from_bench_dict)
+    from hil.diagnosis.bench_setup import check_setup_known, setup_from_bench_dict
 
     if not 8 <= args.max_mech_order <= 4096:
         raise InputError(f"--max-mech-order {args.max_mech_order} must be in 8..4096")
-    pairs, records = [], []
-    for name in args.captures:
-        path = Path(name)
-        capture = Capture.load(path)
-        record = find_record(path)
-        records.append(record)
-        op = operating_point_of(path, capture, record)
-        if "current_a" not in op:
-            if args.current_a is None:
-                raise InputError(f"{name}: no recorded operating point; give --current-a "
-                                 "(peak phase current, A)")
-            op["current_a"] = args.current_a
-        if args.current_angle_deg is not None:
-            op["current_angle_rad"] = math.radians(args.current_angle_deg)
-        op.pop("speed_rpm", None)      # measured from the capture itself (signed)
+    entries, manifest = _entries(args)
+    loaded = [_load(entry, args, manifest) for entry in entries]
+    records = [record for _, record, _ in loaded]
+    bench = _with_manifest(_bench_dict(args, records), manifest)
+    setup_keys, unused = _setup_keys(bench, manifest)
+    options = {"current_loop_bandwidth_hz": args.loop_bandwidth_hz,
+               "current_loop_delay_s": args.loop_delay_s,
+               "transducer_bandwidth_hz": args.transducer_bandwidth_hz,
+               "pwm_frequency_hz": args.pwm_frequency_hz,
+               "current_channel_u_a": args.current_channel_u_a,
+               "dead_time_bound_s": args.dead_time_bound_s}
+    setup_keys.update({k: v for k, v in options.items() if v is not None})  # options win
+    setup, class_pct = setup_from_bench_dict(bench, **setup_keys)
+    pairs = []
+    for (capture, record, op), entry in zip(loaded, entries):
+        _set_angle_reference(capture, op, args, manifest, setup)
         pairs.append((capture, op))
-    _check_one_drive_state(args.captures, [c for c, _ in pairs])
-    setup, class_pct = setup_from_bench_dict(
-        _bench_dict(args, records), current_loop_bandwidth_hz=args.loop_bandwidth_hz,
-        current_loop_delay_s=args.loop_delay_s,
-        transducer_bandwidth_hz=args.transducer_bandwidth_hz,
-        pwm_frequency_hz=args.pwm_frequency_hz, current_channel_u_a=args.current_channel_u_a,
-        dead_time_bound_s=args.dead_time_bound_s)
+    _check_one_drive_state([str(e.path) for e in entries], pairs)
     spectra = spectra_from_captures(pairs, max_mech_order=args.max_mech_order)
-    result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
+    if any(op.get(key) for _, op in pairs for key in ADDITION_KEYS):
+        try:
+            from hil.diagnosis import additions
+        except ImportError:
+            raise InputError("captures with known additions (addition_* keys) need "
+                             "hil.diagnosis.additions, which this build does not have") from None
+        spectra = [additions.with_addition(s, op) for s, (_, op) in zip(spectra, pairs)]
+        result = additions.diagnose_by_additions(spectra, setup=setup)
+    else:
+        result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
     result.notes.extend(check_setup_known(setup))
+    result.notes.extend(unused)
     if args.json:
         json.dump(result.to_dict(), sys.stdout, indent=1, allow_nan=False)
         print()
     else:
-        print(result.table())
+        text = result.table()
+        print(text)
         for note in result.notes:
-            print(f"note: {note}")
+            if note not in text:            # (the additions path's table lists its own notes)
+                print(f"note: {note}")
     return 0
 
 
-def _check_one_drive_state(names, captures) -> None:
+def _entries(args):
+    from hil.diagnosis.manifest import check_distinct, load_manifest, parse_capture_argument
+
+    manifest = load_manifest(args.manifest) if args.manifest else None
+    entries = list(manifest.captures) if manifest else []
+    entries += [parse_capture_argument(name) for name in args.captures]
+    if not entries:
+        raise InputError("no captures: give capture files (FILE or FILE@CURRENT_A[,ANGLE_DEG]) "
+                         "or --manifest FILE.toml")
+    check_distinct(entries)
+    return entries, manifest
+
+
+def _pole_pairs(args, manifest) -> int | None:
+    if args.pole_pairs is not None:
+        return args.pole_pairs
+    if manifest and manifest.pole_pairs:
+        return manifest.pole_pairs
+    if args.bench:
+        from hil.config import load_bench
+
+        return load_bench(args.bench).motor.pole_pairs
+    return None
+
+
+def _load(entry, args, manifest):
+    """(capture, record, operating point) of one entry; errors name what is missing."""
+    from hil.capture import Capture
+    from hil.capture_import import check_torque, import_with_defaults, is_ripple_hil_capture
+    from hil.diagnosis.bench_setup import find_record, operating_point_of
+
+    path, name = entry.path, str(entry.path)
+    if is_ripple_hil_capture(path):
+        capture = Capture.load(path)
+        record = find_record(path)
+        op = operating_point_of(path, capture, record)
+    elif not path.is_file():
+        raise InputError(f"capture file {name!r} " + ("is a directory, not a capture"
+                                                       if path.is_dir() else "does not exist"))
+    else:
+        pole_pairs = _pole_pairs(args, manifest)
+        if pole_pairs is None:
+            raise InputError(f"{name}: an imported capture needs the motor's pole pairs: "
+                             "--pole-pairs P, a manifest's [drive] pole_pairs, or --bench FILE")
+        capture = import_with_defaults(path, pole_pairs=pole_pairs, **entry.import_options)
+        if manifest and manifest.drive.get("encoder_counts_per_rev"):
+            capture.meta["encoder_counts_per_rev"] = manifest.drive["encoder_counts_per_rev"]
+        record, op = None, {"label": path.stem}
+    check_torque(capture, name)
+    if not any(c in capture for c in ("rotor_angle_mech_rad", "encoder_counts", "speed_rpm")):
+        raise InputError(f"{name}: no rotor-angle channel (channels: "
+                         f"{', '.join(sorted(capture.channels))}); the diagnosis refers the "
+                         "torque's phase to the rotor angle")
+    op = {**op, **entry.operating_point}      # what is stated for the capture wins
+    op.setdefault("label", path.stem)
+    if "current_a" not in op:
+        if args.current_a is None:
+            raise InputError(_no_operating_point(name, path, capture))
+        op["current_a"] = args.current_a
+    if args.current_angle_deg is not None and "current_angle_rad" not in entry.operating_point:
+        op["current_angle_rad"] = math.radians(args.current_angle_deg)
+    op.pop("speed_rpm", None)      # measured from the capture itself (signed)
+    return capture, record, op
+
+
+def _no_operating_point(name: str, path: Path, capture) -> str:
+    how = (f"state it: {name}@CURRENT_A[,ANGLE_DEG] (peak phase current in A, current angle in "
+           "electrical degrees), a --manifest entry (current_a = ...), or --current-a for all "
+           "such captures")
+    if "imported" in capture.meta:
+        return f"{name}: an imported capture carries no operating point; {how}"
+    if capture.meta.get("test_id") or capture.meta.get("source"):
+        return (f"{name}: a ripple-hil capture copied out of its record (no record.json in "
+                f"{str(path.resolve().parent.parent)!r}, where <record>/captures/ would have "
+                f"one), so its operating point (peak phase current) is not known; keep it in "
+                f"its record folder or {how}")
+    return f"{name}: no record.json beside it and no operating point in its meta; {how}"
+
+
+def _with_manifest(bench: dict, manifest) -> dict:
+    """The bench dict with the manifest's [motor] keys and [drive] loop keys over it."""
+    if manifest is None:
+        return bench
+    bench = {**bench, "motor": dict(bench.get("motor") or {}),
+             "drive": dict(bench.get("drive") or {})}
+    bench["motor"].update(manifest.motor)
+    if manifest.drive.get("pole_pairs"):
+        bench["motor"]["pole_count"] = 2 * manifest.drive["pole_pairs"]
+    for key in ("current_loop_bandwidth_hz", "current_loop_delay_s"):
+        if key in manifest.drive:
+            bench["drive"][key] = manifest.drive[key]
+    if "transducer_bandwidth_hz" in manifest.drive:
+        bench["torque"] = {**(bench.get("torque") or {}),
+                           "bandwidth_hz": manifest.drive["transducer_bandwidth_hz"]}
+    return bench
+
+
+#: DriveSetup fields named like the bench file's [drive] loop keys (issue 23 item 2), passed
+#: through when this version's DriveSetup has them.
+LOOP_DESIGN_KEYS = ("current_loop_design", "current_loop_decoupling",
+                    "current_loop_emf_feedforward", "current_loop_angle_compensation",
+                    "current_loop_delay_periods")
+SETUP_DRIVE_KEYS = ("pwm_frequency_hz", "dead_time_bound_s", "current_channel_u_a")
+
+
+def _setup_keys(bench: dict, manifest) -> tuple[dict, list[str]]:
+    """DriveSetup keyword arguments from the bench's [drive] and the manifest's [drive], and a
+    note for each stated key this version's DriveSetup has no field for."""
+    from dataclasses import fields
+
+    from hil.diagnosis.signatures import DriveSetup
+
+    have = {f.name for f in fields(DriveSetup)}
+    stated = {k: v for k, v in (bench.get("drive") or {}).items() if k in LOOP_DESIGN_KEYS}
+    if manifest:
+        stated.update({k: v for k, v in manifest.drive.items()
+                       if k in LOOP_DESIGN_KEYS + SETUP_DRIVE_KEYS})
+    keys = {k: v for k, v in stated.items() if k in have}
+    notes = [f"{k} = {v!r} stated but not used: this version's fit has no such loop option"
+             for k, v in stated.items() if k not in have and v not in (False, None)
+             and not (k == "current_loop_design" and v == "continuous")
+             and not (k == "current_loop_delay_periods")]
+    return keys, notes
+
+
+def _set_angle_reference(capture, op, args, manifest, setup) -> None:
+    """Write the capture's angle reference (stated > recorded > measured > unknown) into its meta,
+    where hil.diagnosis.orders reads it."""
+    from hil.diagnosis import angle_reference as ref
+
+    stated = None
+    if "emf_a_rising_zero_elec_deg" in op:
+        stated = ref.AngleReference(op.pop("emf_a_rising_zero_elec_deg"),
+                                    _stated_u(manifest), "stated in the manifest's capture entry")
+    elif args.emf_a_zero_elec_deg is not None:
+        stated = ref.AngleReference(args.emf_a_zero_elec_deg, 0.0,
+                                    "stated with --emf-a-zero-elec-deg")
+    elif manifest and manifest.emf_a_rising_zero_elec_deg is not None:
+        stated = ref.AngleReference(manifest.emf_a_rising_zero_elec_deg, _stated_u(manifest),
+                                    "stated in the manifest's [drive]")
+    pole_pairs = capture.meta.get("pole_pairs") or setup.motor.pole_pairs
+    reference = ref.resolve(capture, stated=stated, pole_pairs=int(pole_pairs),
+                            current_angle_rad=op.get("current_angle_rad", 0.0))
+    capture.meta.update(reference.to_meta())
+
+
+def _stated_u(manifest) -> float:
+    return float(manifest.drive.get("emf_a_rising_zero_u_elec_deg", 0.0)) if manifest else 0.0
+
+
+#: The drive injection knob each known addition is made through (shared23.md).
+ADDITION_KNOBS = {"addition_ia_offset_a": "ia_offset_a", "addition_ib_offset_a": "ib_offset_a",
+                  "addition_gain_a_pu": "ia_gain_error_pu", "addition_dead_time_s": "dead_time_s"}
+
+
+def _check_one_drive_state(names, pairs) -> None:
     """A diagnosis is of one drive as it is: captures recorded with different injections are
-    different drives to the fit (their shares and calibration would be meaningless)."""
-    states = {json.dumps(c.meta.get("injection") or {}, sort_keys=True) for c in captures}
+    different drives to the fit (their shares and calibration would be meaningless) — apart from
+    a capture's stated known addition, made through its injection knob."""
+    states = set()
+    for capture, op in pairs:
+        injection = dict(capture.meta.get("injection") or {})
+        for key, knob in ADDITION_KNOBS.items():
+            if op.get(key):
+                injection.pop(knob, None)
+        states.add(json.dumps(injection, sort_keys=True))
     if len(states) > 1:
         raise InputError(f"the {len(names)} captures were recorded with different injections "
                          f"({'; '.join(sorted(states))}); a diagnosis is of one drive state: "

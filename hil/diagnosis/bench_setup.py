@@ -29,6 +29,10 @@ def setup_from_bench_dict(bench: dict, **overrides) -> tuple[DriveSetup, float]:
               "current_loop_delay_s": drive.get("current_loop_delay_s") or 0.0,
               "pwm_frequency_hz": DEFAULT_PWM_FREQUENCY_HZ,
               "transducer_bandwidth_hz": torque.get("bandwidth_hz")}
+    for key in ("current_loop_design", "current_loop_decoupling",
+                "current_loop_emf_feedforward", "current_loop_angle_compensation"):
+        if drive.get(key) is not None:
+            values[key] = drive[key]
     values.update({k: v for k, v in overrides.items() if v is not None})
     class_pct = 0.0
     for entry in bench.get("instrument", []) or []:
@@ -84,7 +88,10 @@ def operating_point_of(capture_path: Path, capture: Capture, record: dict | None
 def check_setup_known(setup: DriveSetup) -> list[str]:
     """Warnings for what the bench does not state (the fit then assumes the ideal case)."""
     out = []
-    if setup.current_loop_bandwidth_hz is None:
+    if setup.current_loop_design == "unknown":
+        out.append(f"current-loop design unknown: a family of {len(setup.loop_variants())} "
+                   "plausible loops is propagated into every U (state the loop to narrow it)")
+    elif setup.current_loop_bandwidth_hz is None:
         out.append("current-loop bandwidth not stated: ideal current regulation assumed "
                    "(the paper's assumption)")
     if setup.transducer_bandwidth_hz is None:

@@ -126,6 +126,8 @@ def diagnose(inputs: Iterable, *, setup: sig.DriveSetup | None = None,
         signatures = _encoder_angle_uncertainty(signatures, params, encoder, notes)
     currents = _current_signatures(model_spectra, params, setup) if use_currents else None
     problem = _problem(model_spectra, params, signatures, fit_orders, currents, setup)
+    problem.alternatives = _loop_alternatives(model_spectra, params, setup, max_mech,
+                                              fit_orders, use_currents, problem, notes)
     result = fit(problem)
     if dead_time and encoder.get("detected"):
         problem.systematic = _dwell_terms(model_spectra, params, problem, result, encoder,
@@ -222,6 +224,47 @@ def _problem(spectra, params, signatures, fit_orders, currents=None,
     return LinearProblem(names=[param.name for param in params], y=np.array(y),
                          sigma=np.array(sigma), jacobian=np.array(jac, dtype=complex),
                          model_rel=np.array(rel), rows=rows)
+
+
+def _loop_alternatives(spectra, params, setup, max_mech, fit_orders, use_currents, problem,
+                       notes) -> list[np.ndarray]:
+    """The current loop's model uncertainty, propagated by evaluating the forward model over the
+    loops the bench's statement allows (``DriveSetup.loop_variants``): the fit is re-solved
+    with each variant's Jacobian (fit.LinearProblem.alternatives; not linearised, so a loop
+    that rejects the dead-time voltage five times better moves T_d five times) and
+    Σ_v δ_v·δ_vᵀ/k² of the shifts is added to the covariance: the drive has one of these loops,
+    not known which, so each variant's shift is kept within U (k = 2). The spread of each
+    signature's complex transfer over the variants (magnitude in %, phase in degrees) is
+    stated in the notes."""
+    variants = setup.loop_variants()
+    if not variants:
+        return []
+    out, spread = [], {}
+    for variant in variants:
+        signatures = [[param.signature(s, variant, max_mech) for param in params]
+                      for s in spectra]
+        currents = _current_signatures(spectra, params, variant) if use_currents else None
+        jacobian = _problem(spectra, params, signatures, fit_orders, currents, setup).jacobian
+        out.append(jacobian)
+        for j, param in enumerate(params):
+            if not param.controller:
+                continue
+            nominal = problem.jacobian[:, j]
+            big = np.abs(nominal) > 1e-3 * np.max(np.abs(nominal), initial=0.0)
+            if not big.any():
+                continue
+            ratio = jacobian[big, j] / nominal[big]
+            mag, phase = spread.get(param.name, (0.0, 0.0))
+            spread[param.name] = (max(mag, float(np.max(np.abs(np.abs(ratio) - 1.0)))),
+                                  max(phase, float(np.max(np.abs(np.degrees(np.angle(ratio)))))))
+    text = "; ".join(f"{name} ±{100 * mag:.2g} % / ±{phase:.2g}°"
+                     for name, (mag, phase) in spread.items())
+    notes.append(f"current loop: {setup.loop_text()}; its model uncertainty is the spread of "
+                 f"the signatures over {len(variants)} loops the statement allows (largest "
+                 f"deviation from the nominal, magnitude / phase, over the points and orders: "
+                 f"{text}), propagated into every parameter's U by re-solving the fit through "
+                 "each (hil.diagnosis.core._loop_alternatives)")
+    return out
 
 
 def _encoder_angle_uncertainty(signatures, params, encoder, notes):
@@ -351,6 +394,13 @@ def _separate_by(names: list[str], params) -> str:
         return "add a second current angle φ or a phase-current capture"
     if "gain_mismatch" in sources and "motor_cogging" in sources:
         return "add a second current (gain ripple scales with current, cogging does not)"
+    if "dead_time" in sources and sources & {"dc_offset", "gain_mismatch"}:
+        return ("add a second speed and the reverse direction, or a standard addition (a known "
+                "dead-time step, or a known offset/gain step on one sensor: hil run --source "
+                "diagnosis with additions)")
+    if "gain_mismatch" in sources and "motor_emf" in sources:
+        return ("a standard addition (a known gain step on one sensor): gain and EMF torque "
+                "both scale with current")
     if "dead_time" in sources and ("motor_cogging" in sources or "motor_emf" in sources):
         return ("add a second speed and the reverse direction (the loop rejects the dead-time "
                 "harmonics differently at each speed; a motor term keeps its angle)")

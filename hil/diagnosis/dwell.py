@@ -66,9 +66,9 @@ def dwell_pulse_orders(op, setup: sig.DriveSetup, leg: str, start_rad: float,
                        width_rad: float) -> tuple[np.ndarray, complex]:
     """Per volt of average error in ``leg`` during the dwell [start, start + width), electrical-order
     torque coefficients (N·m) and the dc of the actual phase currents as dc_a + j·dc_b (A). The
-    pulse's harmonics e^{jmθ} are seen by the loop at (m − 1)·ω_e (loop_rejection with the
-    bench's loop; its synchronous-frame integrator does not remove a stationary dc), and the
-    current error enters the torque sum of eq 7 as every signature's does."""
+    pulse's harmonics e^{jmθ} are seen by the loop at (m − 1)·ω_e (loop_disturbance with the
+    bench's loop design; its synchronous-frame integrator does not remove a stationary dc), and
+    the current error enters the torque sum of eq 7 as every signature's does."""
     n = PULSE_GRID_POINTS
     m = np.fft.fftfreq(n, 1.0 / n)
     safe = np.where(m == 0, 1.0, m)
@@ -76,10 +76,7 @@ def dwell_pulse_orders(op, setup: sig.DriveSetup, leg: str, start_rad: float,
     c = np.where(m == 0, width_rad / (2 * math.pi),
                  (np.exp(-1j * safe * start_rad) - np.exp(-1j * safe * (start_rad + width_rad)))
                  / (2j * math.pi * safe))
-    bandwidth = (2 * math.pi * setup.current_loop_bandwidth_hz
-                 if setup.current_loop_bandwidth_hz else None)
-    rejection = sig.loop_rejection((m - 1.0) * op.elec_speed_rad_s, op, bandwidth,
-                                   setup.current_loop_delay_s)
+    rejection = sig.loop_disturbance((m - 1.0) * op.elec_speed_rad_s, op, setup)
     current = np.fft.ifft(c * LEG_VECTOR[leg] * rejection) * n
     theta = sig.electrical_grid(n)
     k_e = op.motor.emf_peak_v_s_per_rad

@@ -23,7 +23,7 @@ full least-squares solution (the torque the weak combination shares is fitted, n
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -35,6 +35,8 @@ WEAK_SINGULAR_VALUE = 0.05
 #: Loading of a parameter in a weak direction above which it is reported as not identifiable.
 WEAK_LOADING = 0.1
 MODEL_WEIGHT_ITERATIONS = 4
+#: Coverage factor the alternatives' shifts are kept within (the diagnosis states U at k = 2).
+ALTERNATIVES_K = 2.0
 #: Share of a source's model variance taken as differing from point to point; the rest is common
 #: to all points. Unknown, so split evenly.
 COMMON_SHARE_COMPLEMENT = 0.5
@@ -53,6 +55,13 @@ class LinearProblem:
     rows: list[tuple[int, int]] = field(default_factory=list)   # (spectrum index, mech order)
     #: Terms not fitted but bounded: their torque only widens the covariance (SystematicTerm).
     systematic: list["SystematicTerm"] = field(default_factory=list)
+    #: Alternative Jacobians (e.g. the forward model through other plausible current loops):
+    #: the problem is re-solved with each and Σ_v δ_v·δ_vᵀ / k² of the solution's shifts δ_v is
+    #: added to the covariance (the drive has one of them, which is not known: every
+    #: alternative's shift lies within U = k·u of each parameter, k = :data:`ALTERNATIVES_K`);
+    #: the estimates stay those of ``jacobian``. Not linearised: a signature whose scale differs
+    #: by a factor between the alternatives moves its parameter by that factor.
+    alternatives: list[np.ndarray] = field(default_factory=list)
 
 
 @dataclass
@@ -84,6 +93,8 @@ class FitResult:
     residual: np.ndarray                 # complex, per observation row
     sigma_total: np.ndarray              # per component, per observation row
     fitted_contributions: np.ndarray     # complex n×p: J·p of the full least-squares solution
+    #: the truncated-SVD solution without NaN (weak directions at their minimum-norm share)
+    solution: np.ndarray = None
 
     def standard_uncertainty(self) -> np.ndarray:
         return np.sqrt(np.diag(self.covariance))
@@ -102,31 +113,94 @@ def _real_system(problem: LinearProblem, sigma_total: np.ndarray):
     return a, b
 
 
+#: An entry of a column below this fraction of the column's largest is numerical noise (e.g. an
+#: FFT's round-off at an order a source does not act on): it does not couple parameters.
+COUPLING_FLOOR = 1e-9
+
+
+def _blocks(scaled: np.ndarray) -> list[np.ndarray]:
+    """Column indices grouped by shared observations (parameters acting on disjoint rows are
+    judged separately, so a weak direction names only parameters that can trade off)."""
+    size = scaled.shape[1]
+    acts = np.abs(scaled) > COUPLING_FLOOR * np.max(np.abs(scaled), axis=0, initial=0.0)
+    parent = list(range(size))
+
+    def root(j):
+        while parent[j] != j:
+            parent[j] = parent[parent[j]]
+            j = parent[j]
+        return j
+
+    for row in acts:
+        cols = np.flatnonzero(row)
+        for j in cols[1:]:
+            parent[root(j)] = root(cols[0])
+    groups: dict[int, list[int]] = {}
+    for j in range(size):
+        groups.setdefault(root(j), []).append(j)
+    return [np.array(g) for g in groups.values()]
+
+
 def identifiability(weighted: np.ndarray, names: list[str]):
-    """(relative singular values, weak directions, identifiable mask, column norms, condition)."""
+    """(relative singular values, weak directions, identifiable mask, column norms, condition).
+
+    Singular values are relative to the largest of the whole (column-scaled) system; weak
+    directions are found per block of parameters that share observations, with the full right
+    singular basis: with fewer real observations than parameters in a block, the directions
+    beyond its rank have no singular value in a thin SVD and count as 0 (not determined)."""
     norms = np.linalg.norm(weighted, axis=0)
     dead = norms == 0
     scaled = weighted / np.where(dead, 1.0, norms)
-    _, s, vt = np.linalg.svd(scaled, full_matrices=False)
-    s_rel = s / s[0] if s.size and s[0] > 0 else np.zeros_like(s)
+    s_all = np.linalg.svd(scaled, compute_uv=False)
+    top = s_all[0] if s_all.size and s_all[0] > 0 else 1.0
+    s_rel_all = []
     weak = []
     identifiable = ~dead
-    for index, value in enumerate(s_rel):
-        if value >= WEAK_SINGULAR_VALUE:
+    for block in _blocks(scaled):
+        block = np.array([j for j in block if not dead[j]])
+        if block.size == 0:
             continue
-        vector = vt[index]
-        loaded = np.abs(vector) > WEAK_LOADING
-        if not loaded.any() or (dead[loaded].all()):
-            continue
-        identifiable &= ~loaded
-        weak.append({"singular_value_rel": float(value),
-                     "combination": {names[j]: float(vector[j]) for j in np.flatnonzero(loaded)}})
+        _, s_thin, vt = np.linalg.svd(scaled[:, block], full_matrices=True)
+        s = np.zeros(vt.shape[0])
+        s[:s_thin.size] = s_thin
+        s_rel = s / top
+        s_rel_all.extend(s_rel.tolist())
+        for index, value in enumerate(s_rel):
+            if value >= WEAK_SINGULAR_VALUE:
+                continue
+            vector = vt[index]
+            loaded = np.abs(vector) > WEAK_LOADING
+            if not loaded.any():
+                continue
+            identifiable[block[loaded]] = False
+            weak.append({"singular_value_rel": float(value),
+                         "combination": {names[block[j]]: float(vector[j])
+                                         for j in np.flatnonzero(loaded)}})
     for j in np.flatnonzero(dead):
         weak.append({"singular_value_rel": 0.0, "combination": {names[j]: 1.0},
                      "reason": "no observation at the orders this parameter acts on"})
+    s_rel = np.sort(np.array(s_rel_all))[::-1]
     live = s_rel[s_rel >= WEAK_SINGULAR_VALUE]
     condition = float(live[0] / live[-1]) if live.size else float("inf")
-    return s_rel, weak, identifiable, norms, condition
+    return s_rel, _merge(weak), identifiable, norms, condition
+
+
+def _merge(weak: list[dict]) -> list[dict]:
+    """Weak directions of one block that share parameters are one statement (the basis of a
+    null space is arbitrary; the parameters it involves are not)."""
+    out: list[dict] = []
+    for item in weak:
+        for other in out:
+            if "reason" not in item and "reason" not in other and \
+                    set(other["combination"]) & set(item["combination"]):
+                other["combination"].update({k: v for k, v in item["combination"].items()
+                                             if k not in other["combination"]})
+                other["singular_value_rel"] = min(other["singular_value_rel"],
+                                                  item["singular_value_rel"])
+                break
+        else:
+            out.append({**item, "combination": dict(item["combination"])})
+    return out
 
 
 def _solve(a: np.ndarray, b: np.ndarray, live: np.ndarray):
@@ -195,6 +269,19 @@ def _bounded_covariance(problem: LinearProblem, operator: np.ndarray,
     return cov
 
 
+def _alternatives_covariance(problem: LinearProblem, sigma_total: np.ndarray, live: np.ndarray,
+                             x: np.ndarray) -> np.ndarray:
+    """Σ_v δ_v·δ_vᵀ / k² of the solution's shifts δ_v when ``jacobian`` is replaced by each of
+    ``problem.alternatives`` (same weights, same truncation): each |δ_v,j| ≤ k·u_j."""
+    size = len(problem.names)
+    cov = np.zeros((size, size))
+    for jacobian in problem.alternatives:
+        a, b = _real_system(replace(problem, jacobian=jacobian), sigma_total)
+        shift = _solve(a, b, live)[0] - x
+        cov += np.outer(shift, shift) / ALTERNATIVES_K ** 2
+    return cov
+
+
 def fit(problem: LinearProblem) -> FitResult:
     """Solve ``problem`` (module docstring)."""
     sigma_total = problem.sigma.copy()
@@ -227,6 +314,7 @@ def fit(problem: LinearProblem) -> FitResult:
     cov = cov + (1.0 - COMMON_SHARE_COMPLEMENT) * _systematic_covariance(problem, full, operator,
                                                                          sigma_total)
     cov = cov + _bounded_covariance(problem, operator, sigma_total)
+    cov = cov + _alternatives_covariance(problem, sigma_total, live, x)
     estimate = np.where(keep, x, np.nan)
     cov[~keep, :] = np.nan
     cov[:, ~keep] = np.nan
@@ -234,4 +322,4 @@ def fit(problem: LinearProblem) -> FitResult:
                      identifiable=keep, chi2=chi2, dof=dof, birge_ratio=birge,
                      singular_values_rel=s_rel, weak_directions=weak,
                      condition_number=condition, residual=residual, sigma_total=sigma_total,
-                     fitted_contributions=contributions)
+                     fitted_contributions=contributions, solution=x)

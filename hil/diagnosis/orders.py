@@ -48,6 +48,14 @@ class OrderSpectrum:
     #: current channels when the capture has them, and its type-A standard uncertainty
     current_dc_a: tuple[float, float] | None = None
     current_dc_sigma_a: float | None = None
+    #: the capture's angle reference (hil.diagnosis.angle_reference): the capture's electrical
+    #: angle (degrees) at which phase a's back EMF crosses zero going positive; the coefficients
+    #: above are already rotated to the twin's convention (0). None: unknown (not rotated; which
+    #: sensor and which sign are then not identifiable). Its standard uncertainty (degrees) and
+    #: where it came from.
+    emf_a_rising_zero_elec_deg: float | None = 0.0
+    angle_reference_u_elec_deg: float = 0.0
+    angle_reference_source: str = "the twin's convention (not stated)"
 
     @property
     def max_mech_order(self) -> int:
@@ -66,7 +74,20 @@ class OrderSpectrum:
         return {"label": self.label, "speed_rpm": self.speed_rpm, "current_a": self.current_a,
                 "current_angle_rad": self.current_angle_rad, "pole_pairs": self.pole_pairs,
                 "mean_torque_nm": self.mean_torque_nm, "pk_pk_nm": self.pk_pk_nm(),
-                "mech_revolutions": self.revolutions, "max_mech_order": self.max_mech_order}
+                "mech_revolutions": self.revolutions, "max_mech_order": self.max_mech_order,
+                "emf_a_rising_zero_elec_deg": self.emf_a_rising_zero_elec_deg,
+                "angle_reference_u_elec_deg": self.angle_reference_u_elec_deg,
+                "angle_reference_source": self.angle_reference_source}
+
+
+def rotate_to_emf_reference(coefficients: np.ndarray, emf_a_rising_zero_elec_deg: float,
+                            pole_pairs: int) -> np.ndarray:
+    """Coefficients per mechanical order m referred to the twin's angle (θ_e = 0 where phase a's
+    back EMF rises through zero): with the capture's angle θ_c = θ + ref (ref = the reference in
+    electrical rad, ref/p mechanical), c_m·e^{i·m·θ_c} = (c_m·e^{i·m·ref/p})·e^{i·m·θ}."""
+    m = np.arange(np.asarray(coefficients).shape[-1])
+    shift_mech_rad = math.radians(emf_a_rising_zero_elec_deg) / pole_pairs
+    return np.asarray(coefficients) * np.exp(1j * m * shift_mech_rad)
 
 
 def pooled_sigma(per_rev: np.ndarray, half_width: int = POOL_HALF_WIDTH) -> np.ndarray:
@@ -132,11 +153,31 @@ def spectrum_from_capture(capture: Capture, *, current_a: float, current_angle_r
     if speed == 0:
         raise InputError("speed_rpm=0: the diagnosis needs a turning rotor")
     dc, dc_sigma = current_dc(capture, pp)
+    reference = _angle_reference(capture)
+    if reference.known:
+        coefficients = rotate_to_emf_reference(coefficients, reference.elec_deg, pp)
     return OrderSpectrum(label=label, speed_rpm=speed, current_a=float(current_a),
                          current_angle_rad=float(current_angle_rad), pole_pairs=pp,
                          coefficients_nm=coefficients, sigma_nm=pooled_sigma(per_rev),
                          revolutions=result.revolutions, meta=dict(capture.meta),
-                         current_dc_a=dc, current_dc_sigma_a=dc_sigma)
+                         current_dc_a=dc, current_dc_sigma_a=dc_sigma,
+                         emf_a_rising_zero_elec_deg=reference.elec_deg,
+                         angle_reference_u_elec_deg=reference.u_elec_deg,
+                         angle_reference_source=reference.source)
+
+
+def _angle_reference(capture: Capture):
+    """The reference the capture's meta records (``hil diagnose`` writes the stated or measured
+    one there); a ripple-hil capture that records none: the twin's convention, said so; an
+    imported one: unknown."""
+    from hil.diagnosis import angle_reference as ref
+
+    recorded = ref.recorded(capture)
+    if recorded is not None:
+        return recorded
+    if "imported" in capture.meta:
+        return ref.UNKNOWN
+    return ref.AngleReference(0.0, 0.0, "the twin's convention (the capture records none)")
 
 
 def current_dc(capture: Capture, pole_pairs: int) -> tuple[tuple[float, float] | None,

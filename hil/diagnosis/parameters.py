@@ -9,8 +9,13 @@ complex coefficient at mechanical order m) and EMF-harmonic torque ``emf_m{m}_re
 
 Model uncertainty (standard, relative to the source's own torque at that point):
 * sensor errors: the torque transducer's accuracy class (rectangular, /√3) plus 20 % of the
-  current loop's correction |T − 1| (the loop is known only through its stated bandwidth and delay
-  and is modelled in continuous time while the firmware samples it);
+  current loop's correction |T − 1|, isotropic in the complex plane (magnitude and phase): the
+  loop is modelled in continuous time while the firmware samples it (on the twin this term
+  covers the sampled PI's errors of 0.4 % of k_a − k_b). What the loop *is* is a separate
+  uncertainty: the diagnosis evaluates every signature over the loops the bench's statement
+  allows (``DriveSetup.loop_variants``: bandwidth ± 10 % and delay ± half a PWM period for a
+  stated design, a family from a slow PI to a fast 2-DOF loop for "unknown") and propagates the
+  spread, complex, into the covariance (hil.diagnosis.core._loop_terms);
 * dead time: 10 % at electrical order 6, the stated agreement of the average-voltage model with a
   time-domain run (hil/model/README.md), growing in proportion to the order (20 % at order 12),
   plus the transducer class; 100 % when it is only a nuisance term (a coarse encoder);
@@ -28,7 +33,8 @@ import numpy as np
 from hil.diagnosis import signatures as sig
 from hil.diagnosis.orders import OrderSpectrum
 
-#: Share of the loop's correction |T − 1| taken as the standard uncertainty of that correction.
+#: Share of the loop's correction |T − 1| taken as the standard uncertainty of its continuous-time
+#: evaluation (the stated loop's own uncertainty is the variants' spread, core._loop_terms).
 LOOP_CORRECTION_REL_UNCERTAINTY = 0.2
 #: The average-voltage dead-time model against a time-domain run (hil/model/README.md): 10 % at
 #: order 6; taken as growing in proportion to the order (its errors are the timing of the current's

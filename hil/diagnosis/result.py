@@ -72,6 +72,36 @@ class Diagnosis:
     expansion_k: float = 2.0
     notes: list[str] = field(default_factory=list)
 
+    # ---------------------------------------------------------------- angle reference
+    def angle_reference(self) -> dict:
+        """Each capture's angle reference (hil.diagnosis.angle_reference) and whether all are
+        known: with one unknown, the signs of Δa, Δb and k_a − k_b and which sensor carries the
+        offset are not identifiable (the order-k signatures turn by k times the reference)."""
+        points = [{"label": s.label, "emf_a_rising_zero_elec_deg": s.emf_a_rising_zero_elec_deg,
+                   "standard_uncertainty_elec_deg": s.angle_reference_u_elec_deg
+                   if s.emf_a_rising_zero_elec_deg is not None else None,
+                   "source": s.angle_reference_source} for s in self.spectra]
+        return {"known": all(p["emf_a_rising_zero_elec_deg"] is not None for p in points),
+                "points": points}
+
+    def offset_magnitude(self) -> tuple[float, float] | None:
+        """(|n|, standard uncertainty) of the sensor offsets' error space vector, A: with
+        Clarke's two-sensor transform n = (Δa, (Δa + 2Δb)/√3). An angle reference turned by ψ
+        turns n by ψ, so |n| is what the torque fixes without a reference, and each of |Δa|,
+        |Δb| is at most |n| (its components along a and along b)."""
+        a, b = self.value("ia_offset_a"), self.value("ib_offset_a")
+        if a is None or b is None:
+            return None
+        names = [p.name for p in self.parameters]
+        i, j = names.index("ia_offset_a"), names.index("ib_offset_a")
+        cov = self.fit.covariance[np.ix_([i, j], [i, j])]
+        beta = (a[0] + 2.0 * b[0]) / math.sqrt(3.0)
+        magnitude = math.hypot(a[0], beta)
+        if magnitude == 0.0:
+            return 0.0, math.sqrt(max(cov[0, 0], cov[1, 1]))
+        grad = np.array([a[0] + beta / math.sqrt(3.0), 2.0 * beta / math.sqrt(3.0)]) / magnitude
+        return magnitude, float(math.sqrt(max(grad @ cov @ grad, 0.0)))
+
     # ---------------------------------------------------------------- parameters
     def estimate(self, name: str) -> ParameterEstimate:
         for item in self.parameters:
@@ -148,6 +178,12 @@ class Diagnosis:
 
     def estimate_text(self, source: str) -> str:
         k = self.expansion_k
+        if source == "dc_offset" and not self.angle_reference()["known"]:
+            bound = self.offset_magnitude()
+            return ("which sensor and which sign: not identifiable (angle reference unknown)"
+                    + (f"; |Δa|, |Δb| ≤ {bound[0] + k * bound[1]:.3g} A" if bound else ""))
+        if source == "gain_mismatch" and not self.angle_reference()["known"]:
+            return "k_a − k_b: sign not identifiable (angle reference unknown)"
         if source == "dc_offset":
             parts = []
             for name, label in (("ia_offset_a", "Δa"), ("ib_offset_a", "Δb")):
@@ -178,8 +214,12 @@ class Diagnosis:
     # ---------------------------------------------------------------- calibration
     def calibration(self) -> dict:
         """Offset corrections (A, to add to each sensor reading) and the gain trim of sensor a
-        relative to b (%: multiply reading a by 1 + trim)."""
+        relative to b (%: multiply reading a by 1 + trim). None for each when not identifiable,
+        all None when a capture's angle reference is unknown (the signs are not known then)."""
         k = self.expansion_k
+        if not self.angle_reference()["known"]:
+            return {"ia_offset_correction_a": None, "ib_offset_correction_a": None,
+                    "gain_trim_a_pct": None}
         out = {}
         for name, key in (("ia_offset_a", "ia_offset_correction_a"),
                           ("ib_offset_a", "ib_offset_correction_a")):
@@ -222,7 +262,7 @@ class Diagnosis:
             "setup": self.setup.to_dict(),
             "operating_points": [s.describe() for s in self.spectra],
             "fit_mech_orders": self.fit_orders,
-            "parameters": [p.to_dict(k) for p in self.parameters],
+            "parameters": [self._signed(p.to_dict(k)) for p in self.parameters],
             "motor_terms": self.motor_terms(),
             "correlation": {"names": [names[i] for i in keep],
                             "matrix": corr[np.ix_(keep, keep)].tolist()},
@@ -237,12 +277,23 @@ class Diagnosis:
             "attribution": [{key: value for key, value in row.items()}
                             for row in self.attribution()],
             "calibration": self.calibration(),
+            "angle_reference": self.angle_reference(),
+            "offset_magnitude_a": (None if self.offset_magnitude() is None else dict(zip(
+                ("value", "standard_uncertainty"), self.offset_magnitude()))),
             "predicted_after_correction": self.predicted_after_correction(),
             "unexplained": self.unexplained,
             "motor_residual": [{k: v for k, v in r.items() if k != "fitted_nm"}
                                for r in self.motor_residual],
             "notes": self.notes,
         })
+
+    def _signed(self, entry: dict) -> dict:
+        """A parameter's record entry; the sensor offsets and k_a − k_b say whether their sign
+        (and which sensor) is identifiable: not without an angle reference."""
+        if entry["name"] in ("ia_offset_a", "ib_offset_a", "gain_k_diff"):
+            entry["sign_identifiable"] = bool(entry["identifiable"]
+                                              and self.angle_reference()["known"])
+        return entry
 
     def table(self) -> str:
         """The attribution table and calibration as text (the CLI prints it)."""
@@ -251,8 +302,15 @@ class Diagnosis:
             lines.append(f"{row['title'][:40]:40s} {100 * row['share_of_pk_pk']:13.1f}%  "
                          f"{row['estimate_text']}")
         cal = self.calibration()
+        reference = self.angle_reference()
         lines.append("")
-        lines.append("calibration to apply:")
+        if reference["known"]:
+            lines.append("calibration to apply:")
+        else:
+            lines.append("calibration to apply: none signed — the angle reference (where phase "
+                         "a's back EMF rises through zero in the capture's angle) is unknown; "
+                         "state emf_a_rising_zero_elec_deg (manifest, --emf-a-zero-elec-deg) or "
+                         "give phase currents")
         for key, label, unit in (("ia_offset_correction_a", "sensor a offset correction", "A"),
                                  ("ib_offset_correction_a", "sensor b offset correction", "A"),
                                  ("gain_trim_a_pct", "gain trim of sensor a vs b", "%")):
@@ -261,10 +319,18 @@ class Diagnosis:
                          f"{item['value']:+.4g} ± {item['expanded_uncertainty']:.2g} {unit}"
                          + ("" if item["significant"] else " (not significant)")))
         lines.append("")
-        lines.append(f"{'point':28s} {'pk-pk before':>12s} {'after (predicted)':>18s}")
+        lines.append(f"{'point':28s} {'pk-pk before':>12s} {'after (predicted)':>18s}"
+                     + ("" if reference["known"] else
+                        "  (after a calibration that needs the angle reference)"))
         for row in self.predicted_after_correction():
             lines.append(f"{row['label'][:28]:28s} {row['pk_pk_pct_before']:11.3f}% "
                          f"{row['pk_pk_pct_after']:17.3f}%")
+        for point in reference["points"]:
+            value = point["emf_a_rising_zero_elec_deg"]
+            lines.append(f"angle reference of {point['label'][:28]}: " + (
+                "unknown" if value is None else
+                f"{value:.4g}° ± {point['standard_uncertainty_elec_deg']:.2g}° electrical")
+                + f" ({point['source']})")
         for weak in self.weak:
             lines.append(f"not separable: {', '.join(weak['parameters'])} — {weak['separate_by']}")
         for alias in self.aliases:

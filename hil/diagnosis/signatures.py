@@ -14,8 +14,22 @@ Controller sources (inverses of ``hil.model``):
   paper's k (actual-current error, 1 + k = 1/(1 + g) for a sensor gain error g), which makes the
   signature exact rather than first order in g.
 * **Dead time** (eqs 32-38, the project's derived closed-loop form): the average-voltage model of
-  ``hil.model.dead_time.average_model_torque_pu`` with the bench's current loop; orders 6, 12, …;
-  linear in T_d.
+  ``hil.model.dead_time.average_model_torque_pu`` with the bench's current loop (its disturbance
+  transfer, :func:`loop_disturbance`); orders 6, 12, …; linear in T_d.
+
+**The current loop the bench states** (``DriveSetup.current_loop_*``, the bench file's [drive]
+keys; the twin implements the same designs, hil.sim.config.FirmwareModel). Every transfer is
+derived here from the loop gain :func:`loop_gain` in the rotor frame (complex vectors, plant
+1/(R + L·(s + jω_e)), s the rotor-frame frequency): T = L/(1 + L) for a sensor error,
+P/(1 + L) for a voltage disturbance. Designs: "continuous" PI (Kp = L·ω_c, Ki = R·ω_c),
+"discrete" pole-matched PI run at the PWM rate (C(z) = Kp + Ki·T_s·z/(z − 1), z = e^{sT_s}),
+"2dof" the complex-vector 2-DOF PI of Briz 2000 / Awan 2019 (feedback L·(2α + (α² + jω_e·α)/s),
+α = ω_c: motulator's current controller), and "unknown" (the mean transfer over a family of
+plausible loops, :meth:`DriveSetup.loop_variants`, whose spread the diagnosis propagates).
+Decoupling adds −jω_e·L to the feedback (it cancels the plant's cross term with the measured
+current); back-EMF feed-forward adds a current-independent voltage and changes no transfer; the
+delay τ is e^{−(s + jω_e)τ} (the voltage is applied τ later at the angle it was computed for)
+or e^{−sτ} with angle compensation.
 
 Motor-side terms: **cogging** fixed in the mechanical angle and independent of current (a constant
 complex coefficient per mechanical order), and **EMF-harmonic torque**, fixed in the electrical
@@ -28,7 +42,7 @@ time frequency (a lag in angle for forward rotation, a lead backwards), when its
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -36,6 +50,24 @@ from hil.errors import InputError
 from hil.model import OperatingPoint
 from hil.model.dead_time import average_model_torque_pu, loop_rejection
 from hil.motor import TABLE_I, MotorParameters
+
+#: Loop designs a bench file can state (``[drive] current_loop_design``).
+LOOP_DESIGNS = ("continuous", "discrete", "2dof", "unknown")
+#: A stated design is known to within this fraction of its stated bandwidth (and half a PWM
+#: period of its delay): the variants whose spread is its model uncertainty.
+STATED_LOOP_BANDWIDTH_FRACTION = 0.1
+#: "unknown": the family spans these multiples of the stated bandwidth (0.5 to 5: a PI at half
+#: the bandwidth to a near-ideal 2-DOF loop five times faster), each design, with and without
+#: decoupling for the PIs.
+UNKNOWN_LOOP_BANDWIDTH_FACTORS = (0.5, 1.0, 2.0, 5.0)
+#: A plausible loop ("unknown" family): its bandwidth times its delay at most this many radians
+#: (a PI's phase margin 90° − ω_c·τ ≥ ≈ 33°) and at most this fraction of the PWM frequency.
+MAX_LOOP_BANDWIDTH_DELAY_RAD = 1.0
+MAX_LOOP_BANDWIDTH_PER_PWM = 0.25
+#: "unknown" without a stated bandwidth: this fraction of the PWM frequency (1 kHz at 20 kHz).
+UNKNOWN_LOOP_BANDWIDTH_PER_PWM = 0.05
+#: "unknown" without a stated delay: 1.5 PWM periods (one of computation, half of PWM hold).
+UNKNOWN_LOOP_DELAY_PERIODS = 1.5
 
 #: Angle grid (points per electrical revolution) on which waveforms are transformed.
 GRID_POINTS = 256
@@ -46,8 +78,10 @@ SQRT3 = math.sqrt(3.0)
 class DriveSetup:
     """What the forward models need to know about the drive and the bench (SI units).
 
-    ``current_loop_bandwidth_hz`` None means ideal current regulation (the paper's assumption);
-    ``transducer_bandwidth_hz`` None means a flat transducer response.
+    ``current_loop_bandwidth_hz`` None means ideal current regulation (the paper's assumption),
+    unless ``current_loop_design`` is "unknown" (then a family of plausible loops around
+    :data:`UNKNOWN_LOOP_BANDWIDTH_PER_PWM` of the PWM frequency); ``transducer_bandwidth_hz``
+    None means a flat transducer response. The loop's design and options: the module docstring.
     """
 
     motor: MotorParameters = TABLE_I
@@ -65,8 +99,23 @@ class DriveSetup:
     #: k = 2) and its fit interval estimate + 2u (hil.diagnosis.core._dwell_terms) is used;
     #: with neither above zero the dwell term is not applied, and the output says so.
     dead_time_bound_s: float | None = None
+    #: "continuous" | "discrete" | "2dof" | "unknown" (module docstring)
+    current_loop_design: str = "continuous"
+    #: feed-forward of the dq cross terms ω_e·L·i with the measured currents
+    current_loop_decoupling: bool = False
+    #: feed-forward of the back EMF (changes no small-signal transfer; recorded)
+    current_loop_emf_feedforward: bool = False
+    #: inverse Park at the angle advanced by ω_e·delay (the delay rotates nothing)
+    current_loop_angle_compensation: bool = False
 
     def __post_init__(self) -> None:
+        if self.current_loop_design not in LOOP_DESIGNS:
+            raise InputError(f"current_loop_design={self.current_loop_design!r} must be one of "
+                             f"{', '.join(LOOP_DESIGNS)}")
+        for name in ("current_loop_decoupling", "current_loop_emf_feedforward",
+                     "current_loop_angle_compensation"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name}={getattr(self, name)!r} must be true or false")
         for name in ("current_loop_bandwidth_hz", "transducer_bandwidth_hz"):
             value = getattr(self, name)
             if value is not None and not (math.isfinite(value) and value > 0):
@@ -93,6 +142,64 @@ class DriveSetup:
         data["motor"] = asdict(self.motor)
         return data
 
+    @property
+    def loop_is_ideal(self) -> bool:
+        """No loop stated and not "unknown": ideal regulation (T = 1)."""
+        return not self.current_loop_bandwidth_hz and self.current_loop_design != "unknown"
+
+    def loop_variants(self) -> list["DriveSetup"]:
+        """The loops this setup's statement allows, each a concrete design (module docstring):
+        a stated design at its bandwidth × (1 ± :data:`STATED_LOOP_BANDWIDTH_FRACTION`) and its
+        delay ± half a PWM period; "unknown": continuous and discrete PI (with and without
+        decoupling, no angle compensation) and the 2-DOF loop (angle compensation), each at the
+        bandwidths :data:`UNKNOWN_LOOP_BANDWIDTH_FACTORS` × the stated (or default) bandwidth,
+        at the stated (or default) delay, leaving out those a drive would not run (ω_c·τ above
+        :data:`MAX_LOOP_BANDWIDTH_DELAY_RAD`, or above :data:`MAX_LOOP_BANDWIDTH_PER_PWM` of
+        the PWM frequency; the stated bandwidth is always kept). Ideal regulation: none."""
+        if self.loop_is_ideal:
+            return []
+        half_period = 0.5 / self.pwm_frequency_hz
+        if self.current_loop_design != "unknown":
+            return [replace(self, current_loop_bandwidth_hz=self.current_loop_bandwidth_hz * f,
+                            current_loop_delay_s=max(0.0, self.current_loop_delay_s + d))
+                    for f in (1 - STATED_LOOP_BANDWIDTH_FRACTION,
+                              1 + STATED_LOOP_BANDWIDTH_FRACTION)
+                    for d in (-half_period, half_period)]
+        bandwidth = (self.current_loop_bandwidth_hz
+                     or UNKNOWN_LOOP_BANDWIDTH_PER_PWM * self.pwm_frequency_hz)
+        delay = self.current_loop_delay_s or UNKNOWN_LOOP_DELAY_PERIODS / self.pwm_frequency_hz
+        out = []
+        for factor in UNKNOWN_LOOP_BANDWIDTH_FACTORS:
+            if (factor != 1.0 and (2 * math.pi * bandwidth * factor * delay
+                                   > MAX_LOOP_BANDWIDTH_DELAY_RAD
+                                   or bandwidth * factor
+                                   > MAX_LOOP_BANDWIDTH_PER_PWM * self.pwm_frequency_hz)):
+                continue                  # not a loop a drive would run with this delay
+            common = dict(current_loop_bandwidth_hz=bandwidth * factor,
+                          current_loop_delay_s=delay, current_loop_emf_feedforward=False)
+            for design in ("continuous", "discrete"):
+                for decoupling in (False, True):
+                    out.append(replace(self, current_loop_design=design,
+                                       current_loop_decoupling=decoupling,
+                                       current_loop_angle_compensation=False, **common))
+            out.append(replace(self, current_loop_design="2dof", current_loop_decoupling=False,
+                               current_loop_angle_compensation=True, **common))
+        return out
+
+    def loop_text(self) -> str:
+        """One line: the loop as stated."""
+        if self.loop_is_ideal:
+            return "ideal current regulation (no loop stated)"
+        options = [name for name, on in (("decoupling", self.current_loop_decoupling),
+                                         ("EMF feed-forward", self.current_loop_emf_feedforward),
+                                         ("angle compensation",
+                                          self.current_loop_angle_compensation)) if on]
+        bandwidth = (f"{self.current_loop_bandwidth_hz:g} Hz" if self.current_loop_bandwidth_hz
+                     else "bandwidth not stated")
+        return (f"{self.current_loop_design} loop, {bandwidth}, delay "
+                f"{self.current_loop_delay_s * 1e6:.3g} µs"
+                + (f", {', '.join(options)}" if options else ""))
+
 
 def operating_point(speed_rpm: float, current_a: float, current_angle_rad: float,
                     setup: DriveSetup) -> OperatingPoint:
@@ -100,20 +207,78 @@ def operating_point(speed_rpm: float, current_a: float, current_angle_rad: float
                           current_angle_rad=current_angle_rad, motor=setup.motor)
 
 
-def loop_tracking(rotor_frequency_rad_s: float, op: OperatingPoint, setup: DriveSetup) -> complex:
-    """Complementary sensitivity T of the current loop at a rotor-frame frequency: how much of a
-    measurement error the loop writes into the actual current (1 for ideal regulation)."""
-    if not setup.current_loop_bandwidth_hz:
-        return 1.0 + 0j
-    if rotor_frequency_rad_s == 0.0:
-        return 1.0 + 0j                   # the integrator tracks a constant error completely
+def discrete_pi_gains(resistance_ohm: float, inductance_h: float, bandwidth_rad_s: float,
+                      period_s: float) -> tuple[float, float]:
+    """(Kp in V/A, Ki in V/(A·s)) of the pole-matched discrete PI the bench file calls
+    "discrete": the zero cancels the sampled plant pole a = e^{−R·T_s/L}, the delay-free
+    closed-loop pole sits at e^{−ω_c·T_s}."""
+    plant_pole = math.exp(-resistance_ohm * period_s / inductance_h)
+    loop_gain_ = -math.expm1(-bandwidth_rad_s * period_s)
+    return (plant_pole * resistance_ohm * loop_gain_ / (1.0 - plant_pole),
+            resistance_ohm * loop_gain_ / period_s)
+
+
+def loop_gain(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
+    """Loop gain (controller's feedback part × delay × plant) of a concrete design at
+    rotor-frame frequencies ω ≠ 0 (rad/s; array or number), module docstring."""
     motor = op.motor
-    plant = 1.0 / (motor.phase_resistance_ohm + 1j * motor.phase_inductance_h
-                   * (rotor_frequency_rad_s + op.elec_speed_rad_s))
-    sensitivity_times_plant = loop_rejection(rotor_frequency_rad_s, op,
-                                             2 * math.pi * setup.current_loop_bandwidth_hz,
-                                             setup.current_loop_delay_s)
-    return 1.0 - sensitivity_times_plant / plant
+    r, l = motor.phase_resistance_ohm, motor.phase_inductance_h
+    w_e = op.elec_speed_rad_s
+    s = 1j * np.asarray(rotor_frequency_rad_s, dtype=float)
+    alpha = 2 * math.pi * setup.current_loop_bandwidth_hz
+    design = setup.current_loop_design
+    if design == "continuous":
+        controller = alpha * (r + l * s) / s
+    elif design == "discrete":
+        period = 1.0 / setup.pwm_frequency_hz
+        kp, ki = discrete_pi_gains(r, l, alpha, period)
+        z = np.exp(s * period)
+        controller = kp + ki * period * z / (z - 1.0)
+    elif design == "2dof":
+        controller = l * (2.0 * alpha + (alpha * alpha + 1j * w_e * alpha) / s)
+    else:
+        raise InputError(f"loop_gain needs a concrete design, got {design!r}")
+    if setup.current_loop_decoupling:
+        controller = controller - 1j * w_e * l
+    tau = setup.current_loop_delay_s
+    delay = np.exp(-s * tau) if setup.current_loop_angle_compensation \
+        else np.exp(-(s + 1j * w_e) * tau)
+    return controller * delay / (r + l * (s + 1j * w_e))
+
+
+def _loop_transfer(rotor_frequency_rad_s, op, setup, kind: str):
+    w = np.asarray(rotor_frequency_rad_s, dtype=float)
+    if setup.current_loop_design == "unknown":
+        values = np.mean([_loop_transfer(w, op, v, kind) for v in setup.loop_variants()], axis=0)
+        return complex(values) if values.ndim == 0 else values
+    motor = op.motor
+    plant = 1.0 / (motor.phase_resistance_ohm
+                   + motor.phase_inductance_h * (1j * w + 1j * op.elec_speed_rad_s))
+    safe = np.where(w == 0.0, 1.0, w)
+    gain = loop_gain(safe, op, setup)
+    if kind == "tracking":      # the integrator tracks a constant error completely
+        out = np.where(w == 0.0, 1.0 + 0j, gain / (1.0 + gain))
+    else:                       # ... and rejects a constant disturbance completely
+        out = np.where(w == 0.0, 0j, plant / (1.0 + gain))
+    return complex(out) if out.ndim == 0 else out
+
+
+def loop_tracking(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
+    """Complementary sensitivity T of the current loop at a rotor-frame frequency: how much of a
+    measurement error the loop writes into the actual current (1 for ideal regulation); for
+    "unknown" the mean over :meth:`DriveSetup.loop_variants`."""
+    if setup.loop_is_ideal:
+        return 1.0 + 0j if np.ndim(rotor_frequency_rad_s) == 0 else \
+            np.ones(np.shape(rotor_frequency_rad_s), dtype=complex)
+    return _loop_transfer(rotor_frequency_rad_s, op, setup, "tracking")
+
+
+def loop_disturbance(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
+    """Voltage disturbance → current (A/V) in the rotor frame, P/(1 + L); voltage-fed (no loop)
+    when no loop is stated (the average dead-time model's convention)."""
+    if setup.loop_is_ideal:
+        return loop_rejection(rotor_frequency_rad_s, op, None)
+    return _loop_transfer(rotor_frequency_rad_s, op, setup, "disturbance")
 
 
 def transducer_response(mech_order: int, speed_rpm: float, setup: DriveSetup) -> complex:
@@ -149,7 +314,7 @@ def actual_current_error(op: OperatingPoint, setup: DriveSetup, n_a: np.ndarray,
     error = n_a + 1j * (n_a + 2.0 * n_b) / SQRT3
     harmonics = np.fft.fft(error) / GRID_POINTS
     m = np.fft.fftfreq(GRID_POINTS, 1.0 / GRID_POINTS)
-    tracking = np.array([loop_tracking((k - 1.0) * op.elec_speed_rad_s, op, setup) for k in m])
+    tracking = loop_tracking((m - 1.0) * op.elec_speed_rad_s, op, setup)
     return -np.fft.ifft(harmonics * tracking) * GRID_POINTS
 
 
@@ -204,9 +369,10 @@ def dead_time_orders(op: OperatingPoint, setup: DriveSetup) -> np.ndarray:
     """Torque coefficients per microsecond of effective dead time (average-voltage model with the
     bench's loop; hil.model.dead_time)."""
     theta = electrical_grid(DEAD_TIME_GRID_POINTS)
-    torque_pu = average_model_torque_pu(theta, op, 1e-6, setup.pwm_frequency_hz,
-                                        setup.current_loop_bandwidth_hz,
-                                        setup.current_loop_delay_s)
+    torque_pu = average_model_torque_pu(
+        theta, op, 1e-6, setup.pwm_frequency_hz, setup.current_loop_bandwidth_hz,
+        setup.current_loop_delay_s,
+        rejection=lambda w: loop_disturbance(w, op, setup))
     coefficients = waveform_orders(torque_pu * op.mean_torque_nm)
     coefficients[0] = 0.0          # the fundamental's loss moves the mean; not used
     return coefficients

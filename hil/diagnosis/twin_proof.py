@@ -82,14 +82,19 @@ def twin_config(faults: HiddenFaults) -> DriveConfig:
 
 
 def twin_setup(config: DriveConfig) -> DriveSetup:
-    """What a bench file would state about the twin: its loop (bandwidth 0.08·f_pwm, delay 1.5
-    PWM periods; hil.sim.config.FirmwareModel) and its transducer's bandwidth."""
+    """What a bench file would state about the twin: its loop (design, options, bandwidth
+    ``bandwidth_per_pwm``·f_pwm, delay (delay_periods + 0.5)/f_pwm; hil.sim.config.FirmwareModel)
+    and its transducer's bandwidth."""
     f_pwm = config.injection.pwm_frequency_hz
     firmware: FirmwareModel = config.firmware
     return DriveSetup(motor=config.motor.parameters,
                       current_loop_bandwidth_hz=firmware.bandwidth_per_pwm * f_pwm,
-                      current_loop_delay_s=1.5 / f_pwm, pwm_frequency_hz=f_pwm,
-                      transducer_bandwidth_hz=config.transducer.bandwidth_hz)
+                      current_loop_delay_s=firmware.total_delay_s(f_pwm), pwm_frequency_hz=f_pwm,
+                      transducer_bandwidth_hz=config.transducer.bandwidth_hz,
+                      current_loop_design=firmware.design,
+                      current_loop_decoupling=firmware.decoupling,
+                      current_loop_emf_feedforward=firmware.emf_feedforward,
+                      current_loop_angle_compensation=firmware.angle_compensation)
 
 
 def simulate_points(config: DriveConfig, points, *, revolutions_elec: int, sample_rate_hz: float,

@@ -26,13 +26,20 @@ periodic steady state (``hil.model.dead_time_steady_state``). Near each zero cro
 flips with the current and the current dwells at zero; where ε is not small against the phase
 voltage (low speed, low current) this adds order-12, 18, … content the six-step series misses
 (the six-step series was 20–35 % low in pk-pk at 250 rpm / 10 A and 500 rpm / 10 A against the
-simulated drive: ``studies/dead_time_calibration.py``). The orders kept are 1..``max_order`` (the
+simulated drive: ``studies/dead_time_calibration.py``). The PWM current ripple is included where
+it matters, at the zero crossings: a leg's error is set by the current at its two edges of the
+period, which differ from the period average by ∓a_x (the ripple's excursion); while |i_x| < a_x
+the two edges see opposite signs and their errors cancel, and a dead interval that starts near
+zero clamps the current there (``dead_time_steady_state``). At low current on a low-inductance
+motor this is a large part of the crossing: Table I at 1000 rpm / 5 A, 2 µs, a_x ≈ 0.64 A of
+5 A; without it the model read 30 % low there (0.0277 pu against 0.0367 measured). The orders kept are 1..``max_order`` (the
 analysis's band); with ``transducer_bandwidth_hz`` each order k is multiplied by the stated
 first-order transducer response at k·f_e, as the bench measures it (its phase enters the order-6
 phase the plan judges).
 
 ``dead_time_voltage_loss_v`` gives the fundamental of the leg error, the phase voltage the dead
-time costs (for the pre-flight voltage headroom).
+time costs (for the pre-flight voltage headroom, ``hil.model.voltage``, where the one linear
+limit with dead time, (V_dc/√3)·(1 − 4·T_d·f_sw), is derived).
 """
 
 from __future__ import annotations
@@ -70,29 +77,6 @@ def dead_time_voltage_loss_v(dead_time_s: float, pwm_frequency_hz: float,
     f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, 0.0, 1e6, unit=" Hz")
     v_dc = check_range("dc_bus_v", dc_bus_v, 0.0, 2000.0, unit=" V")
     return 4.0 / math.pi * t_d * f_sw * v_dc
-
-
-def dead_time_linear_voltage_limit_v(dead_time_s: float, pwm_frequency_hz: float,
-                                     dc_bus_v: float) -> float:
-    """Largest peak phase-voltage command (V) for which every PWM period keeps both dead-time
-    edges of every leg (centre-aligned PWM, dead time after each edge, SVPWM min-max).
-
-    A leg's duty d reaches 0.5 + (√3/2)·|V|/V_dc with min-max injection; its low interval at
-    each end of the period, (1 − d)/(2·f_sw), must outlast the dead time T_d, or the edge is
-    dropped and the leg error is no longer ε·sign(i) (the average model, and eqs 32-37, no
-    longer hold). Hence |V| ≤ (V_dc/√3)·(1 − 4·T_d·f_sw). The command includes the dead time's
-    own fundamental (:func:`dead_time_voltage_loss_v`), which the loop adds.
-    """
-    t_d = check_range("dead_time_s", dead_time_s, *DEAD_TIME_RANGE_S, unit=" s")
-    f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, 0.0, 1e6, unit=" Hz")
-    return dc_bus_v / math.sqrt(3.0) * max(0.0, 1.0 - 4.0 * t_d * f_sw)
-
-
-def dead_time_voltage_command_v(op: OperatingPoint, dead_time_s: float,
-                                pwm_frequency_hz: float) -> float:
-    """Peak phase voltage (V) the loop commands at ``op``: |E + (R + jω_e·L)·I| plus the dead
-    time's fundamental loss (in phase with the current; added in magnitude, an upper bound)."""
-    return abs(op.voltage_phasor_peak_v) + dead_time_voltage_loss_v(dead_time_s, pwm_frequency_hz, op.dc_bus_v)
 
 
 def transducer_response(frequency_hz, bandwidth_hz: float | None):
@@ -134,23 +118,40 @@ def loop_rejection(rotor_frequency_rad_s, op: OperatingPoint,
 def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: float,
                             pwm_frequency_hz: float,
                             current_loop_bandwidth_hz: float | None,
-                            current_loop_delay_s: float = 0.0) -> np.ndarray:
-    """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model."""
+                            current_loop_delay_s: float = 0.0, *,
+                            rejection=None) -> np.ndarray:
+    """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model.
+
+    ``rejection``: optional callable, rotor-frame frequencies (rad/s, array) → disturbance
+    voltage → current transfer (A/V) of another loop design (hil.diagnosis.signatures
+    .loop_disturbance); default the PI of :func:`loop_rejection` with the given bandwidth/delay.
+    """
     omega = op.elec_speed_rad_s
     eps = dead_time_s * pwm_frequency_hz * op.dc_bus_v
     bandwidth = 2 * math.pi * current_loop_bandwidth_hz if current_loop_bandwidth_hz else None
-    psi = theta - op.current_angle_rad
-    delta_i = np.zeros((3, theta.size))
-    for n in range(1, HIGHEST_HARMONIC + 1, 2):
-        if n % 3 == 0:
-            continue
-        if n % 6 == 1:
-            gain = loop_rejection((n - 1) * omega, op, bandwidth, current_loop_delay_s)
+    if rejection is None:
+        def rejection(w):
+            return loop_rejection(w, op, bandwidth, current_loop_delay_s)
+    harmonics = np.array([n for n in range(1, HIGHEST_HARMONIC + 1, 2) if n % 3 != 0])
+    positive = harmonics % 6 == 1
+    # positive sequence n = 6k + 1 at (n − 1)·ω_e; negative n = 6k − 1 at −(n + 1)·ω_e, conj.
+    frequencies = np.where(positive, (harmonics - 1) * omega, -(harmonics + 1) * omega)
+    gains = np.asarray(rejection(frequencies.astype(float)), dtype=complex)
+    gains = np.where(positive, gains, np.conj(gains))
+    # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
+    amplitudes = 1j * eps * 4.0 / (math.pi * harmonics) * gains
+    size = theta.size
+    uniform = (size > 2 * HIGHEST_HARMONIC and theta[0] == 0.0
+               and np.allclose(np.diff(theta), 2 * math.pi / size, rtol=0, atol=1e-12))
+    delta_i = np.zeros((3, size))
+    for x, offset in enumerate(PHASE_OFFSETS_RAD):
+        coefficients = amplitudes * np.exp(-1j * harmonics * (op.current_angle_rad + offset))
+        if uniform:     # θ_k = 2πk/N: the sum over n is an inverse DFT (same value, fast)
+            line = np.zeros(size, dtype=complex)
+            line[harmonics] = coefficients
+            delta_i[x] = np.real(np.fft.ifft(line) * size)
         else:
-            gain = np.conj(loop_rejection(-(n + 1) * omega, op, bandwidth, current_loop_delay_s))
-        # Δv_x harmonic n: −ε·(4/(πn))·sin(n(ψ − o_x)) = Re(j·ε·(4/(πn))·e^{jn(ψ − o_x)})
-        amplitude = 1j * eps * 4.0 / (math.pi * n) * gain
-        delta_i += np.real(amplitude * np.exp(1j * n * (psi[None, :] - PHASE_OFFSETS_RAD[:, None])))
+            delta_i[x] = np.real(np.exp(1j * np.outer(theta, harmonics)) @ coefficients)
     emf_shape = np.sin(theta[None, :] - PHASE_OFFSETS_RAD[:, None])  # e_x / E
     ideal = 1.5 * math.cos(op.current_angle_rad)
     return (ideal + np.sum(emf_shape * delta_i, axis=0) / op.current_a) / ideal
@@ -232,7 +233,8 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
         emf_peak_v=speed_sign * op.emf_peak_v, elec_speed_rad_s=op.elec_speed_rad_s,
         current_a=op.current_a, current_angle_rad=op.current_angle_rad, leg_error_v=eps,
         loop_bandwidth_rad_s=2 * math.pi * bandwidth_hz if bandwidth_hz else 0.0,
-        delay_s=delay_s, max_order=CLAMPING_MAX_ORDER)
+        delay_s=delay_s, max_order=CLAMPING_MAX_ORDER,
+        dc_bus_v=op.dc_bus_v, pwm_frequency_hz=f_sw)
     orders = np.arange(coefficients.size)
     elec_hz = op.elec_speed_rad_s / (2 * math.pi)
     coefficients = coefficients * transducer_response(orders * elec_hz, transducer_bandwidth_hz)
@@ -247,8 +249,9 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
         inputs=inputs, equations="average voltage error T_d·f_sw·V_dc per leg with the actual "
         "current's sign (eqs 32-37 averaged over a PWM period), periodic steady state",
         assumptions=[
-            "leg error −ε·sign(i) with the simulated (not the ideal) current: zero-current "
-            "clamping included; PWM current ripple and diode drops neglected",
+            "leg error from the simulated (not the ideal) current at the leg's two edges: the "
+            "PWM ripple's excursion (centre-aligned SVPWM) and zero-current clamping within the "
+            "dead intervals included; diode drops and the loop's sampling neglected",
             f"synchronous-frame PI, Kp = ω_c·L, Ki = ω_c·R, no decoupling, delay {delay_s:.3g} s,"
             " continuous-time" if bandwidth_hz else "no current loop (voltage-fed, open loop)",
             f"orders 1..{CLAMPING_MAX_ORDER} kept" + (

@@ -12,6 +12,7 @@ by one count): cos 10° − cos 20° = 4.51 %. With φ = 0 eq 9 gives only 1.52 
 
 from __future__ import annotations
 
+import cmath
 import math
 
 import numpy as np
@@ -82,6 +83,22 @@ def staircase_mean_pu(resolution_rad: float, current_angle_rad: float) -> float:
     (3/2)·E·I/ω_m (negative when the count lags the EMF by more than 90° on average)."""
     phi = current_angle_rad
     return (math.sin(phi + resolution_rad) - math.sin(phi)) / resolution_rad
+
+
+def count_order_amplitude_pu(resolution_rad: float, current_angle_rad: float) -> float:
+    """Amplitude of the staircase's count-frequency order N = 2π/θ_res (its fundamental), per
+    unit of (3/2)·E·I/ω_m: 2·|c|, c = (1/θ_res)·∫₀^θres cos(γ + φ)·e^(−jNγ) dγ (eq 7 over one
+    count, eq 8's period), in closed form with cos(γ + φ) = (e^(j(γ+φ)) + e^(−j(γ+φ)))/2 and
+    e^(−jNθ_res) = 1:
+    c = [e^(jφ)·(e^(jθ_res) − 1)/(j(1 − N)) − e^(−jφ)·(e^(−jθ_res) − 1)/(j(1 + N))]/(2·θ_res).
+    Where cos(γ + φ) is nearly linear over a count it is eq 9's pk-pk/π (a sawtooth's
+    fundamental)."""
+    n = 2.0 * math.pi / resolution_rad
+    phi = current_angle_rad
+    c = (cmath.exp(1j * phi) * (cmath.exp(1j * resolution_rad) - 1.0) / (1j * (1.0 - n))
+         - cmath.exp(-1j * phi) * (cmath.exp(-1j * resolution_rad) - 1.0) / (1j * (1.0 + n))
+         ) / (2.0 * resolution_rad)
+    return 2.0 * abs(c)
 
 
 def lagging_ripple_pu(resolution_rad: float, current_angle_rad: float) -> float:
@@ -155,5 +172,8 @@ def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = N
             "sinusoidal back EMF, no cogging"],
         angle_rad=theta, waveform_pu=waveform,
         extras={"paper_pk_pk_pu": paper, "paper_base": "(3/2)·E·I/ω_m (eq 9)",
+                # the count order's own pk-pk (2·A_N), per unit of the staircase's mean torque:
+                # what a rule with quantity "named_order_pk_pk" judges (hil.analysis.decision)
+                "order_pk_pk_pu": 2.0 * count_order_amplitude_pu(res, phi) / abs(mean_pu),
                 "mean_torque_sign": 1.0 if mean_pu > 0 else -1.0,
                 "count_frequency_order": 2.0 * math.pi / res})

@@ -17,12 +17,25 @@ peak (4/π)·ε; the common mode it leaves is a triplen and does not reach the p
 voltage loses (4/π)·T_d·f_pwm·V_dc along the current's direction. The inverter must therefore
 give V + (4/π)·ε·I/|I|.
 
-That loss is a constant ε per leg only while every switch's on-time is longer than T_d: a shorter
-pulse is swallowed whole (pulse dropping) and the error is no longer the model's. Under
-centre-aligned SVPWM a leg's duty swings over 0.5 ± (√3/2)·|V|/V_dc, so both on-times stay above
-T_d while |V| ≤ (V_dc/√3)·(1 − 2·T_d·f_pwm) (:func:`linear_limit_v`). A point is within reach
-when the inverter's |V + loss| is within that limit (Table I at 1200 rpm / 10 A with 4 µs needs
-5.86 V against 5.82 V, and a correct drive measured 23 % against the model's 2.9 % there).
+That loss is a constant ε per leg only while every edge of every leg keeps its dead time inside
+the PWM period: a leg's high pulse must end a dead time before the period does (and its low
+interval likewise at each end of a centre-aligned period), so the modulator emits no duty above
+1 − 2·T_d·f_pwm short of full-on (the simulated firmware, ``hil.sim.validity.max_leg_duty``);
+beyond it the leg clips, the edge and its dead-time error vanish and the loop winds up. Under
+centre-aligned SVPWM (min-max zero sequence) the highest leg duty is 0.5 + (√3/2)·|V|/V_dc, so
+the inverter stays linear with the dead time's error intact while
+
+    |V + loss| ≤ (V_dc/√3)·(1 − 4·T_d·f_pwm)          (:func:`linear_limit_v`).
+
+This is the one limit of the project (the dead-time plan's "edge-keeping" limit and the
+pre-flight's headroom were two, 1 − 4·T_d·f and 1 − 2·T_d·f; the latter, "both on-times longer
+than T_d", is the bound for a modulator whose low pulses run on across the period boundary, which
+the simulated drive's is not). Evidence on the simulated drive (``studies/dead_time_calibration.py``
+points refused by it): Table I at 1200 rpm / 10 A, 3 µs needs 5.56 V, inside 1 − 2·T_d·f
+(6.10 V) but beyond 1 − 4·T_d·f (5.27 V): the order-6 amplitude read 0.76× the model and order 18
+2×; at 4 µs (5.86 V) a correct drive measured 23 % against the model's 2.9 %. Reverse rotation
+(braking) needs less: p2_24v at −1089 rpm / 20 A, 3 µs needs 4.57 V against 10.53 V, the model
+held (order 6 at 1.00×) where the motoring magnitude (15.1 V) had refused it.
 """
 
 from __future__ import annotations
@@ -50,11 +63,19 @@ def svpwm_limit_v(dc_bus_v: float) -> float:
     return dc_bus_v / math.sqrt(3.0)
 
 
+#: The highest leg duty is 1 − DUTY_DEAD_TIMES·T_d·f_pwm: one dead time at each end of the
+#: period (module docstring).
+DUTY_DEAD_TIMES = 2.0
+
+
 def linear_limit_v(dc_bus_v: float, dead_time_s: float = 0.0,
                    pwm_frequency_hz: float = 20_000.0) -> float:
-    """Largest peak phase voltage of centre-aligned SVPWM with every on-time longer than the dead
-    time, V: (V_dc/√3)·(1 − 2·T_d·f_pwm) (module docstring; V_dc/√3 without dead time)."""
-    return svpwm_limit_v(dc_bus_v) * (1.0 - 2.0 * dead_time_s * pwm_frequency_hz)
+    """Largest peak phase voltage of centre-aligned SVPWM whose every edge keeps its dead time
+    within the period, V: (V_dc/√3)·(1 − 4·T_d·f_pwm) (module docstring; V_dc/√3 without dead
+    time). ``dead_time_s`` s, ``pwm_frequency_hz`` Hz, ``dc_bus_v`` V."""
+    max_duty = 1.0 - DUTY_DEAD_TIMES * dead_time_s * pwm_frequency_hz
+    # 0.5 + (√3/2)·|V|/V_dc ≤ max_duty  ⇔  |V| ≤ (V_dc/√3)·(2·max_duty − 1)
+    return svpwm_limit_v(dc_bus_v) * max(0.0, 2.0 * max_duty - 1.0)
 
 
 def inverter_voltage_needed_v(motor: MotorParameters, speed_rpm: float, current_a: float,

@@ -53,6 +53,12 @@ class DriveDefects:
     #: the drive's encoder index sits this far (electrical rad) ahead of the rotor's electrical
     #: zero: the firmware's Park angle is θe + this, so the current sits at φ − this
     encoder_index_offset_rad: float = 0.0
+    #: the DAQ's angle channel (its encoder counter) reads this far (electrical degrees) ahead of
+    #: the rotor's electrical angle, whose zero is phase a's back-EMF rising zero crossing (a
+    #: bench encoder mounted with an unknown commutation offset); the drive itself commutates
+    #: correctly. Applied by the simulated DAQ (drivers/simulated/modbus_daq_server.py); the
+    #: self-check's back-EMF angle reference measures it (hil.selfcheck.emf_angle_reference)
+    encoder_commutation_offset_elec_deg: float = 0.0
     #: fraction (0..1) of the dead time's average-voltage error the firmware compensates; the
     #: twin runs with an effective dead time of (1 − this)·t_d (the average-voltage reading of a
     #: compensation, eqs 32-35: what is left near the current zero crossings is not modelled)
@@ -88,7 +94,8 @@ class DriveDefects:
             values["ignore_injection"] = _knob_names(values["ignore_injection"])
         for name in ("injection_scale", "hidden_ia_offset_a", "hidden_ib_offset_a",
                      "transducer_scale", "encoder_index_offset_rad", "dead_time_compensation_pu",
-                     "transducer_extra_lag_s", "current_loop_bandwidth_scale"):
+                     "transducer_extra_lag_s", "current_loop_bandwidth_scale",
+                     "encoder_commutation_offset_elec_deg"):
             if name in values:
                 values[name] = _number(name, values[name])
         for name in ("word_length_offset_bits", "daq_drop_every_nth"):
@@ -205,6 +212,10 @@ class DriveDefects:
             raise InputError(f"simulation.defects.encoder_index_offset_rad = "
                              f"{self.encoder_index_offset_rad!r} is out of range; allowed "
                              f"-pi..pi electrical rad")
+        if not -180.0 <= self.encoder_commutation_offset_elec_deg <= 180.0:
+            raise InputError(f"simulation.defects.encoder_commutation_offset_elec_deg = "
+                             f"{self.encoder_commutation_offset_elec_deg!r} is out of range; "
+                             f"allowed -180..180 electrical degrees")
         if not 0.0 <= self.dead_time_compensation_pu <= 1.0:
             raise InputError(f"simulation.defects.dead_time_compensation_pu = "
                              f"{self.dead_time_compensation_pu!r} is out of range; allowed 0..1")

@@ -173,4 +173,9 @@ def result_meta(config: DriveConfig, sample_rate_hz: float, seed: int,
         "speed_rpm_command": config.speed_rpm,
         "injection": config.injection.as_dict(),
         "transducer_gain_error_pu": gain_error_pu,
+        # the angle channel is the twin's rotor angle, whose θe = 0 is phase a's back-EMF rising
+        # zero crossing by construction (hil/diagnosis/README.md)
+        "emf_a_rising_zero_elec_deg": 0.0,
+        "emf_a_rising_zero_u_elec_deg": 0.0,
+        "emf_a_rising_zero_source": "simulation: the angle channel is the twin's rotor angle",
     }

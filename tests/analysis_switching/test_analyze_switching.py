@@ -199,3 +199,17 @@ def test_twin_envelope_peaks_midway_between_voltage_zero_crossings(twin_channels
     peak_angle = -result.named_phase_rad / 6                   # max of cos(6θ + φ6)
     from_zero_crossing_deg = math.degrees((peak_angle + voltage_angle) % (math.pi / 3))
     assert from_zero_crossing_deg == pytest.approx(30.0, abs=5.0)
+
+
+def test_windows_longer_than_the_phase_pattern_give_a_finite_uncertainty():
+    """195 kHz at 20 kHz repeats its sample phases every 4 PWM periods; windows of 5 periods
+    (8 poles at 500 rpm) then fold two samples onto some phases. The sampling-bias bound divided
+    by their zero (or rounding-sized) phase step: U was NaN (the correct drive rejected with "no
+    finite expanded uncertainty") or ~1e9 pu. Coincident phases are now one point."""
+    for rate in (165_000.0, 175_000.0, 195_000.0):
+        # 8.25, 8.75, 9.75 samples per period: the phases repeat every 4 periods, windows of 10
+        result = analyze_switching(synthetic_capture(sample_rate_hz=rate), pwm_frequency_hz=PWM_HZ,
+                                   motor=TABLE_I, max_order=24)
+        u = result.uncertainty.expanded_pu
+        assert math.isfinite(u) and u < 0.1 * result.pk_pk_pu, (rate, u)
+        assert abs(result.pk_pk_pu - expected_peak_pu()) <= u

@@ -33,9 +33,27 @@ def test_plan_measures_the_designed_points_and_finds_the_hidden_offset(diagnosis
     assert code == 0
     record = _record(folder)
     points = [t for t in record["tests"] if t.get("kind") == "diagnosis" and t.get("capture")]
-    assert len(points) == 8
-    assert all(t["verdict"] is None and t["injection"] == {} for t in points)
+    assert len(points) == 20
+    assert all(t["verdict"] is None for t in points)
+    assert sum(t["injection"] == {} for t in points) == 8       # 8 base points, 12 additions
     section = record["diagnosis"]
+    # standard additions: the hidden offset recovered within U, the transfers calibrated,
+    # offsets and gain linear over their additions, both routes agree
+    additions = section["additions"]
+    estimates = {e["name"]: e for e in additions["estimates"]}
+    a = estimates["ia_offset_a"]
+    assert a["stated"] and abs(a["estimate"] - HIDDEN_OFFSET_A) <= a["expanded_uncertainty"]
+    assert abs(estimates["ib_offset_a"]["estimate"]) <= estimates["ib_offset_a"][
+        "expanded_uncertainty"]
+    assert estimates["gain_a_rel_b_pu"]["stated"] and estimates["gain_a_rel_b_pu"][
+        "motor_term_fitted"]
+    assert len(additions["transfers"]) == 8 and len(additions["linearity"]) == 4
+    linear = {c["addition"]: c["linear"] for c in additions["linearity"]}
+    assert linear["addition_ia_offset_a"] and linear["addition_ib_offset_a"] and linear[
+        "addition_gain_a_pu"]
+    assert all(c["agrees"] for c in additions["transfer_vs_model"])
+    assert all(c["agrees"] for c in additions["versus_fit"] if c["compared"])
+    assert {p["injection"].get("ia_offset_a") for p in additions["points"]} >= {0.2, 0.4}
     params = {p["name"]: p for p in section["parameters"]}
     a = params["ia_offset_a"]
     assert abs(a["estimate"] - HIDDEN_OFFSET_A) <= a["expanded_uncertainty"] + 0.002
@@ -48,7 +66,11 @@ def test_hil_diagnose_on_the_recorded_captures(diagnosis_run, capsys):
     _, folder = diagnosis_run
     # the diagnosis points' captures (the self-check's transducer-dynamics points inject gain
     # errors: a diagnosis refuses captures of different injections, tested below)
-    captures = sorted(str(p) for p in (folder / "captures").glob("*test_diagnosis*.npz"))
+    base = {Path(t["capture"]["file"]).name for t in _record(folder)["tests"]
+            if t.get("kind") == "diagnosis" and t.get("capture") and t["injection"] == {}}
+    captures = sorted(str(p) for p in (folder / "captures").glob("*test_diagnosis*.npz")
+                      if p.name in base)
+    assert len(captures) == 8
     everything = sorted(str(p) for p in (folder / "captures").glob("*.npz"))
     capsys.readouterr()
     assert main(["diagnose", *everything, "--json"]) == 2
@@ -129,3 +151,26 @@ def test_captures_of_different_injections_are_not_one_drive(tmp_path):
     done = subprocess.run([sys.executable, "-m", "hil", "diagnose", *paths, "--current-a", "20"],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "different injections" in done.stderr, done.stderr
+
+
+def test_plan_fails_a_drive_whose_sensor_injections_land_on_the_other_sensor(tmp_path):
+    """The mutation defect sensor_injection_swapped: the additions on sensor a land on b. The
+    calibrated transfers contradict the forward models and the two routes disagree: the plan
+    fails, naming it."""
+    folder = tmp_path / "records"
+    code = main(["run", "--source", "diagnosis", "--no-report", "--record-dir", str(folder),
+                 "--sim-defect", f"hidden_ia_offset_a={HIDDEN_OFFSET_A}",
+                 "--sim-defect", "sensor_injection_swapped=true"])
+    assert code != 0
+    (record_dir,) = [p for p in folder.iterdir() if (p / "record.json").is_file()]
+    record = _record(record_dir)
+    outcome = {t["test_id"].split("::")[-1]: t for t in record["tests"]}
+    failed = [t for name, t in outcome.items() if "test_diagnosis_by_additions" in name]
+    assert failed and failed[0]["outcome"] == "failed", [t.get("outcome") for t in failed]
+    text = failed[0]["message"]
+    assert "does not apply what it says" in text          # the record keeps the message's head
+    section = record["diagnosis"]["additions"]
+    wrong = {c["addition"] for c in section["transfer_vs_model"] if not c["agrees"]}
+    assert wrong == {"addition_ia_offset_a", "addition_ib_offset_a", "addition_gain_a_pu"}
+    routes = {c["name"]: c["agrees"] for c in section["versus_fit"] if c["compared"]}
+    assert routes["ia_offset_a"] is False and routes["ib_offset_a"] is False

@@ -47,7 +47,7 @@ def test_capture_is_in_si_units_and_consistent_with_the_operating_point(daq):
     assert len(capture) == n
     assert set(capture.channels) == {"time_s", "ia_a", "ib_a", "encoder_counts",
                                      "rotor_angle_mech_rad", "torque_nm", "dc_bus_v",
-                                     "sample_counter"}
+                                     "sample_counter", "vab_v"}
     assert capture.meta["sample_rate_hz"] == RATE_HZ
     assert capture.meta["pole_pairs"] == TABLE_I.pole_pairs
     assert capture.meta["daq_lsb"]["ia_a"] == 0.005

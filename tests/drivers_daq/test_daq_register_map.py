@@ -26,7 +26,7 @@ def test_shipped_map_has_no_overlapping_registers_and_a_125_word_window():
     bits = [c.bit for c in MAP.channels]
     assert len(set(bits)) == len(bits)
     assert [c.name for c in MAP.channels] == ["ia_a", "ib_a", "encoder_counts", "torque_nm",
-                                              "dc_bus_v", "sample_counter"]
+                                              "dc_bus_v", "sample_counter", "vab_v"]
 
 
 @given(st.floats(-3000, 3000, width=32))

@@ -81,7 +81,7 @@ def test_round_trips_of_a_readout_before_and_after(daq_server):
         after = new.capture(samples / RATE_HZ, RATE_HZ, settle_s=0.0,
                             channels=["torque_nm", "rotor_angle_mech_rad"]).meta["daq_transfer"]
         served_after = traffic.requests - traffic.requests_while_capturing - requests
-    pages_before = math.ceil(samples * 6 / 125)        # 5 int16 + the 32-bit encoder
+    pages_before = math.ceil(samples * 7 / 125)        # 6 words + vab_v's (legacy readout)
     pages_after = math.ceil(samples * 3 / 125)
     assert before["round_trips_readout"] == 3 + 2 * pages_before
     assert after["round_trips_readout"] == 4 + math.ceil(pages_after / 8)

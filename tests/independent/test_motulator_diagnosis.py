@@ -12,8 +12,7 @@ What each test proves:
   the right signs and size; stating the twin's 0° instead flips both signs (the issue's bug).
 * ``test_unstated_reference_gives_no_signed_calibration`` (motulator; strict xfail until helper
   diagin's manifest path lands): without the reference, no signed offset calibration.
-* ``test_reduced_coverage_has_no_confident_wrong`` (motulator; strict xfail until the issue-23
-  fit changes land): 3 random drives (both motors, both loop designs), every identifiable
+* ``test_reduced_coverage_has_no_confident_wrong`` (motulator): 3 random drives (both motors, both loop designs), every identifiable
   estimate within U or at most one miss, and no confident wrong answer.
 
 Both xfail markers were checked against main + h-diagin + h-diagfit + h-additions merged (with
@@ -169,9 +168,6 @@ def test_unstated_reference_gives_no_signed_calibration(offsets_captures, tmp_pa
 
 
 @needs_motulator
-@pytest.mark.xfail(strict=True, reason="issue 23: the fit's loop model / identifiability "
-                   "(helpers diagfit, additions) is still confidently wrong on motulator's "
-                   "2-DOF and discrete loops; remove this marker when they land")
 def test_reduced_coverage_has_no_confident_wrong(tmp_path):
     rng = np.random.default_rng(7)
     specs = [independent.random_drive(rng, mech_revolutions=2, pwm_model="zoh", motor=m)

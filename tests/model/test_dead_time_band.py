@@ -15,7 +15,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "studies"))
 import dead_time_calibration as study  # noqa: E402
 from hil.measurement import PointPlan  # noqa: E402
 from hil.model import OperatingPoint, predict  # noqa: E402
-from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE, phase_judge  # noqa: E402
+from ripple_hil_testplans.test_dead_time import (DEAD_TIME_RULE, order6_amplitude_check,  # noqa: E402
+                                                 phase_judge)
 
 
 def judge(point, *, model_scale=1.0, transducer_hz=1000.0, bench=None):
@@ -82,3 +83,75 @@ def test_no_phase_verdict_without_a_stated_transducer_bandwidth():
     assert judge(point, bench=bench(None))[1] is None
     stated = judge(point, bench=bench(1000.0))[1]
     assert stated is not None and stated.guarded_pass, stated
+
+
+def amplitude_verdict(point, applied_fraction=1.0):
+    """The plan's order-6 amplitude check of a twin whose drive applies ``applied_fraction`` of
+    the commanded dead time, against the model at the commanded one."""
+    from dataclasses import replace
+
+    motor = study.MOTORS[point.motor]
+    op = OperatingPoint(speed_rpm=point.speed_rpm, current_a=point.current_a, motor=motor)
+    prediction = predict("dead_time", op, dead_time_s=point.dead_time_s,
+                         model="current_clamping", transducer_bandwidth_hz=1000.0, **study.LOOP)
+    applied = replace(point, dead_time_s=applied_fraction * point.dead_time_s)
+    plan = PointPlan(source="dead_time", injection={"dead_time_s": applied.dead_time_s},
+                     speed_rpm=point.speed_rpm, current_a=point.current_a)
+    return order6_amplitude_check(study.capture(applied, plan), prediction)
+
+
+#: off the calibration set: other motors (10-pole 48 V; 2-pole 24 V 80 µH at low current and
+#: high speed, the holdout's worst point), reverse rotation, other seeds
+AMPLITUDE_POINTS = [study.Point("B", -400.0, 8.0, 3e-6, 16),
+                    study.Point("C", 1300.0, 5.0, 3e-6, 32),
+                    study.Point("TableI", -750.0, 15.0, 3e-6, 38)]
+
+
+@pytest.mark.parametrize("point", AMPLITUDE_POINTS, ids=lambda p: f"{p.motor}-{p.speed_rpm:g}rpm")
+def test_order6_amplitude_passes_a_correct_drive_and_fails_one_applying_70_percent(point):
+    """Issue 21 (dt brief item 3): a drive that applies 70 % of the commanded dead time sat
+    inside the ±35 % pk-pk band; the order-6 amplitude (±15 %, guarded) fails it wherever the
+    correct drive passes."""
+    assert point not in study.calibration_set()
+    right = amplitude_verdict(point)
+    assert right is not None and right["passed"], right
+    wrong = amplitude_verdict(point, applied_fraction=0.7)
+    assert wrong is not None and not wrong["passed"], wrong
+    assert wrong["measured"] / wrong["expected"] < 0.8
+
+
+def test_phase_zone_widens_by_the_bench_floor_and_still_fails_a_lagging_transducer():
+    """The order-6 phase zone is ±5° + asin(floor/2 / A_6): on the simulated bench (floor
+    0.001 N·m pk-pk) at Table I 500 rpm / 20 A, 4 µs (A_6 ≈ 0.0036 N·m) ≈ 13°; the transducer
+    lagging 1 ms more than stated is ≈ 30° off and still fails, the stated one passes."""
+    from hil.analysis.decision import decide_phase
+    from ripple_hil_testplans.test_dead_time import phase_tolerance_rad
+
+    point = study.Point("TableI", 500.0, 20.0, 4e-6, 3)
+    op = OperatingPoint(speed_rpm=point.speed_rpm, current_a=point.current_a)
+    prediction = predict("dead_time", op, dead_time_s=point.dead_time_s,
+                         model="current_clamping", transducer_bandwidth_hz=1000.0, **study.LOOP)
+    tolerance = phase_tolerance_rad(prediction, 0.001)
+    assert math.radians(12.0) < tolerance < math.radians(14.5)
+    assert phase_tolerance_rad(prediction, 0.0) == pytest.approx(math.radians(5.0))
+    plan = PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
+                     speed_rpm=point.speed_rpm, current_a=point.current_a)
+    tau = 1.0 / (2 * math.pi * 1000.0) + 1e-3
+    lagging = study.capture(point, plan, transducer_bandwidth_hz=1.0 / (2 * math.pi * tau))
+    assert not decide_phase(lagging, 6, prediction.extras["order6_phase_rad"],
+                            tolerance_rad=tolerance).guarded_pass
+    assert decide_phase(study.capture(point, plan), 6, prediction.extras["order6_phase_rad"],
+                        tolerance_rad=tolerance).guarded_pass
+
+
+def test_the_low_current_high_speed_wrong_rejection_is_gone():
+    """Issue 21's validity study: Table I at 1000 rpm / 5 A, 2 µs read 0.0367 pu against a
+    predicted 0.0277 (+30 %, a wrong rejection). With the PWM ripple at the crossings the model
+    predicts ≈ 0.038 and the correct drive passes the pk-pk band, the order-6 amplitude and the
+    phase (another seed than the calibration's)."""
+    point = study.Point("TableI", 1000.0, 5.0, 2e-6, 5)
+    pk_pk_ok, phase = judge(point)
+    assert pk_pk_ok
+    assert phase is not None and phase.guarded_pass, phase
+    amplitude = amplitude_verdict(point)
+    assert amplitude is not None and amplitude["passed"], amplitude

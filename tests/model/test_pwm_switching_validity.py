@@ -89,3 +89,49 @@ def test_a_point_the_daq_cannot_capture_gets_a_reason():
     assert isinstance(reason, str) and "windows per electrical revolution" in reason
     reason = capture_settings(2.0, 2, 20_000.0, **DAQ)     # 8 revolutions would be 120 s
     assert isinstance(reason, str) and "buffer" in reason
+
+
+def test_the_promised_effective_samples_are_those_of_the_whole_capture():
+    """8-pole motor at 1500 rpm, 20 kHz (windows of one PWM period): the first 8 windows of
+    199.5 kHz promised 9.97 effective samples per period, but every 40th window holds 9 samples
+    and the analysis found 5.05 (a wrong rejection of the correct drive). The rate kept now
+    promises what the analysis finds on the capture's time stamps, all windows counted."""
+    from hil.analysis.switching import _windows, effective_samples_per_period
+    from hil.analysis.angle import travel_angle
+
+    assert effective_samples_per_period(199_500.0, 20_000.0, 1, windows=8) > 9.9
+    assert effective_samples_per_period(199_500.0, 20_000.0, 1, windows=40) < 5.1
+    for speed_rpm, pole_pairs, pwm_hz in ((1500.0, 4, 20_000.0), (2475.0, 4, 20_000.0),
+                                          (1500.0, 2, 10_000.0), (-800.0, 4, 10_000.0),
+                                          (500.0, 4, 40_000.0)):
+        settings = capture_settings(speed_rpm, pole_pairs, pwm_hz, **DAQ)
+        assert not isinstance(settings, str), settings
+        elec_hz = abs(speed_rpm) * pole_pairs / 60.0
+        rate = settings.sample_rate_hz
+        time_s = np.arange(int((settings.revolutions + 0.25) / elec_hz * rate)) / rate
+        travel = travel_angle(time_s, 2.0 * math.pi * elec_hz * time_s)
+        found = _windows(time_s, travel, pwm_hz).effective_samples_per_period
+        assert found == pytest.approx(settings.effective_samples_per_period, rel=1e-6)
+        assert found >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD
+
+
+def test_no_rate_whose_sample_grid_is_synchronous_with_the_rotor():
+    """8-pole motor at 1000 rpm, 20 kHz (windows of 2 periods, 150 per revolution): 190 kHz put
+    the same 19 phases in every window; the corners they miss move with the duty cycles, and
+    the correct drive's envelope read orders 3, 6, 9 (order 6 at 1/7 of its amplitude at
+    10 kHz): a wrong rejection on the signature. Such rates, and rates whose arrangement cycle
+    fits a whole number of times in a revolution (500 rpm: 195 kHz repeats every 4 windows of
+    5 periods, 120 per revolution), are not chosen."""
+    from hil.analysis.switching import synchronous_grid
+
+    assert synchronous_grid(190_000.0, 20_000.0, 2, 150.0)
+    assert synchronous_grid(195_000.0, 20_000.0, 5, 120.0)
+    assert not synchronous_grid(193_333.0, 20_000.0, 3, 125.0)
+    for speed_rpm, pole_pairs, pwm_hz in ((1000.0, 4, 20_000.0), (500.0, 4, 20_000.0),
+                                          (1200.0, 4, 40_000.0), (-500.0, 2, 10_000.0)):
+        settings = capture_settings(speed_rpm, pole_pairs, pwm_hz, **DAQ)
+        elec_hz = abs(speed_rpm) * pole_pairs / 60.0
+        per_revolution = pwm_hz / (elec_hz * settings.window_periods)
+        assert not synchronous_grid(settings.sample_rate_hz, pwm_hz, settings.window_periods,
+                                    per_revolution)
+        assert settings.effective_samples_per_period >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD

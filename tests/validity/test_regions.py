@@ -67,21 +67,24 @@ def test_dead_time_voltage_loss_of_issue_21s_point():
     assert inverter_voltage_needed_v(TABLE_I, 1500.0, 30.0, 0.0, 1e-6, 20_000.0) > svpwm_limit_v(12)
     config = at(1500.0, 30.0)
     refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 1e-6}), config)
-    # against (V_dc/√3)·(1 − 2·1 µs·20 kHz) = 6.65 V
-    assert refused.startswith("voltage headroom") and "vs 6.65 V" in refused, refused
+    # against (V_dc/√3)·(1 − 4·1 µs·20 kHz) = 6.37 V
+    assert refused.startswith("voltage headroom") and "vs 6.37 V" in refused, refused
     # the same point without injected dead time is inside the headroom
     assert not validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 0.0}), config)
 
 
 def test_pulse_dropping_limit_of_dead_time():
-    # (V_dc/√3)·(1 − 2·4 µs·20 kHz) = 6.928 × 0.84 = 5.82 V
-    assert linear_limit_v(12.0, 4e-6, 20_000.0) == pytest.approx(12 / 3 ** 0.5 * 0.84)
+    # the one limit (hil.model.voltage): (V_dc/√3)·(1 − 4·4 µs·20 kHz) = 6.928 × 0.68 = 4.71 V
+    assert linear_limit_v(12.0, 4e-6, 20_000.0) == pytest.approx(12 / 3 ** 0.5 * 0.68)
     assert linear_limit_v(12.0) == svpwm_limit_v(12.0)
     # Table I at 1200 rpm / 10 A: 4 µs needs 5.86 V (a correct drive measured 23 % against
-    # 2.9 %): refused; 2 µs needs 5.25 V of 6.37 V: inside
+    # 2.9 %) and 3 µs 5.56 V (inside the old 1 − 2·T_d·f limit, 6.10 V, but the order-6
+    # amplitude read 0.76x the model): both refused; 2 µs needs 5.25 V of 5.82 V: inside
     config = at(1200.0, 10.0)
     refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 4e-6}), config)
-    assert refused.startswith("voltage headroom") and "5.86 V" in refused and "5.82 V" in refused
+    assert refused.startswith("voltage headroom") and "5.86 V" in refused and "4.71 V" in refused
+    refused = validity.refusal(test_dead_time.plan(config, {"dead_time_s": 3e-6}), config)
+    assert refused.startswith("voltage headroom") and "5.56 V" in refused and "5.27 V" in refused
     assert validity.voltage_problems(test_dead_time.plan(config, {"dead_time_s": 2e-6}),
                                      config) == []
 
@@ -123,8 +126,9 @@ def test_encoder_2_5_degrees_is_judged_at_20_a_and_refused_at_10_a():
     assert validity.refusal(test_encoder.plan(config, step), config) is None
     config = at(250.0, 10.0)
     refused = validity.refusal(test_encoder.plan(config, step), config)
-    # floor 0.001 N·m over K_t·10 A·cos 10° = 0.481 N·m: 0.208 %; half-width 0.2·0.864 % + 0.2 %
-    assert "resolvable floor" in refused and "0.208 %" in refused and "0.373 %" in refused
+    # floor 0.001 N·m over K_t·10 A·cos 10° = 0.481 N·m: 0.208 %; half-width 0.2·0.551 % + 0.2 %
+    # (the plan judges the count order's pk-pk 2·A_N, 0.551 %, not eq 9's 0.864 %)
+    assert "resolvable floor" in refused and "0.208 %" in refused and "0.31 %" in refused
     # a coarser step at the same point is judged
     assert validity.refusal(test_encoder.plan(config, {"encoder_decimation": 50}), config) is None
 
