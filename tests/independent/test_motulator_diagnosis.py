@@ -10,14 +10,11 @@ What each test proves:
   the hidden sensor offsets reach the torque as sensor errors: diagnosed from motulator's
   captures of a drive in REVERSE rotation with the reference stated, the offsets come out with
   the right signs and size; stating the twin's 0° instead flips both signs (the issue's bug).
-* ``test_unstated_reference_gives_no_signed_calibration`` (motulator; strict xfail until helper
-  diagin's manifest path lands): without the reference, no signed offset calibration.
-* ``test_reduced_coverage_has_no_confident_wrong`` (motulator): 3 random drives (both motors, both loop designs), every identifiable
-  estimate within U or at most one miss, and no confident wrong answer.
-
-Both xfail markers were checked against main + h-diagin + h-diagfit + h-additions merged (with
-diagin's manifest accepting "2dof" and its pwm_frequency_hz double keyword fixed): both tests
-pass there (XPASS → strict failure), so the markers go when those branches merge.
+* ``test_unstated_reference_gives_no_signed_calibration`` (motulator): the capture as another
+  bench exports it (torque + angle, no reference stated) gets no signed offset calibration.
+* ``test_reduced_coverage_has_no_confident_wrong`` (motulator): 3 random drives (both motors,
+  both loop designs), every identifiable estimate within U or at most one miss, and no
+  confident wrong answer.
 
 The motulator tests skip ONLY when ``.venv-motulator`` is absent (``.ci/setup-motulator``
 creates it; it needs Python 3.12/3.13), with that reason. They use motulator's averaged PWM
@@ -153,8 +150,6 @@ def test_angle_reference_measured_and_signs(offsets_captures, tmp_path):
 
 
 @needs_motulator
-@pytest.mark.xfail(strict=True, reason="issue 23 item 0: needs `hil diagnose --manifest` "
-                   "(helper diagin) refusing signed calibration without an angle reference")
 def test_unstated_reference_gives_no_signed_calibration(offsets_captures, tmp_path):
     # as another bench exports it: torque and angle only, no reference stated
     manifest = study.export_copy(offsets_captures, tmp_path / "unstated", reference=False,
