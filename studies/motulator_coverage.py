@@ -360,7 +360,13 @@ def main(argv=None) -> int:
     parser.add_argument("--captures-from", default=None, metavar="WORK",
                         help="diagnose the captures a previous run left in WORK again (no "
                              "simulation; e.g. after the diagnosis changed)")
+    parser.add_argument("--reuse-base", default=None, metavar="WORK",
+                        help="with --additions: copy each drive's base captures from a run "
+                             "without additions in WORK (same seed) and simulate only the "
+                             "additions (motulator is deterministic: the same spec gives the "
+                             "same capture)")
     args = parser.parse_args(argv)
+    import shutil
     import tempfile
     simulate = args.captures_from is None
     work = Path(args.captures_from or args.work or tempfile.mkdtemp(prefix="motulator-coverage-"))
@@ -370,6 +376,13 @@ def main(argv=None) -> int:
                           pwm_model=args.pwm_model) for _ in range(args.drives)]
     if args.additions:
         specs = [with_additions(s) for s in specs]
+        if args.reuse_base:
+            for index, spec in enumerate(specs):
+                spec["reuse_existing"] = True
+                base, target = Path(args.reuse_base) / f"drive{index:03d}", work / f"drive{index:03d}"
+                target.mkdir(parents=True, exist_ok=True)
+                for csv in base.glob("*.csv"):
+                    shutil.copy(csv, target / csv.name)
     folders = []
     if not simulate:
         folders = sorted(f for f in work.glob("drive[0-9][0-9][0-9]")
