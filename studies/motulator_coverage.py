@@ -138,10 +138,32 @@ def expected(truth: dict) -> dict[str, float]:
             "dead_time_us": h["dead_time_s"] * 1e6}
 
 
+#: The standard-additions result (hil.diagnosis.additions: ``estimates``) names the gain
+#: θ_g = (1 + g_a)/(1 + g_b) − 1 and states the offsets as the sensors read them.
+ADDITIONS_NAMES = {"gain_k_diff": "gain_a_rel_b_pu"}
+
+
+def expected_by_additions(truth: dict) -> dict[str, float]:
+    h = truth["hidden"]
+    return {"ia_offset_a": h["ia_offset_a"], "ib_offset_a": h["ib_offset_a"],
+            "gain_k_diff": (1 + h["ia_gain_error_pu"]) / (1 + h["ib_gain_error_pu"]) - 1,
+            "dead_time_us": h["dead_time_s"] * 1e6}
+
+
 def check(diagnosis: dict, truth: dict) -> list[dict]:
-    """One row per parameter: covered / confident wrong / not identifiable."""
-    hidden = expected(truth)
-    by_name = {p["name"]: p for p in diagnosis["parameters"]}
+    """One row per parameter: covered / confident wrong / not identifiable (either result
+    format: the fit's ``parameters`` or the standard additions' ``estimates``)."""
+    if "parameters" not in diagnosis and "estimates" in diagnosis:
+        hidden = expected_by_additions(truth)
+        by_name = {name: None for name in PARAMETERS}
+        for item in diagnosis["estimates"]:
+            key = next((k for k, v in ADDITIONS_NAMES.items() if v == item["name"]),
+                       item["name"])
+            by_name[key] = dict(item, identifiable=bool(item.get("stated"))
+                                and item.get("estimate") is not None)
+    else:
+        hidden = expected(truth)
+        by_name = {p["name"]: p for p in diagnosis["parameters"]}
     rows = []
     for name in PARAMETERS:
         p = by_name.get(name)

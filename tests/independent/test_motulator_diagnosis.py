@@ -80,6 +80,22 @@ def test_check_unsigned_estimate_is_not_judged():
     assert row["identifiable"] is False and row["sign_unknown"]
 
 
+def test_check_reads_the_standard_additions_result():
+    truth = {"hidden": dict(TRUTH["hidden"], ia_gain_error_pu=0.01)}
+    diagnosis = {"estimates": [
+        {"name": "ia_offset_a", "estimate": 0.2, "expanded_uncertainty": 0.003, "stated": True},
+        {"name": "gain_a_rel_b_pu", "estimate": 0.02, "expanded_uncertainty": 0.001,
+         "stated": True},
+        {"name": "dead_time_us", "estimate": None, "expanded_uncertainty": None,
+         "stated": False}]}
+    rows = {r["name"]: r for r in study.check(diagnosis, truth)}
+    # the additions state the sensor's own offset (not /(1 + g)) and θ_g = 1.01/1 − 1
+    assert rows["ia_offset_a"]["covered"] and rows["ia_offset_a"]["hidden"] == 0.2
+    assert rows["gain_k_diff"]["hidden"] == pytest.approx(0.01)
+    assert rows["gain_k_diff"]["confident_wrong"]                # 0.01 off, U 0.001
+    assert not rows["dead_time_us"]["identifiable"] and not rows["ib_offset_a"]["identifiable"]
+
+
 def test_check_wide_interval_is_never_confident_wrong():
     # 0.5 A off with U 0.16 A (> 25 % of the 0.6 A range): wrong, but U is not small
     rows = {r["name"]: r for r in study.check(_diag(ia_offset_a=(0.7, 0.16)), TRUTH)}
