@@ -138,16 +138,40 @@ def expected(truth: dict) -> dict[str, float]:
             "dead_time_us": h["dead_time_s"] * 1e6}
 
 
+#: The standard-additions result (hil.diagnosis.additions: ``estimates``) names the gain
+#: θ_g = (1 + g_a)/(1 + g_b) − 1 and states the offsets as the sensors read them.
+ADDITIONS_NAMES = {"gain_k_diff": "gain_a_rel_b_pu"}
+
+
+def expected_by_additions(truth: dict) -> dict[str, float]:
+    h = truth["hidden"]
+    return {"ia_offset_a": h["ia_offset_a"], "ib_offset_a": h["ib_offset_a"],
+            "gain_k_diff": (1 + h["ia_gain_error_pu"]) / (1 + h["ib_gain_error_pu"]) - 1,
+            "dead_time_us": h["dead_time_s"] * 1e6}
+
+
 def check(diagnosis: dict, truth: dict) -> list[dict]:
-    """One row per parameter: covered / confident wrong / not identifiable."""
-    hidden = expected(truth)
-    by_name = {p["name"]: p for p in diagnosis["parameters"]}
+    """One row per parameter: covered / confident wrong / not identifiable (either result
+    format: the fit's ``parameters`` or the standard additions' ``estimates``)."""
+    if "parameters" not in diagnosis and "estimates" in diagnosis:
+        hidden = expected_by_additions(truth)
+        by_name = {name: None for name in PARAMETERS}
+        for item in diagnosis["estimates"]:
+            key = next((k for k, v in ADDITIONS_NAMES.items() if v == item["name"]),
+                       item["name"])
+            by_name[key] = dict(item, identifiable=bool(item.get("stated"))
+                                and item.get("estimate") is not None)
+    else:
+        hidden = expected(truth)
+        by_name = {p["name"]: p for p in diagnosis["parameters"]}
     rows = []
     for name in PARAMETERS:
         p = by_name.get(name)
         row = {"name": name, "hidden": hidden[name]}
         if p is None or not p.get("identifiable") or p.get("estimate") is None:
             row["identifiable"] = False
+        elif p.get("sign_identifiable") is False:   # angle reference unknown: no signed value
+            row |= {"identifiable": False, "sign_unknown": True}
         else:
             est, u = p["estimate"], p["expanded_uncertainty"]
             err = abs(est - hidden[name])
@@ -210,6 +234,8 @@ def with_additions(spec: dict) -> dict:
 def replay_rows(work: Path, use_cli: bool | None, pwm_model: str, *,
                 simulate: bool = True) -> list[dict]:
     """Issue 23's table rows and the angle-reference cases on its fixed drive."""
+    if not simulate and not (work / "replay2" / "truth.json").is_file():
+        return []                                     # that run has no (finished) replay
     three = [(500.0, 20.0), (1000.0, 20.0), (1000.0, 10.0)]
     cases = [("500 + 1000 rpm at 20 A, + 1000 rpm at 10 A", issue23_drive(
                  dead_time_s=0.0, points=three, pwm_model=pwm_model)),
@@ -222,28 +248,43 @@ def replay_rows(work: Path, use_cli: bool | None, pwm_model: str, *,
         result = run_drive(spec, work / f"replay{index}", use_cli, simulate=simulate)
         result["title"] = title
         out.append(result)
-    # the capture as exported: same captures as row 1, the manifest without the reference
+    # the capture as exported (torque + angle): same captures as row 1, with and without the
+    # reference; and not stated but with the phase currents (the diagnosis may measure it)
     source = work / "replay0"
-    unstated = work / "replay0_unstated"
-    unstated.mkdir(parents=True, exist_ok=True)
-    for path in source.iterdir():
-        text = path.read_text()
-        if path.name == "manifest.toml":
-            text = "\n".join(line for line in text.splitlines()
-                             if not line.startswith("emf_a_rising_zero_elec_deg")) + "\n"
-        (unstated / path.name).write_text(text)
     truth = json.loads((source / "truth.json").read_text())
-    for title, folder in (("as exported, angle reference stated", source),
-                          ("as exported, angle reference NOT stated", unstated)):
+    for title, reference, currents in (
+            ("as exported, angle reference stated", True, False),
+            ("as exported, angle reference NOT stated", False, False),
+            ("reference NOT stated, phase currents in the CSV", False, True)):
+        folder = export_copy(source, work / f"replay0_{'stated' if reference else 'unstated'}"
+                             f"{'_currents' if currents else ''}", reference=reference,
+                             currents=currents)
         try:
-            diagnosis = diagnose_manifest(folder / "manifest.toml", use_cli=use_cli)
+            diagnosis = diagnose_manifest(folder, use_cli=use_cli)
         except Exception as exc:  # noqa: BLE001
             out.append({"title": title, "error": f"{type(exc).__name__}: {exc}", "checks": []})
             continue
         out.append({"title": title, "checks": check(diagnosis, truth), "diagnosis": diagnosis,
-                    "truth": truth, "angle_case": True,
-                    "reference_stated": folder == source})
+                    "truth": truth, "angle_case": True, "reference_stated": reference})
     return out
+
+
+def export_copy(source: Path, target: Path, *, reference: bool, currents: bool) -> Path:
+    """A copy of a capture folder as another bench would export it: the manifest with or
+    without its ``emf_a_rising_zero_elec_deg`` line, the CSVs with or without the phase-current
+    columns (torque and angle only). Returns the copy's manifest."""
+    target.mkdir(parents=True, exist_ok=True)
+    for path in source.iterdir():
+        text = path.read_text()
+        if path.name == "manifest.toml" and not reference:
+            text = "\n".join(line for line in text.splitlines()
+                             if not line.startswith("emf_a_rising_zero_elec_deg")) + "\n"
+        elif path.suffix == ".csv" and not currents:
+            rows = [line.split(",") for line in text.splitlines()]
+            keep = [i for i, name in enumerate(rows[0]) if name not in ("ia_a", "ib_a", "ic_a")]
+            text = "\n".join(",".join(row[i] for i in keep) for row in rows) + "\n"
+        (target / path.name).write_text(text)
+    return target / "manifest.toml"
 
 
 def signed_calibration(diagnosis: dict) -> dict:
@@ -255,7 +296,7 @@ def signed_calibration(diagnosis: dict) -> dict:
 # ------------------------------------------------------------------------------ report
 def _cell(row: dict, scale: float = 1.0, unit: str = "") -> str:
     if not row["identifiable"]:
-        return "not identifiable"
+        return "sign not identifiable" if row.get("sign_unknown") else "not identifiable"
     mark = "✔" if row["covered"] else ("✘ confident wrong" if row["confident_wrong"] else "✘")
     return (f"{row['estimate'] * scale:+.4g} ± {row['U'] * scale:.2g}{unit} {mark} "
             f"(truth {row['hidden'] * scale:+.4g})")
@@ -271,7 +312,9 @@ def report(args, cases, replay, wall, use_cli) -> str:
              f"Run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: `PYTHONPATH=. "
              f".venv/bin/python studies/motulator_coverage.py --drives {args.drives} "
              f"--seed {args.seed} --pwm-model {args.pwm_model}"
-             f"{' --additions' if args.additions else ''}` ({wall:.0f} s wall). Diagnosis "
+             f"{' --additions' if args.additions else ''}"
+             f"{' --captures-from ' + args.captures_from if args.captures_from else ''}` "
+             f"({wall:.0f} s wall). Diagnosis "
              f"through {'`hil diagnose --manifest --json`' if use_cli else 'the bridge (no `--manifest` in this tree yet: manifest read by the study, angle rotated by the stated reference, `hil.diagnosis.diagnose` with the manifest loop)'}.",
              "", "covered: |est − truth| ≤ U (k = 2); confident wrong: |est − truth| > 3U with "
              f"U < {SMALL_U_SHARE:.0%} of the drawn range (offsets 0.15 A, k_a − k_b 2 %, dead "
@@ -330,13 +373,22 @@ def main(argv=None) -> int:
     parser.add_argument("--mech-revolutions", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=2, help="drives simulated at once")
     parser.add_argument("--no-replay", action="store_true")
+    parser.add_argument("--start", type=int, default=0, metavar="K",
+                        help="simulate only drives K.. of the seed's sequence (to share a run "
+                             "between processes; join them with --captures-from)")
     parser.add_argument("--work", default=None, help="folder for the captures (default: a "
                         "temporary folder under /tmp)")
     parser.add_argument("--write", default=str(RESULTS), help="markdown result file ('' = none)")
     parser.add_argument("--captures-from", default=None, metavar="WORK",
                         help="diagnose the captures a previous run left in WORK again (no "
                              "simulation; e.g. after the diagnosis changed)")
+    parser.add_argument("--reuse-base", default=None, metavar="WORK",
+                        help="with --additions: copy each drive's base captures from a run "
+                             "without additions in WORK (same seed) and simulate only the "
+                             "additions (motulator is deterministic: the same spec gives the "
+                             "same capture)")
     args = parser.parse_args(argv)
+    import shutil
     import tempfile
     simulate = args.captures_from is None
     work = Path(args.captures_from or args.work or tempfile.mkdtemp(prefix="motulator-coverage-"))
@@ -346,15 +398,29 @@ def main(argv=None) -> int:
                           pwm_model=args.pwm_model) for _ in range(args.drives)]
     if args.additions:
         specs = [with_additions(s) for s in specs]
+        if args.reuse_base:
+            for index, spec in enumerate(specs):
+                spec["reuse_existing"] = True
+                base, target = Path(args.reuse_base) / f"drive{index:03d}", work / f"drive{index:03d}"
+                target.mkdir(parents=True, exist_ok=True)
+                for csv in base.glob("*.csv"):
+                    shutil.copy(csv, target / csv.name)
+    folders = []
     if not simulate:
-        folders = sorted(work.glob("drive[0-9][0-9][0-9]"))
+        folders = sorted(f for f in work.glob("drive[0-9][0-9][0-9]")
+                         if (f / "truth.json").is_file())     # finished drives only
         specs = [json.loads((f / "truth.json").read_text())["spec"] for f in folders]
         args.drives = len(specs)
     started = time.perf_counter()
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        cases = list(pool.map(lambda item: run_drive(item[1], work / f"drive{item[0]:03d}",
-                                                     use_cli, simulate=simulate),
-                              enumerate(specs)))
+        if simulate:
+            targets = [work / f"drive{i:03d}" for i in range(args.start, len(specs))]
+            specs = specs[args.start:]
+        else:
+            targets = folders
+        cases = list(pool.map(lambda item: run_drive(item[1], item[0], use_cli,
+                                                     simulate=simulate),
+                              zip(targets, specs)))
     replay = [] if args.no_replay else replay_rows(work, use_cli, args.pwm_model,
                                                    simulate=simulate)
     wall = time.perf_counter() - started

@@ -23,8 +23,9 @@ What is motulator's and what is added here
 -----------------------------------------
 * Machine: ``motulator.drive.model.SynchronousMachine`` (``SynchronousMachinePars``: n_p, R_s,
   L_d, L_q, ψ_f). Mechanics: ``ExternalRotorSpeed`` (a dyno holding the speed exactly), or with
-  ``J_kgm2`` a ``MechanicalSystem`` of that inertia loaded by a stiff speed-holding dyno
-  (viscous torque k·(ω − ω_ref), k = J·2π·20 Hz·… see :func:`_mechanics`).
+  ``J_kgm2`` a ``MechanicalSystem`` of that inertia loaded by a speed-holding dyno (the expected
+  mean torque plus k·(ω − ω_ref), k = J·2π·20 Hz; settling then ≥ 10 of its time constants,
+  80 ms; see :func:`_mechanics`).
 * Inverter: ``VoltageSourceConverter(u_dc, t_d)`` — motulator's own dead time (each leg blanked for
   ``t_d`` after its switching instant, the leg state during blanking set by the current sign;
   ``_converter.py``, class docstring). ``pwm_model = "carrier"``: ``Drive(pwm=True)``, its
@@ -46,7 +47,9 @@ What is motulator's and what is added here
   (``PWM``: min/max zero-sequence injection). The only part replaced is the *reference*
   generation: :class:`FixedCurrentReference` commands the operating point's current vector
   (amplitude, angle φ: i_d = −I·sin φ, i_q = I·cos φ, the current lagging the EMF by φ as in
-  paper eq 4) instead of motulator's torque-to-current MTPA generator.
+  paper eq 4) instead of motulator's torque-to-current MTPA generator. The manifest states the
+  loop in the bench file's vocabulary (:data:`STATED_DESIGN`): the continuous design as "2dof"
+  with angle compensation, the discrete one as "unknown"; bandwidth and delay 1.5·T_s as built.
 
 Output per operating point (``OUT_DIR/<label>.csv``): one row per PWM (carrier) period —
 ``time_s`` (the period's centre), ``torque_nm`` (motulator's electromagnetic torque ``tau_M``
@@ -181,16 +184,24 @@ def measure_emf_a_rising_zero_elec_deg(motor: dict, n: int = 720) -> float:
     return float(math.degrees(math.atan2(-c, s)) % 360.0)
 
 
-def _mechanics(motor: dict, w_M: float):
+#: Bandwidth (Hz) of the speed-holding dyno of a drive with inertia: its viscous torque
+#: k·(ω − ω_ref) with k = J·2π·this; the mechanical time constant is 1/(2π·this).
+DYNO_BANDWIDTH_HZ = 20.0
+
+
+def _mechanics(motor: dict, w_M: float, load_torque_nm: float):
+    """motulator's ``ExternalRotorSpeed`` (speed held exactly) or, with ``J_kgm2``, its
+    ``MechanicalSystem`` of that inertia loaded by a dyno: the expected mean motor torque
+    (feed-forward, ``load_torque_nm``) plus a stiff viscous term k·(ω − ω_ref) (the rotor's
+    speed then ripples with the torque, as on a real shaft)."""
     if motor.get("J_kgm2") is None:
         mech = model.ExternalRotorSpeed()
         mech.set_external_rotor_speed(w_M)
         return mech
-    # Inertia J loaded by a speed-holding dyno: torque k·(ω − ω_ref) with a mechanical
-    # bandwidth k/J = 2π·5 Hz (the rotor is not stiffly held: its speed ripples with the torque).
     J = float(motor["J_kgm2"])
-    k = J * 2 * math.pi * 5.0
+    k = J * 2 * math.pi * DYNO_BANDWIDTH_HZ
     mech = model.MechanicalSystem(J=J, B_L=lambda w: k * (w - w_M) / w if w else 0.0)
+    mech.set_external_load_torque(load_torque_nm)
     mech.state.w_M = complex(w_M)
     return mech
 
@@ -222,7 +233,10 @@ def simulate_point(spec: dict, point: dict) -> dict:
     sensors = TwoPhaseCurrentSensors(**{k: float(faults[k]) for k in (
         "ia_offset_a", "ib_offset_a", "ia_gain_error_pu", "ib_gain_error_pu")})
     machine = model.SynchronousMachine(par, i_s_sensor=sensors)
-    mech = _mechanics(motor, w_M)
+    phi = math.radians(float(point.get("current_angle_deg", 0.0)))
+    i_dq = float(point["current_a"]) * complex(-math.sin(phi), math.cos(phi))
+    tau_expected = 1.5 * par.n_p * (complex(par.psi_s_dq(i_dq)).conjugate() * i_dq).imag
+    mech = _mechanics(motor, w_M, tau_expected)
     converter = model.VoltageSourceConverter(u_dc=float(motor["u_dc_v"]),
                                              t_d=float(faults["dead_time_s"]))
     mdl = model.Drive(machine, mech, converter, pwm=loop["pwm_model"] == "carrier")
@@ -237,6 +251,8 @@ def simulate_point(spec: dict, point: dict) -> dict:
     ctrl.set_torque_ref(0.0)                       # unused by the fixed current reference
     revolutions = int(point.get("mech_revolutions", 3))
     settle = float(spec["settle_s"])
+    if motor.get("J_kgm2") is not None:     # ≥ 10 mechanical time constants of the dyno
+        settle = max(settle, 10.0 / (2 * math.pi * DYNO_BANDWIDTH_HZ))
     t_rev = 2 * math.pi / abs(w_M)
     periods_settle = math.ceil(settle / T_pwm)
     periods_keep = math.ceil((revolutions + 0.02) * t_rev / T_pwm) + 2
@@ -352,14 +368,17 @@ def generate(spec: dict, out_dir: Path) -> Path:
     emf_deg = measure_emf_a_rising_zero_elec_deg(spec["motor"])
     files, checks = [], []
     for point in spec["points"]:
-        result = simulate_point(spec, point)
         name = _label(point) + ".csv"
+        files.append((name, point))
+        if spec.get("reuse_existing") and (out_dir / name).is_file():
+            checks.append({"file": name, "reused": True})   # same spec → same capture
+            continue
+        result = simulate_point(spec, point)
         columns = result["columns"]
         header = ",".join(columns)
         data = np.column_stack(list(columns.values()))
         np.savetxt(out_dir / name, data, delimiter=",", header=header, comments="",
                    fmt="%.10g")
-        files.append((name, point))
         checks.append({"file": name, "mean_torque_first_rev_nm":
                        result["mean_torque_first_rev_nm"],
                        "mean_torque_last_rev_nm": result["mean_torque_last_rev_nm"],

@@ -10,10 +10,11 @@ What each test proves:
   the hidden sensor offsets reach the torque as sensor errors: diagnosed from motulator's
   captures of a drive in REVERSE rotation with the reference stated, the offsets come out with
   the right signs and size; stating the twin's 0° instead flips both signs (the issue's bug).
-* ``test_unstated_reference_gives_no_signed_calibration`` (motulator; strict xfail until helper
-  diagin's manifest path lands): without the reference, no signed offset calibration.
-* ``test_reduced_coverage_has_no_confident_wrong`` (motulator): 3 random drives (both motors, both loop designs), every identifiable
-  estimate within U or at most one miss, and no confident wrong answer.
+* ``test_unstated_reference_gives_no_signed_calibration`` (motulator): the capture as another
+  bench exports it (torque + angle, no reference stated) gets no signed offset calibration.
+* ``test_reduced_coverage_has_no_confident_wrong`` (motulator): 3 random drives (both motors,
+  both loop designs), every identifiable estimate within U or at most one miss, and no
+  confident wrong answer.
 
 The motulator tests skip ONLY when ``.venv-motulator`` is absent (``.ci/setup-motulator``
 creates it; it needs Python 3.12/3.13), with that reason. They use motulator's averaged PWM
@@ -47,7 +48,8 @@ from independent import run as independent  # noqa: E402  (studies/ put on sys.p
 
 needs_motulator = pytest.mark.skipif(
     not independent.available(),
-    reason=f"{independent.VENV_PYTHON} absent: run .ci/setup-motulator (needs Python 3.12/3.13)")
+    reason=f"{independent.VENV_PYTHON.parent.parent} absent or unfinished: run "
+           ".ci/setup-motulator (needs Python 3.12/3.13)")
 
 TRUTH = {"hidden": {"ia_offset_a": 0.2, "ib_offset_a": -0.15, "ia_gain_error_pu": 0.0,
                     "ib_gain_error_pu": 0.0, "dead_time_s": 1e-6}}
@@ -69,6 +71,29 @@ def test_check_flags_a_confident_wrong_estimate_and_passes_a_covered_one():
     assert rows["gain_k_diff"]["identifiable"] is False
     # 0.6 µs off with U 0.3 µs: wrong but not more than 3 U → not "confident wrong"
     assert not rows["dead_time_us"]["covered"] and not rows["dead_time_us"]["confident_wrong"]
+
+
+def test_check_unsigned_estimate_is_not_judged():
+    diagnosis = _diag(ia_offset_a=(-0.2, 0.003))
+    diagnosis["parameters"][0]["sign_identifiable"] = False      # angle reference unknown
+    row = study.check(diagnosis, TRUTH)[0]
+    assert row["identifiable"] is False and row["sign_unknown"]
+
+
+def test_check_reads_the_standard_additions_result():
+    truth = {"hidden": dict(TRUTH["hidden"], ia_gain_error_pu=0.01)}
+    diagnosis = {"estimates": [
+        {"name": "ia_offset_a", "estimate": 0.2, "expanded_uncertainty": 0.003, "stated": True},
+        {"name": "gain_a_rel_b_pu", "estimate": 0.02, "expanded_uncertainty": 0.001,
+         "stated": True},
+        {"name": "dead_time_us", "estimate": None, "expanded_uncertainty": None,
+         "stated": False}]}
+    rows = {r["name"]: r for r in study.check(diagnosis, truth)}
+    # the additions state the sensor's own offset (not /(1 + g)) and θ_g = 1.01/1 − 1
+    assert rows["ia_offset_a"]["covered"] and rows["ia_offset_a"]["hidden"] == 0.2
+    assert rows["gain_k_diff"]["hidden"] == pytest.approx(0.01)
+    assert rows["gain_k_diff"]["confident_wrong"]                # 0.01 off, U 0.001
+    assert not rows["dead_time_us"]["identifiable"] and not rows["ib_offset_a"]["identifiable"]
 
 
 def test_check_wide_interval_is_never_confident_wrong():
@@ -98,24 +123,21 @@ def _offsets_drive() -> dict:
 @pytest.fixture(scope="module")
 def offsets_captures(tmp_path_factory):
     if not independent.available():
-        pytest.skip(f"{independent.VENV_PYTHON} absent: run .ci/setup-motulator")
+        pytest.skip(f"{independent.VENV_PYTHON.parent.parent} absent or unfinished: run "
+                    ".ci/setup-motulator")
     out = tmp_path_factory.mktemp("motulator_offsets")
     independent.generate(_offsets_drive(), out)
     return out
 
 
-def _restate(folder: Path, target: Path, line: str | None) -> Path:
-    """A copy of the captures whose manifest states ``line`` for the angle reference (None:
-    the line dropped)."""
+def _restate(folder: Path, target: Path, line: str) -> Path:
+    """A copy of the captures whose manifest states ``line`` for the angle reference."""
     target.mkdir(parents=True, exist_ok=True)
     for path in folder.iterdir():
         text = path.read_text()
         if path.name == "manifest.toml":
-            text = "\n".join((line if line is not None else None)
-                             if row.startswith("emf_a_rising_zero_elec_deg") else row
-                             for row in text.splitlines()
-                             if line is not None or not row.startswith("emf_a_rising"))
-            text += "\n"
+            text = "\n".join(line if row.startswith("emf_a_rising_zero_elec_deg") else row
+                             for row in text.splitlines()) + "\n"
         (target / path.name).write_text(text)
     return target / "manifest.toml"
 
@@ -144,11 +166,12 @@ def test_angle_reference_measured_and_signs(offsets_captures, tmp_path):
 
 
 @needs_motulator
-@pytest.mark.xfail(strict=True, reason="issue 23 item 0: needs `hil diagnose --manifest` "
-                   "(helper diagin) refusing signed calibration without an angle reference")
 def test_unstated_reference_gives_no_signed_calibration(offsets_captures, tmp_path):
-    manifest = _restate(offsets_captures, tmp_path / "unstated", None)
+    # as another bench exports it: torque and angle only, no reference stated
+    manifest = study.export_copy(offsets_captures, tmp_path / "unstated", reference=False,
+                                 currents=False)
     assert "emf_a_rising" not in manifest.read_text()
+    assert "ia_a" not in next(manifest.parent.glob("*.csv")).read_text().splitlines()[0]
     diagnosis = study.diagnose_manifest(manifest)
     calibration = study.signed_calibration(diagnosis)
     assert calibration["ia_offset_correction_a"] is None
