@@ -24,7 +24,9 @@ derived here from the loop gain :func:`loop_gain` in the rotor frame (complex ve
 P/(1 + L) for a voltage disturbance. Designs: "continuous" PI (Kp = L·ω_c, Ki = R·ω_c),
 "discrete" pole-matched PI run at the PWM rate (C(z) = Kp + Ki·T_s·z/(z − 1), z = e^{sT_s}),
 "2dof" the complex-vector 2-DOF PI of Briz 2000 / Awan 2019 (feedback L·(2α + (α² + jω_e·α)/s),
-α = ω_c: motulator's current controller), and "unknown" (the mean transfer over a family of
+α = ω_c: motulator's current controller; its integrator updated from the computed or from the
+realised voltage, ``DriveSetup.current_loop_integrator_realised``, both among a stated loop's
+variants), and "unknown" (the mean transfer over a family of
 plausible loops, :meth:`DriveSetup.loop_variants`, whose spread the diagnosis propagates).
 Decoupling adds −jω_e·L to the feedback (it cancels the plant's cross term with the measured
 current); back-EMF feed-forward adds a current-independent voltage and changes no transfer; the
@@ -107,13 +109,23 @@ class DriveSetup:
     current_loop_emf_feedforward: bool = False
     #: inverse Park at the angle advanced by ω_e·delay (the delay rotates nothing)
     current_loop_angle_compensation: bool = False
+    #: the 2-DOF loop's integrator updated from the *realised* voltage (back-calculation
+    #: anti-windup u_i += T_s·(α + jω_e)·(u − v) fed with the voltage applied, one loop delay τ
+    #: after it was computed; motulator's ComplexPIController) instead of the computed one: it
+    #: also integrates −(1 − e^{−sτ})·v ≈ −sτ·v, dividing the integral action by
+    #: 1 + (α + jω_e)·τ. At a sensor error's rotor-frame frequency the correction T − 1 is
+    #: dominated by the integral action (1/L ≈ −j·R·ω_e/(L·α²)), so it grows by that factor
+    #: (1.3-1.6 on the issue-23 motulator drives). Not a bench-file key: a stated 2-DOF loop's
+    #: variants include both forms (:meth:`loop_variants`), the drive runs one of them ("unknown":
+    #: its family's bandwidths 0.5-5× already span a factor 1.6 of the integral action).
+    current_loop_integrator_realised: bool = False
 
     def __post_init__(self) -> None:
         if self.current_loop_design not in LOOP_DESIGNS:
             raise InputError(f"current_loop_design={self.current_loop_design!r} must be one of "
                              f"{', '.join(LOOP_DESIGNS)}")
         for name in ("current_loop_decoupling", "current_loop_emf_feedforward",
-                     "current_loop_angle_compensation"):
+                     "current_loop_angle_compensation", "current_loop_integrator_realised"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name}={getattr(self, name)!r} must be true or false")
         for name in ("current_loop_bandwidth_hz", "transducer_bandwidth_hz"):
@@ -160,11 +172,15 @@ class DriveSetup:
             return []
         half_period = 0.5 / self.pwm_frequency_hz
         if self.current_loop_design != "unknown":
-            return [replace(self, current_loop_bandwidth_hz=self.current_loop_bandwidth_hz * f,
-                            current_loop_delay_s=max(0.0, self.current_loop_delay_s + d))
-                    for f in (1 - STATED_LOOP_BANDWIDTH_FRACTION,
-                              1 + STATED_LOOP_BANDWIDTH_FRACTION)
-                    for d in (-half_period, half_period)]
+            out = [replace(self, current_loop_bandwidth_hz=self.current_loop_bandwidth_hz * f,
+                           current_loop_delay_s=max(0.0, self.current_loop_delay_s + d))
+                   for f in (1 - STATED_LOOP_BANDWIDTH_FRACTION,
+                             1 + STATED_LOOP_BANDWIDTH_FRACTION)
+                   for d in (-half_period, half_period)]
+            if self.current_loop_design == "2dof":      # the other integrator update
+                out.append(replace(self, current_loop_integrator_realised=not
+                                   self.current_loop_integrator_realised))
+            return out
         bandwidth = (self.current_loop_bandwidth_hz
                      or UNKNOWN_LOOP_BANDWIDTH_PER_PWM * self.pwm_frequency_hz)
         delay = self.current_loop_delay_s or UNKNOWN_LOOP_DELAY_PERIODS / self.pwm_frequency_hz
@@ -235,7 +251,10 @@ def loop_gain(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
         z = np.exp(s * period)
         controller = kp + ki * period * z / (z - 1.0)
     elif design == "2dof":
-        controller = l * (2.0 * alpha + (alpha * alpha + 1j * w_e * alpha) / s)
+        integral = (alpha * alpha + 1j * w_e * alpha) / s
+        if setup.current_loop_integrator_realised:
+            integral = integral / (1.0 + (alpha + 1j * w_e) * setup.current_loop_delay_s)
+        controller = l * (2.0 * alpha + integral)
     else:
         raise InputError(f"loop_gain needs a concrete design, got {design!r}")
     if setup.current_loop_decoupling:
