@@ -157,6 +157,8 @@ def check(diagnosis: dict, truth: dict) -> list[dict]:
         hidden = expected_by_additions(truth)
         by_name = {name: None for name in PARAMETERS}
         for item in diagnosis["estimates"]:
+            if item["name"] in ADDITIONS_NAMES:
+                continue     # its first-order k_a − k_b ≈ −θ_g; θ_g itself is judged
             key = next((k for k, v in ADDITIONS_NAMES.items() if v == item["name"]),
                        item["name"])
             by_name[key] = dict(item, identifiable=bool(item.get("stated"))
