@@ -18,29 +18,30 @@ SIGMA_NM = 2e-5
 
 
 def _spectra(points, *, offsets=(0.0, 0.0), k_diff=0.0, dead_time_us=0.0, cogging=None,
-             extra=None, seed=0, decimation=None):
-    """Spectra of a drive whose torque is exactly the signatures (plus noise and ``extra``)."""
+             extra=None, seed=0, decimation=None, setup=SETUP):
+    """Spectra of a drive whose torque is exactly the signatures through ``setup``'s loop (plus
+    noise and ``extra``); also used by test_loop_designs."""
     rng = np.random.default_rng(seed)
     out = []
     for point in points:
-        op = sig.operating_point(point.speed_rpm, point.current_a, point.current_angle_rad, SETUP)
-        elec = (offsets[0] * sig.offset_orders(op, SETUP, "a")
-                + offsets[1] * sig.offset_orders(op, SETUP, "b")
-                + k_diff * sig.gain_difference_orders(op, SETUP)
-                + dead_time_us * sig.dead_time_orders(op, SETUP))
+        op = sig.operating_point(point.speed_rpm, point.current_a, point.current_angle_rad, setup)
+        elec = (offsets[0] * sig.offset_orders(op, setup, "a")
+                + offsets[1] * sig.offset_orders(op, setup, "b")
+                + k_diff * sig.gain_difference_orders(op, setup)
+                + dead_time_us * sig.dead_time_orders(op, setup))
         c = np.zeros(MAX_MECH + 1, dtype=complex)
         c[0] = op.mean_torque_nm
         for m, value in sig.to_mech(elec, 2, MAX_MECH).items():
-            c[m] += value * sig.transducer_response(m, point.speed_rpm, SETUP)
+            c[m] += value * sig.transducer_response(m, point.speed_rpm, setup)
         for m, value in (cogging or {}).items():
-            c[m] += value * sig.transducer_response(m, point.speed_rpm, SETUP)
+            c[m] += value * sig.transducer_response(m, point.speed_rpm, setup)
         spectrum = OrderSpectrum(label=point.label, speed_rpm=point.speed_rpm,
                                  current_a=point.current_a,
                                  current_angle_rad=point.current_angle_rad, pole_pairs=2,
                                  coefficients_nm=c, sigma_nm=np.full(MAX_MECH + 1, SIGMA_NM),
                                  revolutions=8, meta={"encoder_counts_per_rev": 7200})
         if decimation:
-            for m, value in enc.staircase_lines(spectrum, SETUP, 7200, decimation,
+            for m, value in enc.staircase_lines(spectrum, setup, 7200, decimation,
                                                 MAX_MECH).items():
                 c[m] += value
         if extra:

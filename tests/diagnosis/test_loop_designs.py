@@ -16,9 +16,8 @@ from hil.diagnosis.twin_proof import (HiddenFaults, check_estimates, simulate_po
 from hil.errors import InputError
 from hil.sim import FirmwareModel
 from ripple_hil_testplans import diagnosis_design as design
+from test_diagnose_synthetic import _spectra as synthetic_spectra
 
-MAX_MECH = 128
-SIGMA_NM = 2e-5
 STATED_1K = sig.DriveSetup(current_loop_bandwidth_hz=1000.0, current_loop_delay_s=25e-6,
                            transducer_bandwidth_hz=1000.0)
 #: the drive's real loop: a 2-DOF complex-vector PI five times faster, angle-compensated
@@ -30,25 +29,8 @@ SETTINGS = dict(revolutions_elec=design.REVOLUTIONS_ELEC, sample_rate_hz=design.
 
 def _spectra(points, setup, *, offsets, k_diff, dead_time_us, seed=0):
     """Spectra of a drive whose torque is the forward signatures through ``setup``'s loop."""
-    rng = np.random.default_rng(seed)
-    out = []
-    for point in points:
-        op = sig.operating_point(point.speed_rpm, point.current_a, point.current_angle_rad, setup)
-        elec = (offsets[0] * sig.offset_orders(op, setup, "a")
-                + offsets[1] * sig.offset_orders(op, setup, "b")
-                + k_diff * sig.gain_difference_orders(op, setup)
-                + dead_time_us * sig.dead_time_orders(op, setup))
-        c = np.zeros(MAX_MECH + 1, dtype=complex)
-        c[0] = op.mean_torque_nm
-        for m, value in sig.to_mech(elec, 2, MAX_MECH).items():
-            c[m] += value * sig.transducer_response(m, point.speed_rpm, setup)
-        c[1:] += rng.normal(0, SIGMA_NM, MAX_MECH) + 1j * rng.normal(0, SIGMA_NM, MAX_MECH)
-        out.append(OrderSpectrum(label=point.label, speed_rpm=point.speed_rpm,
-                                 current_a=point.current_a,
-                                 current_angle_rad=point.current_angle_rad, pole_pairs=2,
-                                 coefficients_nm=c, sigma_nm=np.full(MAX_MECH + 1, SIGMA_NM),
-                                 revolutions=8, meta={"encoder_counts_per_rev": 7200}))
-    return out
+    return synthetic_spectra(points, offsets=offsets, k_diff=k_diff, dead_time_us=dead_time_us,
+                             seed=seed, setup=setup)
 
 
 def _misses(result, truth):
