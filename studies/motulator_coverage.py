@@ -163,6 +163,14 @@ def check(diagnosis: dict, truth: dict) -> list[dict]:
                        item["name"])
             by_name[key] = dict(item, identifiable=bool(item.get("stated"))
                                 and item.get("estimate") is not None)
+        # what the additions do not state, hil diagnose states from the forward-model fit of
+        # the base captures it prints beside them (in the fit's conventions)
+        fit = {p["name"]: p for p in (diagnosis.get("fit") or {}).get("parameters", [])}
+        for name in PARAMETERS:
+            if not (by_name[name] or {}).get("identifiable") and fit.get(name, {}).get(
+                    "identifiable"):
+                by_name[name] = dict(fit[name], route="fit")
+                hidden = dict(hidden, **{name: expected(truth)[name]})
     else:
         hidden = expected(truth)
         by_name = {p["name"]: p for p in diagnosis["parameters"]}

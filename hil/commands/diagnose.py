@@ -114,14 +114,25 @@ def run(args) -> int:
         except ImportError:
             raise InputError("captures with known additions (addition_* keys) need "
                              "hil.diagnosis.additions, which this build does not have") from None
+        base = [s for s, (_, op) in zip(spectra, pairs)
+                if not any(op.get(key) for key in ADDITION_KEYS)]
         spectra = [additions.with_addition(s, op) for s, (_, op) in zip(spectra, pairs)]
         result = additions.diagnose_by_additions(spectra, setup=setup)
+        # the forward-model fit of the base captures beside it: it states what the additions
+        # could not (e.g. a dead time whose two additions were not linear), and the two routes
+        # are compared where both state a parameter (as the diagnosis plan does)
+        fit = diagnose(base, setup=setup, transducer_class_pct=class_pct) if base else None
     else:
         result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
+        fit = None
     result.notes.extend(check_setup_known(setup))
     result.notes.extend(unused)
     if args.json:
-        json.dump(result.to_dict(), sys.stdout, indent=1, allow_nan=False)
+        out = result.to_dict()
+        if fit is not None:
+            out["fit"] = fit.to_dict()
+            out["versus_fit"] = additions.compare_with_fit(result, fit)
+        json.dump(out, sys.stdout, indent=1, allow_nan=False)
         print()
     else:
         text = result.table()
@@ -129,6 +140,11 @@ def run(args) -> int:
         for note in result.notes:
             if note not in text:            # (the additions path's table lists its own notes)
                 print(f"note: {note}")
+        if fit is not None:
+            print("\nforward-model fit of the base captures (no additions):")
+            print(fit.table())
+            for row in additions.compare_with_fit(result, fit):
+                print(f"additions vs fit: {row['statement']}")
     return 0
 
 

@@ -172,3 +172,11 @@ def test_known_additions_need_no_angle_reference(tmp_path, capsys):
         line = next(line for line in text.splitlines() if line.strip().startswith(name))
         value, u = (float(x) for x in line.split()[1:4:2])
         assert abs(value - truth) <= u + 0.005, line
+    # the forward-model fit of the base captures is printed beside the additions (it states what
+    # the additions cannot, e.g. a dead time whose two additions were not linear)
+    assert "forward-model fit of the base captures (no additions):" in text
+    assert main(["diagnose", "--manifest", str(tmp_path / "m.toml"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["method"] and {p["name"] for p in out["fit"]["parameters"]} >= set(HIDDEN)
+    assert [row["name"] for row in out["versus_fit"]] == ["ia_offset_a", "ib_offset_a",
+                                                          "gain_k_diff", "dead_time_us"]

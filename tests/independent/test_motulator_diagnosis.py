@@ -94,6 +94,15 @@ def test_check_reads_the_standard_additions_result():
     assert rows["gain_k_diff"]["hidden"] == pytest.approx(0.01)
     assert rows["gain_k_diff"]["confident_wrong"]                # 0.01 off, U 0.001
     assert not rows["dead_time_us"]["identifiable"] and not rows["ib_offset_a"]["identifiable"]
+    # what the additions do not state, hil diagnose states from the base captures' fit (its
+    # "fit" section); the additions' first-order k_a − k_b (≈ −θ_g) is never judged as θ_g
+    diagnosis["estimates"].append({"name": "gain_k_diff", "estimate": -0.02,
+                                   "expanded_uncertainty": 0.001, "stated": True})
+    diagnosis["fit"] = _diag(dead_time_us=(1.1, 0.3), ib_offset_a=None)
+    rows = {r["name"]: r for r in study.check(diagnosis, truth)}
+    assert rows["gain_k_diff"]["estimate"] == 0.02
+    assert rows["dead_time_us"]["covered"] and rows["dead_time_us"]["hidden"] == 1.0
+    assert not rows["ib_offset_a"]["identifiable"]
 
 
 def test_check_wide_interval_is_never_confident_wrong():
