@@ -79,11 +79,12 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
     SourceOption("--nominal-current-a", "nominal_current_a", ("dead_time",),
                  "nominal current of eq 38 (default: --current-a)", float, 0.0, 100.0, True),
     SourceOption("--current-loop-bandwidth-hz", "current_loop_bandwidth_hz",
-                 ("dead_time", "pwm_resolution"),
-                 "PI current-loop bandwidth for model=average_voltage or closed_loop", float, 0.0,
+                 ("dead_time", "pwm_resolution", "word_length"),
+                 "PI current-loop bandwidth for model=average_voltage or closed_loop "
+                 "(dead_time, pwm_resolution) or derived (word_length)", float, 0.0,
                  25000.0, True),
     SourceOption("--current-loop-delay-us", "current_loop_delay_s",
-                 ("dead_time", "pwm_resolution"),
+                 ("dead_time", "pwm_resolution", "word_length"),
                  "current-loop delay for model=average_voltage or derived, µs (the simulated "
                  "drive: 75, i.e. 1.5 PWM periods)", lambda us: us * 1e-6, 0.0, 1000.0),
     SourceOption("--adc-bits", "adc_bits", ("word_length",),
@@ -109,8 +110,10 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  "closed_loop or derived (pwm_resolution), derived (word_length)",
                  str, kind=str, choices=("paper", "switched_torque", "average_voltage",
                                          "current_clamping", "closed_loop", "derived")),
-    SourceOption("--transducer-bandwidth-hz", "transducer_bandwidth_hz", ("dead_time",),
-                 "model=current_clamping: the torque transducer's stated first-order bandwidth "
+    SourceOption("--transducer-bandwidth-hz", "transducer_bandwidth_hz",
+                 ("dead_time", "word_length"),
+                 "model=current_clamping (dead_time) or derived (word_length): the torque "
+                 "transducer's stated first-order bandwidth "
                  "(default: air-gap torque, no transducer)", float, 0.0, 1e6, True),
 )
 

@@ -74,9 +74,10 @@ def test_compare_names_the_points_the_defect_changed_and_no_others(four_runs, ca
         "testplans/test_self_check.py::test_bench_self_check",
         "testplans/test_self_check.py::test_transducer_dynamics",
         "testplans/test_self_check.py::test_transducer_dynamics-reference"]
+    # ... nor the self-check's angle reference (back EMF, drive disabled: no current at all)
     assert sorted(result["unchanged"]) == sorted(
-        f"testplans/test_pwm_switching.py::test_pwm_switching[pwm_frequency_hz={f}]"
-        for f in (10000, 20000, 40000))
+        [f"testplans/test_pwm_switching.py::test_pwm_switching[pwm_frequency_hz={f}]"
+         for f in (10000, 20000, 40000)] + ["testplans/test_self_check.py::test_angle_reference"])
     baseline = next(p for p in result["points"] if p["test_id"].endswith("test_baseline"))
     assert baseline["pk_pk_pu"]["difference"] > 10 * baseline["pk_pk_pu"]["u_difference"]
     assert (tmp_path / "cmp.png").stat().st_size > 1000
@@ -89,4 +90,4 @@ def test_a_correct_drive_off_the_default_point_changes_nothing(four_runs, capsys
     # the bench's point, and the self-check's transducer-dynamics reference at one fifth of it
     assert {p["speed_rpm"] for p in again["points"] if p["speed_rpm"] is not None} == {
         -700.0, -140.0}
-    assert again["changed"] == [] and len(again["unchanged"]) == 7
+    assert again["changed"] == [] and len(again["unchanged"]) == 8

@@ -55,8 +55,12 @@ def test_classify_keeps_each_kind_apart():
     assert study.classify({"outcome": "skipped",
                            "message": "not determinable here: voltage headroom: 7 V vs 6.9 V"}) \
         == (study.NOT_DET, "voltage headroom: 7 V vs 6.9 V")
-    assert study.classify({"outcome": "passed", "kind": "ripple_map", "verdict": None,
-                           "requirements": []})[0] == study.MEASURED
+    # the record states "measured, no verdict" for a point without a rule; a test that passed
+    # asserted something (the diagnosis plan's fit and standard additions have no verdict field)
+    assert study.classify({"outcome": "measured, no verdict", "kind": "ripple_map"})[0] \
+        == study.MEASURED
+    assert study.classify({"outcome": "passed", "kind": "diagnosis", "verdict": None,
+                           "requirements": []})[0] == study.PASS
     assert study.classify({"outcome": "passed", "kind": "measurement",
                            "verdict": {"x": 1}})[0] == study.PASS
     assert study.classify({"outcome": "error", "error": "boom"}) == (study.ERROR, "boom")
