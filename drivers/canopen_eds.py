@@ -1,9 +1,13 @@
 """The shipped drive EDS (CiA 306) and the fault-injection objects it describes.
 
-``drivers/data/ripple_drive.eds`` is the single source of the drive's object dictionary: the
-driver, the simulated drive and the docs all read it. Every fault-injection knob (COMMON.md
-"Injection" table) is one manufacturer-specific object in 0x2001..0x2FFF whose ParameterName is
-``"<knob name> [<unit>]"``; the unit says the fixed-point encoding of the integer on the bus:
+``drivers/data/ripple_drive.eds`` is the object dictionary of the shipped (simulated) drive. Its
+fault-injection objects follow a naming convention, kept as documentation inside the EDS: each
+knob of the plans is one manufacturer-specific object in 0x2001..0x20FF whose ParameterName is
+``"<knob name> [<unit>]"``. Which object of a drive carries which knob, and how it scales, is
+not read from these names by the driver: that is the drive profile
+(``ripple_hil_drivers.drive_profile``, ``docs/drive-profile.md``); the shipped profile
+``drivers/data/ripple_drive_profile.toml`` states the same mapping as these names (a test keeps
+the two equal). Units of the names, i.e. the fixed-point encoding of the integer on the bus:
 
 ========  ====================  =============================================
 unit      SI value per count    knobs
@@ -53,10 +57,14 @@ class ScaledObject:
     knob: str
     index: int
     unit: str
-    counts_per_si: int
+    counts_per_si: float
     low_count: int
     high_count: int
     default_count: int
+    subindex: int = 0
+    #: the count that encodes SI zero (e.g. 32768 for a Q15 gain trim whose nominal gain is 1.0)
+    zero_count: int = 0
+    data_type: str = ""
 
     @property
     def is_bool(self) -> bool:
@@ -71,15 +79,15 @@ class ScaledObject:
         """Encode an SI value as the integer sent on the bus (nearest count)."""
         if self.is_bool:
             return int(bool(value_si))
-        return int(round(float(value_si) * self.counts_per_si))
+        return int(round(float(value_si) * self.counts_per_si)) + self.zero_count
 
     def to_si(self, count: int) -> float | int | bool:
         """Decode a bus integer into its SI value."""
         if self.is_bool:
             return bool(count)
         if self.is_integer:
-            return int(count)
-        return count / self.counts_per_si
+            return int(count) - self.zero_count
+        return (count - self.zero_count) / self.counts_per_si
 
     @property
     def low_si(self):
@@ -92,6 +100,11 @@ class ScaledObject:
     @property
     def default_si(self):
         return self.to_si(self.default_count)
+
+    @property
+    def address(self) -> str:
+        """``0x2001`` (sub-index 0) or ``0x3000:01``."""
+        return f"0x{self.index:04X}" + (f":{self.subindex:02X}" if self.subindex else "")
 
     def range_text(self) -> str:
         return f"{self.low_si:g}..{self.high_si:g}"
@@ -111,7 +124,7 @@ class ScaledObject:
         count = self.to_count(value_si)
         if not self.low_count <= count <= self.high_count:
             raise ValueError(f"{self.knob}={value_si!r} is outside {self.range_text()} "
-                             f"(EDS object 0x{self.index:04X})")
+                             f"(EDS object {self.address})")
         return count
 
 

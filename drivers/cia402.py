@@ -1,6 +1,9 @@
 """Master-side driver of the CiA 402 PMSM drive over CANopen (``canopen`` + ``python-can``).
 
-Everything about the drive's dictionary comes from the shipped EDS (``ripple_hil_drivers.canopen_eds``).
+Everything about the drive's dictionary comes from its EDS (default: the shipped one,
+``ripple_hil_drivers.canopen_eds``); which object carries each injection knob and the current
+command, and how they scale and restore, from its drive profile (``ripple_hil_drivers.drive_profile``;
+default: the shipped drive's).
 The driver does its own CiA 402 state handling on a ``canopen.RemoteNode`` instead of using
 ``canopen.BaseNode402``, whose 2.4.x version asserts the NMT state with a substring test in
 ``setup_pdos()``, swallows errors in the ``op_mode`` setter and has a ``reset_from_fault()`` that
@@ -13,8 +16,10 @@ original error, not a timeout.
 Cyclic objects (configured by ``connect``, asynchronous with an event timer):
 RPDO1 = controlword 0x6040; TPDO1 = statusword 0x6041 + mode display 0x6061;
 TPDO2 = torque actual 0x6077 + velocity actual 0x606C; TPDO3 = position actual 0x6064.
-Commands: current command through 0x2100 ``current_command_a [mA]``, or target torque 0x6071 in
-per mille of the rated torque 0x6076; target velocity 0x60FF in rpm.
+Commands: current command through the profile's object (shipped: 0x2100 ``current_command_a [mA]``)
+or, when the profile names none, target torque 0x6071 in per mille of the rated current 0x6075
+(= of the rated torque 0x6076); target torque 0x6071 in per mille of 0x6076; target velocity
+0x60FF in rpm.
 
 Master-loss detection (CiA 301 / CiA 402): ``connect`` starts this master's own heartbeat
 (COB-ID 0x700 + ``master_node_id``, state byte 0x05, period ``heartbeat_timeout_s / 4``) and
@@ -37,10 +42,9 @@ from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from ripple_hil_drivers import canopen_402 as sm
-from ripple_hil_drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
-                                 ScaledObject, current_command_object, injection_objects,
-                                 load_dictionary)
+from ripple_hil_drivers.canopen_eds import ScaledObject, load_dictionary
 from ripple_hil_drivers.canopen_transport import NOTIFIER_CYCLE_S, BusLossWatch, CanBusSettings, open_bus
+from ripple_hil_drivers.drive_profile import DriveProfile, load_profile, plan_knobs
 from ripple_hil_drivers.errors import (DeviceFault, HeartbeatLost, InjectionRangeError, InstrumentError,
                             InstrumentTimeout, ProtocolError, TransportLost, transport_reason)
 from hil.errors import InputError
@@ -76,7 +80,8 @@ class Cia402Drive:
     def __init__(self, settings: CanBusSettings, node_id: int = 5, eds_path=None, *,
                  sdo_timeout_s: float = 0.5, heartbeat_timeout_s: float = 0.5,
                  instrument_name: str = "drive", tpdo_event_timer_ms: int = 10,
-                 master_node_id: int = DEFAULT_MASTER_NODE_ID) -> None:
+                 master_node_id: int = DEFAULT_MASTER_NODE_ID,
+                 profile: DriveProfile | str | None = None) -> None:
         if not 1 <= int(node_id) <= 127:
             raise InputError(f"drive.node_id={node_id!r} is outside 1..127")
         if not 1 <= int(master_node_id) <= 127 or int(master_node_id) == int(node_id):
@@ -99,8 +104,9 @@ class Cia402Drive:
         self.master_node_id = int(master_node_id)
         self._master_heartbeat = None      # canopen PeriodicMessageTask of this master's heartbeat
         self._drive_consumes_heartbeat = False
-        self._knobs = injection_objects(eds_path)
-        self._current_command = current_command_object(eds_path)
+        self.profile = profile if isinstance(profile, DriveProfile) else load_profile(profile, eds_path)
+        self._knobs = self.profile.knobs
+        self._current_command = self.profile.current_command
         self._lock = threading.RLock()
         self._tpdo_update = threading.Condition()
         self._heartbeat_update = threading.Condition()
@@ -590,10 +596,28 @@ class Cia402Drive:
             raise self._error(InjectionRangeError, action, str(exc)) from None
 
     def set_current_command_a(self, current_a: float) -> None:
-        """Peak phase-current command through 0x2100 (mA), verified by read-back."""
+        """Peak phase-current command through the profile's object (shipped: 0x2100, mA), or
+        without one through target torque 0x6071 in per mille of the rated current 0x6075;
+        verified by read-back."""
         action = f"set current command {current_a!r} A"
-        count = self._checked_count(self._current_command, current_a, action)
-        self._write_verified(CURRENT_COMMAND_INDEX, count, action)
+        obj = self._current_command
+        if obj is None:
+            self._set_per_mille_of_rated_current(current_a, action)
+            return
+        count = self._checked_count(obj, current_a, action)
+        self._write_verified(obj.index, count, action, subindex=obj.subindex)
+
+    def _set_per_mille_of_rated_current(self, current_a: float, action: str) -> None:
+        """0x6071 = current / rated current 0x6075 (mA) × 1000: CiA 402's per mille of the
+        rated torque, the drive's own torque constant being 0x6076 / 0x6075."""
+        rated_a = self.sdo_read(0x6075, action=f"{action}: read motor rated current 0x6075") / 1000.0
+        od = self._require_node(action).object_dictionary[0x6071]
+        per_mille = round(current_a / rated_a * 1000.0) if math.isfinite(current_a) else None
+        if per_mille is None or not od.min <= per_mille <= od.max:
+            raise self._error(InjectionRangeError, action,
+                              f"current command must be in {od.min * rated_a / 1000:g}.."
+                              f"{od.max * rated_a / 1000:g} A (target torque 0x6071)")
+        self._write_verified(0x6071, per_mille, action)
 
     def set_target_torque_nm(self, torque_nm: float) -> None:
         """Target torque 0x6071 in per mille of the rated torque 0x6076, verified by read-back."""
@@ -622,29 +646,51 @@ class Cia402Drive:
         return {k: (o.low_si, o.high_si, o.default_si) for k, o in self._knobs.items()}
 
     def set_injection(self, **knobs) -> None:
-        """Write fault-injection knobs (SI units); all are range-checked before any is sent."""
+        """Write fault-injection knobs (SI units); all are range-checked before any is sent.
+
+        A plan knob the drive's profile leaves out is not sent when the value asked is the one
+        the drive runs at (``DriveProfile.value_si``); any other value is refused."""
         counts = {}
         for knob, value in knobs.items():
             action = f"set injection {knob}={value!r}"
             if knob not in self._knobs:
-                raise InputError(f"unknown injection knob {knob!r}; known: {sorted(self._knobs)}")
+                self._check_absent_knob(knob, value)
+                continue
             counts[knob] = self._checked_count(self._knobs[knob], value, action)
         for knob, count in counts.items():
             obj = self._knobs[knob]
             self._write_verified(obj.index, count,
-                                 f"set injection {knob}={knobs[knob]!r} (0x{obj.index:04X}={count})")
+                                 f"set injection {knob}={knobs[knob]!r} ({obj.address}={count})",
+                                 subindex=obj.subindex)
+
+    def _check_absent_knob(self, knob: str, value) -> None:
+        if knob not in plan_knobs():
+            raise InputError(f"unknown injection knob {knob!r}; known: {sorted(self._knobs)}")
+        if self.profile.lacks(knob, value):
+            raise InputError(f"the drive under test has no {knob} (drive profile "
+                             f"{self.profile.name!r}); it runs at {self.profile.value_si(knob)!r}, "
+                             f"the point asks {value!r}")
 
     def injection(self) -> dict:
         """Every knob read back from the drive, in SI units."""
-        return {knob: obj.to_si(self.sdo_read(obj.index, action=f"read injection {knob}"))
+        return {knob: obj.to_si(self.sdo_read(obj.index, obj.subindex,
+                                              action=f"read injection {knob}"))
                 for knob, obj in self._knobs.items()}
 
     def restore_injection_defaults(self) -> None:
-        """Write the "load" signature to 0x2000, then check every knob reads its EDS default."""
+        """Restore every knob as the profile says — its restore object (shipped: the "load"
+        signature to 0x2000), else each knob's restore count written — then check every knob
+        reads its restore value."""
         action = "restore injection defaults"
-        self.sdo_write(RESTORE_DEFAULTS_INDEX, 0, RESTORE_SIGNATURE, action=action)
+        restore = self.profile.restore
+        if restore is not None:
+            self.sdo_write(restore.index, restore.subindex, restore.value, action=action)
+        else:
+            for knob, obj in self._knobs.items():
+                self.sdo_write(obj.index, obj.subindex, obj.default_count,
+                               action=f"{action}: write {knob}")
         for knob, obj in self._knobs.items():
-            count = self.sdo_read(obj.index, action=f"{action}: read back {knob}")
+            count = self.sdo_read(obj.index, obj.subindex, action=f"{action}: read back {knob}")
             if count != obj.default_count:
                 raise self._error(ProtocolError, action,
                                   f"{knob} reads {obj.to_si(count)!r}, default is {obj.default_si!r}")

@@ -329,7 +329,7 @@ def _make_drive(config: BenchConfig):
     drive = config.drive
     return Cia402Drive(CanBusSettings(interface=drive.interface, channel=drive.channel,
                                       bitrate=drive.bitrate),
-                       node_id=drive.node_id, eds_path=drive.eds,
+                       node_id=drive.node_id, eds_path=drive.eds, profile=drive.profile,
                        sdo_timeout_s=drive.sdo_timeout_s,
                        heartbeat_timeout_s=drive.heartbeat_timeout_s, instrument_name="drive")
 

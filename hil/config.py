@@ -85,6 +85,8 @@ class DriveConfig:
     bitrate: int = _key(500_000, "int", choices=CAN_BITRATES)
     node_id: int = _key(1, "int", lo=1, hi=127)
     eds: Path | None = _key(None, "path")  # None: the EDS shipped with the drivers
+    #: Drive profile (docs/drive-profile.md): which EDS object carries each injection knob.
+    profile: Path | None = _key(None, "path")  # None: the shipped drive's profile
     sdo_timeout_s: float = _key(0.5, "float", lo=0.01, hi=10.0)
     heartbeat_timeout_s: float = _key(1.0, "float", lo=0.05, hi=30.0)
     #: The drive's closed current-loop bandwidth and loop delay at its default PWM frequency,

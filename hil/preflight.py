@@ -10,6 +10,8 @@ alone, at collection time; nothing is sent to the bench:
   does not handle braking, the motor's voltage limit (dead time included), a capture the DAQ
   cannot hold or sample fast enough, a ripple below the bench's resolvable floor. That point is
   skipped as *not determinable here* with its reason (``fixtures/preflight.py``); the rest run.
+  So is a point that needs a knob the drive under test cannot inject (its drive profile leaves
+  the knob out, :func:`missing_knob_refusal`): "the drive under test has no <knob>".
 """
 
 from __future__ import annotations
@@ -39,11 +41,14 @@ def voltage_limit_v(config: BenchConfig) -> float:
 
 def check_point(plan, config: BenchConfig, requirements=()) -> list[str]:
     """Every problem of one :class:`hil.measurement.PointPlan` on this bench (empty: fine): the
-    hard ones (:func:`hard_problems`) and those of its plan's validity region
-    (:func:`hil.validity.problems`: a point outside it is not determinable, not an error)."""
+    hard ones (:func:`hard_problems`), a knob the drive lacks (:func:`missing_knob_refusal`) and
+    those of its plan's validity region (:func:`hil.validity.problems`: a point outside it is not
+    determinable, not an error)."""
     from hil import validity
 
-    return hard_problems(plan, config, requirements) + validity.problems(plan, config)
+    missing = missing_knob_refusal(plan, config)
+    return hard_problems(plan, config, requirements) + ([missing] if missing else []) \
+        + validity.problems(plan, config)
 
 
 def hard_problems(plan, config: BenchConfig, requirements=()) -> list[str]:
@@ -65,20 +70,43 @@ def hard_problems(plan, config: BenchConfig, requirements=()) -> list[str]:
 
 
 def _injection_problems(plan, config: BenchConfig) -> list[str]:
-    from ripple_hil_drivers.canopen_eds import injection_objects
+    from ripple_hil_drivers.drive_profile import plan_knobs, profile_for
 
-    knobs = injection_objects(config.drive.eds)
+    try:
+        knobs = profile_for(config.drive).knobs
+    except InputError as exc:
+        return [str(exc)]
     problems = []
     for knob, value in plan.injection.items():
-        if knob not in knobs:
+        if knob not in plan_knobs():
             problems.append(f"injection {knob!r} is not a knob of the drive's EDS "
                             f"(known: {', '.join(sorted(knobs))})")
             continue
+        if knob not in knobs:
+            continue    # the drive lacks it: not determinable here (missing_knob_refusal)
         try:
             knobs[knob].check_si(value)
         except (InputError, ValueError) as exc:
             problems.append(f"injection {knob}={value!r}: {exc}")
     return problems
+
+
+def missing_knob_refusal(plan, config: BenchConfig) -> str | None:
+    """"the drive under test has no <knob>" when the point needs a knob (its injection or its
+    current angle) at a value the drive cannot be set to: its profile leaves the knob out and the
+    value differs from the one it runs at (``DriveProfile.value_si``); None otherwise."""
+    from ripple_hil_drivers.drive_profile import plan_knobs, profile_for
+
+    try:
+        profile = profile_for(config.drive)
+    except InputError:
+        return None     # a hard problem (_injection_problems): the run does not start
+    needed = {**plan.injection, "current_angle_rad": plan.current_angle_rad}
+    lacking = [knob for knob, value in needed.items()
+               if knob in plan_knobs() and profile.lacks(knob, value)]
+    if not lacking:
+        return None
+    return "; ".join(f"the drive under test has no {knob}" for knob in lacking)
 
 
 def _order_problems(plan, config: BenchConfig) -> list[str]:
@@ -125,9 +153,9 @@ def check_plans(points: dict, config: BenchConfig, requirements=()) -> list[str]
 
 
 def requirement_knob_problems(requirements, config: BenchConfig) -> list[str]:
-    from ripple_hil_drivers.canopen_eds import injection_objects
+    from ripple_hil_drivers.drive_profile import plan_knobs
 
-    knobs = injection_objects(config.drive.eds)
+    knobs = plan_knobs()
     return [f"requirement {req.id}: injection knob {knob!r} is not a knob of the drive's EDS "
             f"(known: {', '.join(sorted(knobs))})"
             for req in requirements for knob, _ in req.injection if knob not in knobs]

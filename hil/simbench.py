@@ -145,7 +145,8 @@ class SimulatedBench:
         if self.cross_process:
             from ripple_hil_drivers.simulated.can_remote_server import RemoteSimulatedDrive
 
-            self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate).start()
+            self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate,
+                                              **self._drive_dictionary()).start()
             self._started.append(self.drive)
             return self.drive.bench_table()
         from ripple_hil_drivers.canopen_transport import CanBusSettings
@@ -153,9 +154,13 @@ class SimulatedBench:
 
         channel = f"ripple-hil-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
-        self.drive = SimulatedDrive(self.twin, settings, node_id).start()
+        self.drive = SimulatedDrive(self.twin, settings, node_id, **self._drive_dictionary()).start()
         self._started.append(self.drive)
         return {"interface": "virtual", "channel": channel}
+
+    def _drive_dictionary(self) -> dict:
+        """The EDS and drive profile the bench file names: the simulated drive serves them."""
+        return {"eds_path": self.config.drive.eds, "profile": self.config.drive.profile}
 
     def _start_daq(self, simulated_daq_class) -> dict:
         daq = self.config.daq

@@ -164,12 +164,13 @@ def problems(plan, config: BenchConfig) -> list[str]:
 
 
 def injected_or_default(plan, config: BenchConfig, knob: str) -> float:
-    """The point's value of a drive knob: its injection, else the drive EDS's default (SI)."""
+    """The point's value of a drive knob: its injection, else the value the drive runs at (SI;
+    its profile's restore value, ``ripple_hil_drivers.drive_profile.DriveProfile.value_si``)."""
     if knob in plan.injection:
         return float(plan.injection[knob])
-    from ripple_hil_drivers.canopen_eds import injection_objects
+    from ripple_hil_drivers.drive_profile import profile_for
 
-    return float(injection_objects(config.drive.eds)[knob].default_si)
+    return float(profile_for(config.drive).value_si(knob))
 
 
 def voltage_problems(plan, config: BenchConfig) -> list[str]:

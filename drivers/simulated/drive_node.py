@@ -1,17 +1,21 @@
 """The simulated CiA 402 drive: a CANopen slave backed by one ``hil.sim.DriveTwin``.
 
-Object dictionary: the shipped EDS (``drivers/data/ripple_drive.eds``). Behaviour:
+Object dictionary: an EDS (default: the shipped ``drivers/data/ripple_drive.eds``); which of its
+objects carry the injection knobs, the current command and the restore command: a drive profile
+(``ripple_hil_drivers.drive_profile``; default: the shipped one). Behaviour:
 
 * CiA 402 state machine driven by controlword writes (SDO or RPDO); entering OPERATION ENABLED
   calls ``twin.enable()``, leaving it (disable, quick stop, fault, NMT stop) ``twin.disable()``.
 * Live objects are read from the twin: statusword, mode display, position actual (encoder
   counts), velocity actual (rpm), torque actual (per mille of 0x6076, from the twin's
   electromagnetic torque — a real drive reports its own current-based estimate), and every
-  injection knob (0x2001..) from ``twin.injection``, so a read-back proves the twin took it.
+  injection knob of the profile (shipped: 0x2001..) from ``twin.injection``, so a read-back
+  proves the twin took it.
 * Writes to injection objects go to ``twin.set_injection`` (out of range → SDO abort
-  0x06090031/32 from the EDS limits, or 0x06090030 when the twin rejects the value);
-  0x2000 ← 0x64616F6C ("load") calls ``twin.restore_defaults()``; 0x6071 target torque and
-  0x2100 current command set ``twin.current_command_a`` (torque / kt, kt from ``hil.motor``);
+  0x06090031/32 from the EDS limits, or 0x06090030 when the twin rejects the value); the
+  profile's restore object (shipped: 0x2000 ← 0x64616F6C "load") calls
+  ``twin.restore_defaults()``; 0x6071 target torque and the profile's current command (shipped:
+  0x2100) set ``twin.current_command_a`` (torque / kt, kt from ``hil.motor``);
   0x60FF target velocity sets the dyno speed ``twin.speed_rpm`` (the simulated bench has one speed).
 * TPDOs (statusword, actual values) are sent on change, on their event timer or on SYNC; RPDOs
   are applied to the dictionary; a master's PDO remap takes effect (see ``can_pdo``).
@@ -40,9 +44,9 @@ import canopen
 from canopen.sdo import SdoAbortedError
 
 from ripple_hil_drivers import canopen_402 as sm
-from ripple_hil_drivers.canopen_eds import (CURRENT_COMMAND_INDEX, RESTORE_DEFAULTS_INDEX, RESTORE_SIGNATURE,
-                                 current_command_object, injection_objects, load_dictionary)
+from ripple_hil_drivers.canopen_eds import load_dictionary
 from ripple_hil_drivers.canopen_transport import NOTIFIER_CYCLE_S, CanBusSettings, open_bus
+from ripple_hil_drivers.drive_profile import load_profile
 from ripple_hil_drivers.simulated.can_heartbeat import (CONSUMER_HEARTBEAT_INDEX, HeartbeatConsumer,
                                              check_consumer_write, consumer_entries)
 from ripple_hil_drivers.simulated.can_node import ABORT_CANNOT_STORE, ABORT_VALUE_RANGE, DriveLocalNode
@@ -94,7 +98,8 @@ class SimulatedDrive:
     """CiA 402 drive node on a python-can bus, backed by a ``DriveTwin`` in simulated time."""
 
     def __init__(self, twin, settings: CanBusSettings, node_id: int = 5, *, eds_path=None,
-                 serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None):
+                 serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None,
+                 profile=None):
         if not 1 <= node_id <= 127:
             raise ValueError(f"node_id={node_id} is outside 1..127")
         self.twin = twin
@@ -103,8 +108,14 @@ class SimulatedDrive:
         self.serial_number = serial_number
         self._eds_path = eds_path
         self._kt = torque_constant_nm_per_a or TABLE_I.torque_constant_nm_per_a
-        self._knobs = {obj.index: obj for obj in injection_objects(eds_path).values()}
-        self._current_command = current_command_object(eds_path)
+        profile = load_profile(profile, eds_path)
+        self._knobs = {(obj.index, obj.subindex): obj for obj in profile.knobs.values()}
+        command = profile.current_command
+        self._current_command = command
+        self._command_at = None if command is None else (command.index, command.subindex)
+        restore = profile.restore
+        self._restore_at = None if restore is None else (restore.index, restore.subindex)
+        self._restore_value = None if restore is None else restore.value
         self._lock = threading.RLock()
         self._state = sm.SWITCH_ON_DISABLED
         self._controlword = 0
@@ -253,18 +264,18 @@ class SimulatedDrive:
                 self._supported_modes & sm.supported_mode_bit(value)
             if not supported:
                 raise SdoAbortedError(ABORT_VALUE_RANGE)
-        elif index in self._knobs:
-            knob = self._knobs[index]
+        elif (index, subindex) in self._knobs:
+            knob = self._knobs[index, subindex]
             try:
                 self.twin.set_injection(**{knob.knob: knob.to_si(value)})
             except ValueError as exc:
                 logger.info("simulated drive: %s rejected: %s", knob.knob, exc)
                 raise SdoAbortedError(ABORT_VALUE_RANGE) from None
-        elif index == RESTORE_DEFAULTS_INDEX:
-            if value != RESTORE_SIGNATURE:
+        elif (index, subindex) == self._restore_at:
+            if value != self._restore_value:
                 raise SdoAbortedError(ABORT_CANNOT_STORE)
             self.twin.restore_defaults()
-        elif index == CURRENT_COMMAND_INDEX:
+        elif (index, subindex) == self._command_at:
             self._apply_twin_attribute("current_command_a", self._current_command.to_si(value))
         elif index == 0x6071:
             torque_nm = value / 1000.0 * self._rated_torque_nm()
@@ -340,14 +351,14 @@ class SimulatedDrive:
             return round(self._status()["speed_rpm"])
         if index == 0x6077:
             return self._per_mille_of_rated(self._status()["torque_em_nm"])
-        if index in self._knobs:
-            knob = self._knobs[index]
+        if (index, subindex) in self._knobs:
+            knob = self._knobs[index, subindex]
             if self._twin_loss_pending:  # reset by the master-loss action; the twin is busy
                 return knob.default_count
             return knob.to_count(getattr(self.twin.injection, knob.knob))
-        if index == RESTORE_DEFAULTS_INDEX:
+        if (index, subindex) == self._restore_at:
             return 1  # CiA 301 convention: "restores on command"
-        if index == CURRENT_COMMAND_INDEX:
+        if (index, subindex) == self._command_at:
             return self._current_command.to_count(self.twin.current_command_a)
         if index == 0x6071:
             return self._per_mille_of_rated(self.twin.current_command_a * self._kt)
