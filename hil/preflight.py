@@ -46,9 +46,33 @@ def check_point(plan, config: BenchConfig, requirements=()) -> list[str]:
     determinable, not an error)."""
     from hil import validity
 
+    hard = hard_problems(plan, config, requirements)
+    if _profile_problem(config) is not None:
+        return hard             # the drive profile itself is wrong: nothing else is known
     missing = missing_knob_refusal(plan, config)
-    return hard_problems(plan, config, requirements) + ([missing] if missing else []) \
-        + validity.problems(plan, config)
+    return hard + ([missing] if missing else []) + validity.problems(plan, config)
+
+
+def not_determinable_reason(plan, config: BenchConfig) -> str | None:
+    """Why the point is not determinable here (a knob the drive lacks, then the first limit of
+    its validity region), or None; None too when the drive profile is wrong, a hard problem
+    that refuses the whole run (:func:`check_plans`)."""
+    from hil import validity
+
+    if _profile_problem(config) is not None:
+        return None
+    return missing_knob_refusal(plan, config) or validity.refusal(plan, config)
+
+
+def _profile_problem(config: BenchConfig) -> str | None:
+    """The one line of a drive profile that does not fit the drive's EDS, or None."""
+    from ripple_hil_drivers.drive_profile import profile_for
+
+    try:
+        profile_for(config.drive)
+    except InputError as exc:
+        return str(exc)
+    return None
 
 
 def hard_problems(plan, config: BenchConfig, requirements=()) -> list[str]:
@@ -63,6 +87,9 @@ def hard_problems(plan, config: BenchConfig, requirements=()) -> list[str]:
     if not 0 <= plan.current_a <= limits.current_a:
         problems.append(f"current {plan.current_a:g} A outside 0..limits.current_a = "
                         f"{limits.current_a:g}")
+    profile_problem = _profile_problem(config)
+    if profile_problem is not None:
+        return problems + [profile_problem]
     problems += _injection_problems(plan, config)
     problems += _order_problems(plan, config)
     problems += _requirement_problems(plan, requirements)
@@ -72,10 +99,7 @@ def hard_problems(plan, config: BenchConfig, requirements=()) -> list[str]:
 def _injection_problems(plan, config: BenchConfig) -> list[str]:
     from ripple_hil_drivers.drive_profile import plan_knobs, profile_for
 
-    try:
-        knobs = profile_for(config.drive).knobs
-    except InputError as exc:
-        return [str(exc)]
+    knobs = profile_for(config.drive).knobs
     problems = []
     for knob, value in plan.injection.items():
         if knob not in plan_knobs():
@@ -97,10 +121,7 @@ def missing_knob_refusal(plan, config: BenchConfig) -> str | None:
     value differs from the one it runs at (``DriveProfile.value_si``); None otherwise."""
     from ripple_hil_drivers.drive_profile import plan_knobs, profile_for
 
-    try:
-        profile = profile_for(config.drive)
-    except InputError:
-        return None     # a hard problem (_injection_problems): the run does not start
+    profile = profile_for(config.drive)
     needed = {**plan.injection, "current_angle_rad": plan.current_angle_rad}
     lacking = [knob for knob, value in needed.items()
                if knob in plan_knobs() and profile.lacks(knob, value)]
