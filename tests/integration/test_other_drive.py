@@ -53,3 +53,21 @@ def test_a_profile_naming_a_missing_object_fails_at_connect_with_one_line(tmp_pa
     line = ("drive profile bad_profile.toml: knobs.ia_offset_a: object 0x3000:01 is INTEGER32 in "
             "the EDS eps_drive.eds, the profile says UNSIGNED32")
     assert line in done.stderr + done.stdout, done.stdout[-2000:] + done.stderr[-2000:]
+
+
+def test_a_drive_with_no_injection_still_runs_the_self_check_and_the_baseline(tmp_path):
+    done = run(tmp_path, OTHER / "no_injection_profile.toml", "self_check", "baseline",
+               "dc_offset")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    record = load_record(next((tmp_path / "records").iterdir()))
+    outcome = {t["nodeid"].split("::")[-1]: (t["outcome"], t.get("message")) for t in
+               record["tests"]}
+    assert outcome["test_bench_self_check"][0] == outcome["test_angle_reference"][0] == "passed"
+    assert outcome["test_baseline"][0] == "passed"
+    assert outcome["test_transducer_dynamics"] == (
+        "not determinable", "not determinable here: transducer dynamics: the drive under test "
+        "has no ia_gain_error_pu; the drive under test has no ib_gain_error_pu, which gives its "
+        "known test ripple (a gain mismatch's order 2)")
+    offsets = [o for name, o in outcome.items() if name.startswith("test_dc_offset[")]
+    assert len(offsets) == 5 and all(o[0] == "not determinable" and "has no i" in o[1]
+                                     for o in offsets)
