@@ -611,24 +611,23 @@ class Cia402Drive:
         """0x6071 = current / rated current 0x6075 (mA) × 1000: CiA 402's per mille of the
         rated torque, the drive's own torque constant being 0x6076 / 0x6075."""
         rated_a = self.sdo_read(0x6075, action=f"{action}: read motor rated current 0x6075") / 1000.0
-        od = self._require_node(action).object_dictionary[0x6071]
-        per_mille = round(current_a / rated_a * 1000.0) if math.isfinite(current_a) else None
-        if per_mille is None or not od.min <= per_mille <= od.max:
-            raise self._error(InjectionRangeError, action,
-                              f"current command must be in {od.min * rated_a / 1000:g}.."
-                              f"{od.max * rated_a / 1000:g} A (target torque 0x6071)")
-        self._write_verified(0x6071, per_mille, action)
+        self._write_per_mille(current_a, rated_a, "current command", "A (target torque 0x6071)",
+                              action)
 
     def set_target_torque_nm(self, torque_nm: float) -> None:
         """Target torque 0x6071 in per mille of the rated torque 0x6076, verified by read-back."""
         action = f"set target torque {torque_nm!r} N·m"
-        rated_nm = self._rated_torque_nm()
+        self._write_per_mille(torque_nm, self._rated_torque_nm(), "target torque", "N·m", action)
+
+    def _write_per_mille(self, value: float, rated: float, what: str, unit: str,
+                         action: str) -> None:
+        """Target torque 0x6071 = value / rated × 1000, within the EDS limits, verified."""
         od = self._require_node(action).object_dictionary[0x6071]
-        per_mille = round(torque_nm / rated_nm * 1000.0) if math.isfinite(torque_nm) else None
+        per_mille = round(value / rated * 1000.0) if math.isfinite(value) else None
         if per_mille is None or not od.min <= per_mille <= od.max:
             raise self._error(InjectionRangeError, action,
-                              f"target torque must be in {od.min * rated_nm / 1000:g}.."
-                              f"{od.max * rated_nm / 1000:g} N·m")
+                              f"{what} must be in {od.min * rated / 1000:g}.."
+                              f"{od.max * rated / 1000:g} {unit}")
         self._write_verified(0x6071, per_mille, action)
 
     def set_target_velocity_rpm(self, speed_rpm: float) -> None:

@@ -19,6 +19,7 @@ import pytest
 from ripple_hil_drivers.canopen_eds import (COUNTS_PER_SI_UNIT, current_command_object,
                                             injection_objects)
 from ripple_hil_drivers.cia402 import Cia402Drive
+from ripple_hil_drivers.errors import InjectionRangeError
 from ripple_hil_drivers.drive_profile import (DEFAULT_PROFILE_PATH, load_profile, plan_knobs,
                                               shipped_profile)
 from cia306 import check_eds
@@ -167,6 +168,9 @@ def test_the_eps_drive_commands_current_as_target_torque(eps_drive, twin):
     assert eps_drive.sdo_read(0x6071) == 3000       # per mille of 0x6075 = 10 A
     # the drive's own kt (0x6076/0x6075 = 0.0488 N·m/A) against the motor's 0.04879
     assert twin.current_command_a == pytest.approx(30.0, rel=3e-4)
+    with pytest.raises(InjectionRangeError, match=r"current command must be in 0\.\.100 A"):
+        eps_drive.set_current_command_a(100.5)         # 0x6071 HighLimit 10000 per mille
+    assert eps_drive.sdo_read(0x6071) == 3000
 
 
 @pytest.mark.parametrize("knob,value", [("word_length_bits", 12), ("hall_mode", True),
