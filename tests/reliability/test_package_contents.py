@@ -12,6 +12,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 FOLDERS = ("hil", "drivers", "fixtures", "testplans", "reports")
 DATA_FILES = ("ripple_hil_drivers/data/ripple_drive.eds",
+              "ripple_hil_drivers/data/ripple_drive_profile.toml",
               "ripple_hil_drivers/data/daq_registers.toml",
               "hil/examples/sim-bench.toml", "hil/examples/real-bench.toml",
               "hil/examples/requirements.toml", "hil/examples/tolerances.toml")
