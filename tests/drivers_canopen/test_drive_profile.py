@@ -186,6 +186,21 @@ def test_a_lacking_knob_at_the_value_the_drive_runs_at_is_not_sent(eps_drive, tw
     assert twin.injection.ia_offset_a == 0.5
 
 
+def test_a_profile_with_the_wrong_scale_injects_what_the_drive_reads_it_as(eps_sim, twin,
+                                                                        bus_settings, tmp_path):
+    """The EPS offset trims are in 0.1 mA; a profile saying mA (counts_per_si 1000) sends 200
+    counts for 0.2 A and reads 200 back as 0.2 A — consistent with itself — while the drive
+    applies 0.02 A. Only a measurement tells (on a real bench the dc_offset verdict); the
+    simulated bench serves the profile its bench file names, so it cannot."""
+    wrong = tmp_path / "wrong_scale.toml"
+    wrong.write_text(EPS_PROFILE.read_text().replace("counts_per_si = 10000", "counts_per_si = 1000"))
+    with Cia402Drive(bus_settings, node_id=NODE, eds_path=EPS_EDS, profile=wrong,
+                     heartbeat_timeout_s=0.5) as drive:
+        drive.set_injection(ia_offset_a=0.2)
+        assert drive.injection()["ia_offset_a"] == 0.2
+    assert twin.injection.ia_offset_a == pytest.approx(0.02)
+
+
 # ---------------------------------------------------------------- against durand
 @pytest.fixture
 def eps_durand(bus_settings):

@@ -71,3 +71,4 @@ def test_a_drive_with_no_injection_still_runs_the_self_check_and_the_baseline(tm
     offsets = [o for name, o in outcome.items() if name.startswith("test_dc_offset[")]
     assert len(offsets) == 5 and all(o[0] == "not determinable" and "has no i" in o[1]
                                      for o in offsets)
+
