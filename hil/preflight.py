@@ -104,7 +104,7 @@ def _injection_problems(plan, config: BenchConfig) -> list[str]:
     for knob, value in plan.injection.items():
         if knob not in plan_knobs():
             problems.append(f"injection {knob!r} is not a knob of the drive's EDS "
-                            f"(known: {', '.join(sorted(knobs))})")
+                            f"(known: {', '.join(sorted(plan_knobs()))})")
             continue
         if knob not in knobs:
             continue    # the drive lacks it: not determinable here (missing_knob_refusal)
