@@ -14,8 +14,8 @@ from cia306 import check_eds
 from eds_text import drop_objects, get_key, set_key, shipped_text, write
 from hil.motor import TABLE_I
 
-# The plans' knob ranges (docs/drive-profile.md), written out independently of the EDS:
-# (low, high, default).
+# The shipped drive's knob ranges (knobs: docs/drive-profile.md), written out independently of
+# the EDS: (low, high, default).
 CONTRACT = {
     "ia_offset_a": (-20.0, 20.0, 0.0), "ib_offset_a": (-20.0, 20.0, 0.0),
     "ia_gain_error_pu": (-0.2, 0.2, 0.0), "ib_gain_error_pu": (-0.2, 0.2, 0.0),
