@@ -161,12 +161,13 @@ class SimulatedBench:
         daq = self.config.daq
         if daq.transport == "rtu":
             self.daq = simulated_daq_class.rtu(self.twin, unit_id=daq.unit_id, parity=daq.parity,
-                                               stopbits=daq.stopbits)
+                                               stopbits=daq.stopbits,
+                                               register_map=daq.register_map)
             self.daq.start()
             self._started.append(self.daq)
             return {"serial_port": self.daq.port, "baudrate": daq.baudrate or 115200}
         self.daq = simulated_daq_class(self.twin, host="127.0.0.1", port=daq.port or 0,
-                                       unit_id=daq.unit_id)
+                                       unit_id=daq.unit_id, register_map=daq.register_map)
         self.daq.start()
         self._started.append(self.daq)
         host, port = self.daq.address
