@@ -412,7 +412,8 @@ class ModbusDaq:
         if self.map.offers_packed:
             names.append("capture_format")
         config = self.read_registers(*names)
-        packed = config.get("capture_format") == self.map.capture_formats.get("packed")
+        packed = self.map.offers_packed and \
+            config.get("capture_format") == self.map.capture_formats.get("packed")
         channels = self.map.channels_in(config["channel_mask"])
         n, words_per_sample = status["samples_captured"], status["words_per_sample"]
         expected_words = self.map.frame_words(channels, packed)

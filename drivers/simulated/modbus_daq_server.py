@@ -398,7 +398,8 @@ class DaqDevice:
         wanted = config["samples"]
         n = min(wanted, capacity)
         channels = self.map.channels_in(config["channel_mask"])
-        packed = config.get("capture_format") == self.map.capture_formats.get("packed")
+        packed = self.map.offers_packed and \
+            config.get("capture_format") == self.map.capture_formats.get("packed")
         flags = 1 << self.map.status_flags["overrun"] if wanted > capacity else 0
         ticks = stored_ticks(n, drop_every_nth(self.twin))
         counter = self.map.sample_counter

@@ -48,6 +48,7 @@ def test_foreign_map_captures_exactly_what_the_shipped_map_does():
             captures[name] = daq.capture(0.02, 20_000.0, settle_s=0.0)
     shipped, foreign = captures["shipped"], captures["foreign"]
     assert foreign.meta["daq_transfer"]["read_mode"] == "file_record"
+    assert foreign.meta["daq_transfer"]["packed"] is False          # the map offers no packing
     words = len(foreign) * foreign.meta["daq_transfer"]["words_per_sample"]
     assert foreign.meta["daq_transfer"]["buffer_requests"] == -(-words // 120)
     assert foreign.meta["daq_model"] == "XDAQ-8"
