@@ -130,6 +130,7 @@ class SimulatedBench:
             self.torque = SimulatedTransducer(self.twin, dialect=self.config.torque.dialect)
             self.torque.start()
             self._started.append(self.torque)
+            scope_table = self._start_scope()
         except BaseException:
             self.stop()
             raise
@@ -137,7 +138,20 @@ class SimulatedBench:
             "drive": drive_table,
             "daq": daq_table,
             "torque": {"serial_port": self.torque.port},
+            **({"acquisition": scope_table} if scope_table else {}),
         })
+
+    def _start_scope(self) -> dict:
+        """The simulated oscilloscope on the same twin, when the bench file captures with one
+        (``[acquisition] kind = "scpi-scope"``) and names no resource."""
+        acquisition = self.config.acquisition
+        if acquisition.kind != "scpi-scope" or acquisition.resource:
+            return {}
+        from ripple_hil_drivers.simulated.scpi_scope_server import SimulatedScope
+
+        self.scope = SimulatedScope(self.twin, channel_map=acquisition.channel_map).start()
+        self._started.append(self.scope)
+        return {"resource": self.scope.resource}
 
     def _start_drive(self) -> dict:
         node_id = self.config.drive.node_id
