@@ -170,7 +170,7 @@ def _control(get_command: str, set_command: str, cast, doc: str) -> property:
 
 
 class ScpiScope:
-    """An oscilloscope on VISA ``resource``; use as a context manager or ``connect()``/``close()``."""
+    """An oscilloscope on VISA ``resource``; a context manager, or ``connect()``/``close()``."""
 
     timebase_range_s = _control(":TIMebase:RANGe?", ":TIMebase:RANGe {:.12g}", float,
                                 "full-scale horizontal time, s")

@@ -174,11 +174,12 @@ ACQUISITION_KINDS = ("modbus-daq", "scpi-scope")
 
 @dataclass(frozen=True)
 class AcquisitionConfig:
-    """``[acquisition]``: the instrument the plans capture with (design §11, §12.2). ``modbus-daq``
-    (the default) is the ``[daq]``; ``scpi-scope`` an oscilloscope over VISA at ``resource``
-    (e.g. ``TCPIP::192.168.1.20::5025::SOCKET``) whose wiring, probe scales and dialect are the
-    ``channel_map`` file (None: ``drivers/data/scope_channels.toml``; docs/acquisition.md). The
-    dyno's speed reference stays on the ``[daq]``'s analog output."""
+    """``[acquisition]``: the instrument the plans capture with (design §11, §12.2).
+
+    ``modbus-daq`` (the default) is the ``[daq]``; ``scpi-scope`` an oscilloscope over VISA at
+    ``resource`` (e.g. ``TCPIP::192.168.1.20::5025::SOCKET``) whose wiring, probe scales and
+    dialect are the ``channel_map`` file (None: ``drivers/data/scope_channels.toml``;
+    docs/acquisition.md). The dyno's speed reference stays on the ``[daq]``'s analog output."""
 
     kind: str = _key("modbus-daq", "str", choices=ACQUISITION_KINDS)
     resource: str | None = _key(None, "str")

@@ -75,7 +75,8 @@ class ScopeState:
         self.range_s = 1e-3
         self.position_s = 0.0
         self.points = 1000
-        self.vertical = {c.source.upper(): [c.volts_per_div, c.offset_v] for c in channel_map.channels}
+        self.vertical = {c.source.upper(): [c.volts_per_div, c.offset_v]
+                         for c in channel_map.channels}
         self.source = channel_map.channels[0].source.upper()
         self.format = "WORD"
         self.record: dict[str, np.ndarray] = {}

@@ -25,6 +25,14 @@ from ripple_hil_drivers.simulated.scpi_scope_server import SimulatedScope, canon
 MANUAL_HEADER = b"#800001000"
 
 
+@pytest.fixture(scope="module", autouse=True)
+def compiled_twin_engine():
+    """Compile (or load) the twin's engine once, before any capture waits on it."""
+    from hil.sim.warmup import prepare_twin_engine
+
+    prepare_twin_engine()
+
+
 def twin(seed=0):
     drive = DriveTwin(seed=seed)
     with drive.lock:
@@ -84,7 +92,7 @@ def test_the_manuals_frames_byte_exact():
 
 
 def test_simulated_scope_answers_in_the_manuals_block_format():
-    with SimulatedScope(twin()) as sim, socket.create_connection(sim.address, timeout=10) as s:
+    with SimulatedScope(twin()) as sim, socket.create_connection(sim.address, timeout=60) as s:
         s.sendall(b":TIMebase:RANGe 0.005\n:WAVeform:POINts 500\n:DIGitize CHANnel1\n"
                   b":WAVeform:SOURce CHANnel1\n:WAVeform:FORMat WORD\n:WAV:DATA?\n")
         answer = b""
