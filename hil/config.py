@@ -46,7 +46,7 @@ DAQ_TRANSPORTS: tuple[str, ...] = ("tcp", "rtu")
 #: Modbus RTU line: parity (even, odd, none) and stop bits; 8 data bits always.
 DAQ_PARITIES: tuple[str, ...] = ("E", "O", "N")
 DAQ_STOPBITS: tuple[int, ...] = (1, 2)
-INSTRUMENT_ROLES: tuple[str, ...] = ("drive", "daq", "torque", "dyno")
+INSTRUMENT_ROLES: tuple[str, ...] = ("drive", "daq", "torque", "dyno", "acquisition")
 
 _ALWAYS, _REAL, _OPTIONAL = "always", "real", "optional"
 
