@@ -12,6 +12,17 @@ may declare a ``packed_type``: in the DAQ's packed capture format it travels in 
 driver reassembles exactly. Optional tables ``buffer_read_modes`` and ``capture_formats`` list the
 values of the ``buffer_read_mode`` and ``capture_format`` registers; a map without them describes
 a DAQ that offers only paged reads in the full format.
+
+The capture sequence is data too (issue 31 item 2), so a DAQ that is not ours is described
+without code: ``[roles]`` names, for each role the driver uses (``control``, ``state``,
+``samples``, ``buffer_window``…, :data:`ROLES`), the DAQ's own register (loaded under the role's
+name, its own name kept in ``Register.label``); ``[control_codes]`` and ``[states]`` hold its
+codes; ``[transfer]`` says how the buffer travels: ``kind = "registers"`` (the default: the
+``buffer_window`` read paged or with auto-increment) or ``kind = "file_record"`` (the standard
+Read File Record function 0x14: word w of the buffer is record ``(first_record + w) mod
+records_per_file`` of file
+``first_file + (first_record + w) div records_per_file``, ``words_per_request`` per request,
+one sub-request each). A map without ``[roles]`` and ``[transfer]`` is the shipped RHIL-DAQ16 map.
 """
 
 from __future__ import annotations
@@ -30,6 +41,49 @@ DEFAULT_MAP_PATH = Path(__file__).parent / "data" / "daq_registers.toml"
 _WORDS = {"uint16": 1, "int16": 1, "uint32": 2, "int32": 2, "float32": 2}
 _CHANNEL_TYPES = ("int16", "uint16", "uint32")
 _STRUCT = {"uint16": ">H", "int16": ">h", "uint32": ">I", "int32": ">i", "float32": ">f"}
+#: The registers the driver and the simulated DAQ use by role (the capture sequence, the identity
+#: and the dyno output); ``[roles]`` maps a role onto the DAQ's own register name.
+ROLES = ("control", "state", "status_flags", "samples_captured", "words_per_sample",
+         "sample_rate_hz", "samples", "channel_mask", "settle_ms", "capture_format",
+         "buffer_page", "buffer_read_mode", "buffer_window", "model", "serial_number",
+         "firmware", "map_version", "encoder_counts_per_rev", "pole_pairs",
+         "buffer_capacity_samples", "max_sample_rate_hz", "dyno_speed_setpoint_rpm")
+TRANSFER_KINDS = ("registers", "file_record")
+#: Read File Record (0x14): records 0..9999 per file; a one-sub-request answer's data length
+#: byte (<= 0xF5) holds 2 + 2·N bytes, so N <= 121 registers (spec v1.1b3 §6.14).
+MAX_RECORDS_PER_FILE = 10000
+MAX_FILE_RECORD_WORDS = 121
+
+
+@dataclass(frozen=True)
+class Transfer:
+    """How the capture buffer travels: ``registers`` (the buffer window) or ``file_record``."""
+
+    kind: str = "registers"
+    first_file: int = 1
+    records_per_file: int = MAX_RECORDS_PER_FILE
+    words_per_request: int = 120
+    first_record: int = 0
+
+    def locate(self, word: int) -> tuple[int, int]:
+        """(file number, record number) of buffer word ``word`` (file_record)."""
+        linear = self.first_record + word
+        return self.first_file + linear // self.records_per_file, linear % self.records_per_file
+
+    def word_of(self, file: int, record: int) -> int:
+        """The buffer word at (file, record); negative before the buffer's first record."""
+        return (file - self.first_file) * self.records_per_file + record - self.first_record
+
+    def requests(self, total: int) -> list[tuple[int, int, int]]:
+        """(file, record, count) of each Read File Record request for ``total`` words: at most
+        ``words_per_request`` each, none crossing a file's end."""
+        out, word = [], 0
+        while word < total:
+            file, record = self.locate(word)
+            count = min(self.words_per_request, total - word, self.records_per_file - record)
+            out.append((file, record, count))
+            word += count
+        return out
 
 
 @dataclass(frozen=True)
@@ -43,6 +97,7 @@ class Register:
     words: int
     minimum: float | None = None
     maximum: float | None = None
+    label: str = ""       # the DAQ's own name when [roles] renamed it ("" = same as name)
 
     def encode(self, value) -> list[int]:
         """Value -> register words (high word first)."""
@@ -137,6 +192,7 @@ class RegisterMap:
     source: str
     buffer_read_modes: dict[str, int] = field(default_factory=dict)
     capture_formats: dict[str, int] = field(default_factory=dict)
+    transfer: Transfer = field(default_factory=Transfer)
 
     def __getitem__(self, name: str) -> Register:
         try:
@@ -182,6 +238,9 @@ class RegisterMap:
 
     @property
     def window_words(self) -> int:
+        """Words one buffer request carries (the window, or a Read File Record request)."""
+        if self.transfer.kind == "file_record":
+            return self.transfer.words_per_request
         return int(self.device["buffer_window_registers"])
 
     def state_name(self, code: int) -> str:
@@ -199,6 +258,7 @@ def load_register_map(path: str | Path | None = None) -> RegisterMap:
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"register map {str(path)!r} is not readable TOML: {exc}") from None
     try:
+        roles = _roles(data.get("roles", {}), data["registers"], path)
         registers = {}
         for name, entry in data["registers"].items():
             kind = entry["type"]
@@ -209,8 +269,10 @@ def load_register_map(path: str | Path | None = None) -> RegisterMap:
                 raise InputError(f"register map {path}: registers.{name}.table="
                                  f"{entry['table']!r}; allowed 'input' or 'holding'")
             words = int(entry.get("words", _WORDS.get(kind, 1)))
-            registers[name] = Register(name, entry["table"], int(entry["address"]), kind, words,
-                                       entry.get("min"), entry.get("max"))
+            role = roles.get(name, name)
+            registers[role] = Register(role, entry["table"], int(entry["address"]), kind, words,
+                                       entry.get("min"), entry.get("max"),
+                                       name if role != name else "")
         channels = tuple(Channel(c["name"], int(c["bit"]), c["type"], float(c["scale"]),
                                  float(c.get("offset", 0.0)), c.get("packed_type"),
                                  c.get("packed_first_register")) for c in data["channels"])
@@ -219,7 +281,9 @@ def load_register_map(path: str | Path | None = None) -> RegisterMap:
         register_map = RegisterMap(dict(data["device"]), dict(data["control_codes"]),
                                    dict(data["states"]), dict(data["status_flags"]), registers,
                                    channels, str(path), dict(data.get("buffer_read_modes", {})),
-                                   dict(data.get("capture_formats", {})))
+                                   dict(data.get("capture_formats", {})),
+                                   _transfer(data.get("transfer", {}), path))
+        _check_transfer(register_map, path)
         register_map.sample_counter     # noqa: B018 - a named counter channel must exist
         return register_map
     except KeyError as exc:
@@ -239,3 +303,54 @@ def _check_channel(channel: Channel, registers: dict[str, Register], path) -> No
     if channel.packed_first_register not in registers:
         raise InputError(f"register map {path}: channel {channel.name} packed_first_register="
                          f"{channel.packed_first_register!r} is not a register of the map")
+
+
+def _roles(table: dict, registers: dict, path) -> dict[str, str]:
+    """The DAQ's register name -> the role it plays (from ``[roles]``: role = "its name")."""
+    out = {}
+    for role, name in table.items():
+        if role not in ROLES:
+            raise InputError(f"register map {path}: roles.{role} is not a role the driver uses "
+                             f"(allowed: {', '.join(ROLES)})")
+        if name not in registers:
+            raise InputError(f"register map {path}: roles.{role} = {name!r} is not a register "
+                             "of the map")
+        if role != name and role in registers:
+            raise InputError(f"register map {path}: roles.{role} = {name!r}, but a register is "
+                             f"already named {role!r}")
+        out[name] = role
+    return out
+
+
+def _transfer(table: dict, path) -> Transfer:
+    kind = table.get("kind", "registers")
+    if kind not in TRANSFER_KINDS:
+        raise InputError(f"register map {path}: transfer.kind = {kind!r}; allowed "
+                         f"{', '.join(TRANSFER_KINDS)}")
+    transfer = Transfer(kind, int(table.get("first_file", 1)),
+                        int(table.get("records_per_file", MAX_RECORDS_PER_FILE)),
+                        int(table.get("words_per_request", 120)),
+                        int(table.get("first_record", 0)))
+    if not 1 <= transfer.first_file <= 0xFFFF:
+        raise InputError(f"register map {path}: transfer.first_file = {transfer.first_file}; "
+                         "allowed 1..65535")
+    if not 1 <= transfer.records_per_file <= MAX_RECORDS_PER_FILE:
+        raise InputError(f"register map {path}: transfer.records_per_file = "
+                         f"{transfer.records_per_file}; allowed 1..{MAX_RECORDS_PER_FILE}")
+    if not 0 <= transfer.first_record < transfer.records_per_file:
+        raise InputError(f"register map {path}: transfer.first_record = "
+                         f"{transfer.first_record}; allowed 0..{transfer.records_per_file - 1}")
+    if not 1 <= transfer.words_per_request <= MAX_FILE_RECORD_WORDS:
+        raise InputError(f"register map {path}: transfer.words_per_request = "
+                         f"{transfer.words_per_request}; allowed 1..{MAX_FILE_RECORD_WORDS}")
+    return transfer
+
+
+def _check_transfer(register_map: RegisterMap, path) -> None:
+    """A register-window map needs its window; a file-record map offers no auto-increment."""
+    if register_map.transfer.kind == "registers" and "buffer_window" not in register_map.registers:
+        raise InputError(f"register map {path}: transfer.kind = \"registers\" needs a "
+                         "buffer_window register (or roles.buffer_window naming it)")
+    if register_map.transfer.kind == "file_record" and register_map.buffer_read_modes:
+        raise InputError(f"register map {path}: buffer_read_modes belong to transfer.kind = "
+                         "\"registers\"; a file_record map reads records")

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from pymodbus import FramerType, ModbusException
 from pymodbus.exceptions import ConnectionException, ModbusIOException
+from pymodbus.pdu.file_message import FileRecord
 
 from ripple_hil_drivers import modbus_pipeline
 from ripple_hil_drivers.modbus_link import SerialClient, TcpClient, connect_reason
@@ -411,7 +412,8 @@ class ModbusDaq:
         if self.map.offers_packed:
             names.append("capture_format")
         config = self.read_registers(*names)
-        packed = config.get("capture_format") == self.map.capture_formats.get("packed")
+        packed = self.map.offers_packed and \
+            config.get("capture_format") == self.map.capture_formats.get("packed")
         channels = self.map.channels_in(config["channel_mask"])
         n, words_per_sample = status["samples_captured"], status["words_per_sample"]
         expected_words = self.map.frame_words(channels, packed)
@@ -451,6 +453,11 @@ class ModbusDaq:
     def _read_plan(self, total: int) -> tuple[str, int, int]:
         """(read mode, requests in flight, buffer requests) for ``total`` words."""
         mode = self.transfer.read_mode
+        if self.map.transfer.kind == "file_record":
+            if mode != "best":
+                raise InputError(f"daq read_mode={mode!r}: the register map {self.map.source} "
+                                 "reads its buffer with Read File Record (0x14)")
+            return "file_record", 1, len(self.map.transfer.requests(total))
         if mode == "best":
             mode = "auto_increment" if self.map.offers_auto_increment else "paged"
         elif mode == "auto_increment" and not self.map.offers_auto_increment:
@@ -478,6 +485,8 @@ class ModbusDaq:
         return self._read_words(total, mode, depth), reason
 
     def _read_words(self, total: int, mode: str = "paged", depth: int = 1) -> np.ndarray:
+        if mode == "file_record":
+            return self._read_file_records(total)
         window = self.map["buffer_window"]
         out = np.empty(total, dtype=np.uint16)
         counts = [min(window.words, total - begin) for begin in range(0, total, window.words)]
@@ -501,6 +510,26 @@ class ModbusDaq:
                                  count=count).registers for i, count in enumerate(counts)]
         for i, chunk in enumerate(chunks):
             out[i * window.words:i * window.words + len(chunk)] = chunk
+        return out
+
+    def _read_file_records(self, total: int) -> np.ndarray:
+        """The buffer by the standard Read File Record function (0x14), one sub-request per
+        request as the map's ``[transfer]`` lays the words out in files and records."""
+        out = np.empty(total, dtype=np.uint16)
+        word = 0
+        for file, record, count in self.map.transfer.requests(total):
+            response = self._call(f"read capture buffer file {file} record {record} "
+                                  f"({count} words, Read File Record)",
+                                  self._client.read_file_record,
+                                  [FileRecord(file_number=file, record_number=record,
+                                              record_length=2 * count)])
+            data = b"".join(r.record_data for r in response.records)
+            if len(response.records) != 1 or len(data) != 2 * count:
+                raise ProtocolError(self.name, f"read file {file} record {record}",
+                                    f"asked for {count} registers in one record group, got "
+                                    f"{len(data) // 2} in {len(response.records)}")
+            out[word:word + count] = np.frombuffer(data, dtype=">u2")
+            word += count
         return out
 
     def _pipelined(self, address: int, counts: list[int], depth: int) -> list[list[int]]:

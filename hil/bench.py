@@ -83,11 +83,15 @@ class Bench:
     real one); the drivers do not know the difference.
     """
 
-    def __init__(self, config: BenchConfig, drive, daq, torque, simulated=None) -> None:
+    def __init__(self, config: BenchConfig, drive, daq, torque, simulated=None,
+                 acquisition=None) -> None:
         self.config = config
         self.drive = drive
         self.daq = daq
         self.torque = torque
+        #: the instrument the plans capture with (hil.acquisition.Acquisition): the DAQ, or
+        #: the oscilloscope of [acquisition]; the dyno stays on the DAQ's analog output
+        self.acquisition = acquisition if acquisition is not None else daq
         self.simulated = simulated
         self.safe_state_reports: list[SafeStateReport] = []
         #: the angle reference the self-check measured (hil.selfcheck.emf_angle_reference), as
@@ -116,8 +120,10 @@ class Bench:
                 simulated = SimulatedBench(config, seed=seed)
                 config = _opening("simulated bench", "start the simulated instruments",
                                   simulated.start)
-            for role, make in (("daq", _make_daq), ("torque", _make_torque),
-                               ("drive", _make_drive)):
+            for role, make in (("daq", _make_daq), ("acquisition", _make_scope),
+                               ("torque", _make_torque), ("drive", _make_drive)):
+                if role == "acquisition" and config.acquisition.kind == "modbus-daq":
+                    continue
                 instrument = _opening(role, _tried(role, config), lambda: make(config))
                 _opening(role, _tried(role, config), instrument.connect)
                 opened.append(instrument)
@@ -130,8 +136,8 @@ class Bench:
             if simulated is not None:
                 simulated.stop()
             raise
-        daq, torque, drive = opened
-        bench = cls(config, drive, daq, torque, simulated)
+        daq, *scope, torque, drive = opened
+        bench = cls(config, drive, daq, torque, simulated, scope[0] if scope else None)
         bench._identities = identities
         bench.make_safe("bench opened")
         return bench
@@ -141,7 +147,7 @@ class Bench:
         try:
             self.make_safe("bench closed", raise_on_failure=False)
         finally:
-            for instrument in (self.torque, self.daq, self.drive):
+            for instrument in (self.torque, self.daq, self.drive) + self._scope():
                 with contextlib.suppress(Exception):
                     instrument.close()
             if self.simulated is not None:
@@ -153,6 +159,10 @@ class Bench:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def _scope(self) -> tuple:
+        """The acquisition instrument when it is not the DAQ (an oscilloscope), else ()."""
+        return () if self.acquisition is self.daq else (self.acquisition,)
+
     def location(self) -> dict:
         """Where the instruments are, for the record: ``kind`` is "simulated-in-process" (started
         by :meth:`open` in this process), "simulated-separate-process" (a simulated bench file
@@ -162,15 +172,16 @@ class Bench:
             kind = "simulated-in-process"
         else:
             kind = "simulated-separate-process" if self.config.simulated else "real"
-        return {"kind": kind,
-                "addresses": {role: _address(role, self.config)
-                              for role in ("drive", "daq", "torque")}}
+        roles = ("drive", "daq", "torque") + (("acquisition",) if self._scope() else ())
+        return {"kind": kind, "addresses": {role: _address(role, self.config) for role in roles}}
 
     def identities(self) -> list[dict]:
         """Each instrument's identity as it answered when the bench was opened (for the record's
         instrument table); queried again if the bench was built without :meth:`open`."""
         rows = []
-        for role, instrument in (("drive", self.drive), ("daq", self.daq), ("torque", self.torque)):
+        roles = (("drive", self.drive), ("daq", self.daq), ("torque", self.torque)) + \
+            tuple(("acquisition", scope) for scope in self._scope())
+        for role, instrument in roles:
             known = getattr(self, "_identities", {}).get(role)
             try:
                 rows.append({"role": role, **(known if known is not None
@@ -186,7 +197,8 @@ class Bench:
         stop) from a one-off fault (the next test may still run)."""
         failures = []
         for role, ask in (("drive", lambda: self.drive.statusword),
-                          ("daq", self.daq.status), ("torque", self.torque.identity)):
+                          ("daq", self.daq.status), ("torque", self.torque.identity),
+                          *(("acquisition", scope.status) for scope in self._scope())):
             try:
                 ask()
             except InstrumentError as exc:
@@ -261,6 +273,7 @@ class Bench:
             ("drive current command 0 A", lambda: self.drive.set_current_command_a(0.0)),
             ("restore injection defaults (verified)", self.drive.restore_injection_defaults),
             ("DAQ disarm", self.daq.disarm),
+            *(("oscilloscope stop", scope.disarm) for scope in self._scope()),
             ("dyno speed reference 0 rpm", lambda: self.daq.set_dyno_speed_rpm(0.0)),
         )
         interrupted = None
@@ -306,6 +319,8 @@ def _address(role: str, config: BenchConfig) -> str:
         drive = config.drive
         return (f"CANopen node {drive.node_id} on {drive.interface} channel {drive.channel!r} "
                 f"at {drive.bitrate} bit/s")
+    if role == "acquisition":
+        return f"{config.acquisition.kind} at {config.acquisition.resource}"
     if role == "daq":
         daq = config.daq
         if daq.transport == "rtu":
@@ -319,7 +334,8 @@ def _address(role: str, config: BenchConfig) -> str:
 def has_addresses(config: BenchConfig) -> bool:
     """True if the bench file says where its drive, DAQ and transducer are."""
     daq_at = config.daq.serial_port if config.daq.transport == "rtu" else config.daq.port
-    return bool(config.drive.channel and daq_at and config.torque.serial_port)
+    scope_at = config.acquisition.kind == "modbus-daq" or config.acquisition.resource
+    return bool(config.drive.channel and daq_at and config.torque.serial_port and scope_at)
 
 
 def _make_drive(config: BenchConfig):
@@ -348,6 +364,12 @@ def _make_daq(config: BenchConfig):
         transfer = TransferOptions(in_flight=daq.requests_in_flight)
     return ModbusDaq(settings, unit_id=daq.unit_id, register_map=daq.register_map,
                      timeout_s=daq.timeout_s, instrument_name="daq", transfer=transfer)
+
+
+def _make_scope(config: BenchConfig):
+    from hil.acquisition import make_acquisition
+
+    return make_acquisition(config, None)
 
 
 def _make_torque(config: BenchConfig):

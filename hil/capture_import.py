@@ -1,4 +1,5 @@
-"""Captures from other DAQs: a CSV file or an ``.npz`` of named arrays, read into a Capture.
+"""Captures from other DAQs: a CSV file, an ``.npz`` of named arrays, an ASAM MDF4 file
+(:mod:`hil.capture_mdf`) or an NI TDMS file (:mod:`hil.capture_tdms`), read into a Capture.
 
 A scope or DAQ export names its columns its own way and in its own units. ``import_capture``
 picks the time, torque and rotor-angle (or speed) columns by name, converts them to the SI
@@ -6,7 +7,9 @@ channels the analysis reads (``time_s``, ``torque_nm``, ``rotor_angle_mech_rad``
 ``speed_rpm``) and records where each came from in ``meta["imported"]``. CSV: one header row of
 column names, then numbers; the delimiter (comma, semicolon, tab) is detected; lines starting with
 ``#`` are comments. An electrical angle column (``angle_kind="elec"``) is divided by the pole
-pairs.
+pairs. MDF4 and TDMS files state each channel's unit: a unit option left unset takes the file's
+(``N·m``, ``mNm``, ``°``, ``1/min``… spelled as :func:`unit_key` accepts), one that contradicts
+the file is refused; the columns of one capture must come from one channel group (one rate).
 """
 
 from __future__ import annotations
@@ -40,12 +43,48 @@ def _unit(kind: str, table: dict[str, float], unit: str) -> float:
             from None
 
 
-def read_columns(path: Path) -> dict[str, np.ndarray]:
-    """Named 1-D columns of a CSV file or of an ``.npz`` archive of arrays."""
+#: Spellings of a unit in measurement files -> the key of the unit tables above.
+_SPELLINGS = {"°": "deg", "degree": "deg", "degrees": "deg", "1/min": "rpm", "min-1": "rpm",
+              "min^-1": "rpm", "u/min": "rpm", "r/min": "rpm", "sec": "s", "µs": "us",
+              "μs": "us", "rad/sec": "rad/s"}
+
+
+def unit_key(kind: str, table: dict[str, float], text: str) -> str:
+    """The table key of a unit as a file spells it (``N·m``, ``N*m``, ``N m`` → ``nm``,
+    ``mN·m`` → ``mnm``, ``°`` → ``deg``, ``1/min`` → ``rpm``); an unknown one is named."""
+    key = text.strip().lower()
+    for mark in ("·", "*", " ", ".", "⋅"):
+        key = key.replace(mark, "")
+    key = _SPELLINGS.get(key, key)
+    if key not in table:
+        raise InputError(f"{kind} unit {text!r} (as the file states it) is not known (allowed: "
+                         f"{', '.join(table)})")
+    return key
+
+
+class ColumnTable(dict):
+    """Named 1-D columns (a dict) with the units a file states (``units``, "" where it states
+    none) and the channel group each came from (``groups``; empty for CSV and npz)."""
+
+    def __init__(self, columns, units=None, groups=None) -> None:
+        super().__init__(columns)
+        self.units: dict[str, str] = dict(units or {})
+        self.groups: dict[str, int] = dict(groups or {})
+
+
+def read_columns(path: Path) -> ColumnTable:
+    """Named 1-D columns of a CSV file, an ``.npz`` archive of arrays, an MDF4 or a TDMS file."""
+    from hil.capture_mdf import is_mdf, read_mdf
+    from hil.capture_tdms import is_tdms, read_tdms
+
     if path.is_dir():
         raise InputError(f"{str(path)!r} is a directory, not a capture file")
     if not path.is_file():
         raise InputError(f"capture file {str(path)!r} does not exist")
+    if is_mdf(path):
+        return ColumnTable(*read_mdf(path))
+    if is_tdms(path):
+        return ColumnTable(*read_tdms(path))
     if zipfile.is_zipfile(path):
         try:
             with np.load(path, allow_pickle=False) as npz:
@@ -53,8 +92,9 @@ def read_columns(path: Path) -> dict[str, np.ndarray]:
         except (OSError, ValueError, zipfile.BadZipFile) as exc:
             raise InputError(f"{str(path)!r} is not a readable .npz of numeric arrays "
                              f"({type(exc).__name__})") from None
-        return {name: values for name, values in columns.items() if values.ndim == 1}
-    return _read_csv(path)
+        return ColumnTable({name: values for name, values in columns.items()
+                            if values.ndim == 1})
+    return ColumnTable(_read_csv(path))
 
 
 def _read_csv(path: Path) -> dict[str, np.ndarray]:
@@ -92,14 +132,16 @@ def _column(columns: dict[str, np.ndarray], name: str, option: str) -> np.ndarra
 
 def import_capture(path: str | Path, *, time_col: str, torque_col: str,
                    angle_col: str | None = None, speed_col: str | None = None,
-                   time_unit: str = "s", torque_unit: str = "nm", angle_unit: str = "rad",
-                   speed_unit: str = "rpm", angle_kind: str = "mech",
+                   time_unit: str | None = None, torque_unit: str | None = None,
+                   angle_unit: str | None = None, speed_unit: str | None = None,
+                   angle_kind: str = "mech",
                    pole_pairs: int, ia_col: str | None = None, ib_col: str | None = None,
-                   current_unit: str = "a") -> Capture:
+                   current_unit: str | None = None) -> Capture:
     """A :class:`Capture` (SI channels, ``meta`` pole pairs and provenance) from a foreign file.
 
     Exactly one of ``angle_col`` (rotor angle) and ``speed_col`` (shaft speed) is needed.
     ``ia_col``/``ib_col``: the phase currents a and b (channels ``ia_a``, ``ib_a``), optional.
+    A unit left None is the one the file states for that column, else s, N·m, rad, rpm, A.
     """
     if (angle_col is None) == (speed_col is None):
         raise InputError("give the rotor angle (--angle-col) or the speed (--speed-col), one of "
@@ -111,27 +153,68 @@ def import_capture(path: str | Path, *, time_col: str, torque_col: str,
                          f"got {pole_pairs!r}")
     path = Path(path)
     columns = read_columns(path)
-    channels = {"time_s": _column(columns, time_col, "--time-col")
-                * _unit("time", TIME_UNITS, time_unit),
-                "torque_nm": _column(columns, torque_col, "--torque-col")
-                * _unit("torque", TORQUE_UNITS, torque_unit)}
-    provenance = {"file": path.name, "time": f"{time_col} [{time_unit}]",
-                  "torque": f"{torque_col} [{torque_unit}]"}
+    named = {"--time-col": time_col, "--torque-col": torque_col, "--angle-col": angle_col,
+             "--speed-col": speed_col, "--ia-col": ia_col, "--ib-col": ib_col}
+    for option, name in named.items():
+        if name is not None:
+            _column(columns, name, option)
+    _one_group(columns, [name for name in named.values() if name is not None], path)
+    channels, provenance = {}, {"file": path.name}
+
+    def take(option, name, kind, table, given, default):
+        """The column in SI units, and the unit it was read in."""
+        unit = _file_unit(columns, name, kind, table, given, default)
+        return _column(columns, name, option) * table[unit], unit
+
+    channels["time_s"], unit = take("--time-col", time_col, "time", TIME_UNITS, time_unit, "s")
+    provenance["time"] = f"{time_col} [{unit}]"
+    channels["torque_nm"], unit = take("--torque-col", torque_col, "torque", TORQUE_UNITS,
+                                       torque_unit, "nm")
+    provenance["torque"] = f"{torque_col} [{unit}]"
     if angle_col is not None:
-        angle = _column(columns, angle_col, "--angle-col") * _unit("angle", ANGLE_UNITS,
-                                                                   angle_unit)
+        angle, unit = take("--angle-col", angle_col, "angle", ANGLE_UNITS, angle_unit, "rad")
         channels["rotor_angle_mech_rad"] = angle / pole_pairs if angle_kind == "elec" else angle
-        provenance["angle"] = f"{angle_col} [{angle_unit}, {angle_kind}]"
+        provenance["angle"] = f"{angle_col} [{unit}, {angle_kind}]"
     else:
-        channels["speed_rpm"] = _column(columns, speed_col, "--speed-col") * _unit(
-            "speed", SPEED_UNITS, speed_unit)
-        provenance["speed"] = f"{speed_col} [{speed_unit}]"
+        channels["speed_rpm"], unit = take("--speed-col", speed_col, "speed", SPEED_UNITS,
+                                           speed_unit, "rpm")
+        provenance["speed"] = f"{speed_col} [{unit}]"
     for column, channel in ((ia_col, "ia_a"), (ib_col, "ib_a")):
         if column is not None:
-            channels[channel] = _column(columns, column, f"--{channel[:2]}-col") * _unit(
-                "current", CURRENT_UNITS, current_unit)
-            provenance[channel] = f"{column} [{current_unit}]"
+            channels[channel], unit = take(f"--{channel[:2]}-col", column, "current",
+                                           CURRENT_UNITS, current_unit, "a")
+            provenance[channel] = f"{column} [{unit}]"
     return Capture(channels=channels, meta={"pole_pairs": pole_pairs, "imported": provenance})
+
+
+def _file_unit(columns: ColumnTable, name: str, kind: str, table: dict[str, float],
+               given: str | None, default: str) -> str:
+    """The unit of column ``name``: the one given (checked against the file's), else the file's,
+    else ``default``."""
+    stated = columns.units.get(name, "")
+    from_file = unit_key(kind, table, stated) if stated else None
+    if given is None:
+        return from_file or default
+    given_key = _unit_key_given(kind, table, given)
+    if from_file is not None and from_file != given_key:
+        raise InputError(f"{kind} unit {given!r} was given for column {name!r}, but the file "
+                         f"states {stated!r}; leave the unit option out to use the file's")
+    return given_key
+
+
+def _unit_key_given(kind: str, table: dict[str, float], unit: str) -> str:
+    _unit(kind, table, unit)
+    return unit.lower()
+
+
+def _one_group(columns: ColumnTable, names: list[str], path: Path) -> None:
+    """Refuse columns from different channel groups (MDF/TDMS groups sample at their own rate)."""
+    groups = {name: columns.groups[name] for name in names if name in columns.groups}
+    if len(set(groups.values())) > 1:
+        listed = ", ".join(f"{name} (group {group})" for name, group in groups.items())
+        raise InputError(f"{str(path)!r}: the columns {listed} come from different channel "
+                         "groups (each group has its own time base); resample them into one "
+                         "group in the measurement tool, or pick columns of one group")
 
 
 #: Column names tried, in order, when an import option does not name the column.
@@ -141,6 +224,14 @@ DEFAULT_COLUMNS = {"time_col": ("time_s", "time", "t", "t_s"),
                                  "angle_mech_rad"),
                    "elec_angle_col": ("theta_e_rad", "theta_e", "rotor_angle_elec_rad"),
                    "ia_col": ("ia_a", "ia", "i_a"), "ib_col": ("ib_a", "ib", "i_b")}
+
+
+def is_measurement_file(path: Path) -> bool:
+    """True for an MDF4 or TDMS file (they name their channels and units themselves)."""
+    from hil.capture_mdf import is_mdf
+    from hil.capture_tdms import is_tdms
+
+    return Path(path).is_file() and (is_mdf(Path(path)) or is_tdms(Path(path)))
 
 
 def is_ripple_hil_capture(path: Path) -> bool:

@@ -46,7 +46,7 @@ DAQ_TRANSPORTS: tuple[str, ...] = ("tcp", "rtu")
 #: Modbus RTU line: parity (even, odd, none) and stop bits; 8 data bits always.
 DAQ_PARITIES: tuple[str, ...] = ("E", "O", "N")
 DAQ_STOPBITS: tuple[int, ...] = (1, 2)
-INSTRUMENT_ROLES: tuple[str, ...] = ("drive", "daq", "torque", "dyno")
+INSTRUMENT_ROLES: tuple[str, ...] = ("drive", "daq", "torque", "dyno", "acquisition")
 
 _ALWAYS, _REAL, _OPTIONAL = "always", "real", "optional"
 
@@ -169,6 +169,33 @@ class DaqConfig:
         if self.transport == "rtu" and not 1 <= self.unit_id <= 247:
             ctx.fail(f"{path}.unit_id = {self.unit_id} is out of range for Modbus RTU; "
                      f"allowed 1..247")
+
+
+ACQUISITION_KINDS = ("modbus-daq", "scpi-scope")
+
+
+@dataclass(frozen=True)
+class AcquisitionConfig:
+    """``[acquisition]``: the instrument the plans capture with (design §11, §12.2).
+
+    ``modbus-daq`` (the default) is the ``[daq]``; ``scpi-scope`` an oscilloscope over VISA at
+    ``resource`` (e.g. ``TCPIP::192.168.1.20::5025::SOCKET``) whose wiring, probe scales and
+    dialect are the ``channel_map`` file (None: ``drivers/data/scope_channels.toml``;
+    docs/acquisition.md). The dyno's speed reference stays on the ``[daq]``'s analog output."""
+
+    kind: str = _key("modbus-daq", "str", choices=ACQUISITION_KINDS)
+    resource: str | None = _key(None, "str")
+    channel_map: Path | None = _key(None, "path")
+    timeout_s: float = _key(10.0, "float", lo=0.1, hi=300.0)
+
+    def _check(self, path: str, ctx: "_Context") -> None:
+        if self.kind == "modbus-daq":
+            for name in ("resource", "channel_map"):
+                if getattr(self, name) is not None:
+                    ctx.fail(f"{path}.{name} is only used with kind = \"scpi-scope\"")
+        elif self.resource is None and not ctx.simulated:
+            ctx.fail(f"{path}.resource is required with kind = \"scpi-scope\" on a real bench "
+                     "(a VISA resource string, e.g. TCPIP::host::5025::SOCKET)")
 
 
 @dataclass(frozen=True)
@@ -323,7 +350,8 @@ class ResultsRef:
 
 _SECTIONS: dict[str, type] = {"drive": DriveConfig, "daq": DaqConfig, "torque": TorqueConfig,
                               "limits": Limits, "operating_point": OperatingPoint, "lab": LabInfo,
-                              "requirements": RequirementsRef, "results": ResultsRef}
+                              "requirements": RequirementsRef, "results": ResultsRef,
+                              "acquisition": AcquisitionConfig}
 _TOP_KEYS = ("simulated", "motor", *_SECTIONS, "instrument", "simulation")
 
 
@@ -345,6 +373,7 @@ class BenchConfig:
     lab: LabInfo
     requirements: RequirementsRef = field(default_factory=RequirementsRef)
     results: ResultsRef = field(default_factory=ResultsRef)
+    acquisition: AcquisitionConfig = field(default_factory=AcquisitionConfig)
     source: str | None = field(default=None, compare=False)  # bench file path, or a label
     sha256: str | None = field(default=None, compare=False)  # of the file bytes (or canonical JSON)
     raw: dict = field(default_factory=dict, repr=False, compare=False)

@@ -287,9 +287,9 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
         bench.check_health()
         failure = None
         try:
-            capture = bench.daq.capture(duration_s, rate_hz, settle_s=plan.settle_s,
-                                        timeout_s=max(30.0, 10 * duration_s),
-                                        channels=plan.capture_channels())
+            capture = bench.acquisition.capture(duration_s, rate_hz, settle_s=plan.settle_s,
+                                                timeout_s=max(30.0, 10 * duration_s),
+                                                channels=plan.capture_channels())
         except Exception as exc:
             # a capture that failed its integrity check carries the data as received
             # (ripple_hil_drivers.modbus_daq.CaptureIntegrityError): record it, then fail the point

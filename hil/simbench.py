@@ -130,6 +130,7 @@ class SimulatedBench:
             self.torque = SimulatedTransducer(self.twin, dialect=self.config.torque.dialect)
             self.torque.start()
             self._started.append(self.torque)
+            scope_table = self._start_scope()
         except BaseException:
             self.stop()
             raise
@@ -137,7 +138,20 @@ class SimulatedBench:
             "drive": drive_table,
             "daq": daq_table,
             "torque": {"serial_port": self.torque.port},
+            **({"acquisition": scope_table} if scope_table else {}),
         })
+
+    def _start_scope(self) -> dict:
+        """The simulated oscilloscope on the same twin, when the bench file captures with one
+        (``[acquisition] kind = "scpi-scope"``) and names no resource."""
+        acquisition = self.config.acquisition
+        if acquisition.kind != "scpi-scope" or acquisition.resource:
+            return {}
+        from ripple_hil_drivers.simulated.scpi_scope_server import SimulatedScope
+
+        self.scope = SimulatedScope(self.twin, channel_map=acquisition.channel_map).start()
+        self._started.append(self.scope)
+        return {"resource": self.scope.resource}
 
     def _start_drive(self) -> dict:
         node_id = self.config.drive.node_id
@@ -166,12 +180,13 @@ class SimulatedBench:
         daq = self.config.daq
         if daq.transport == "rtu":
             self.daq = simulated_daq_class.rtu(self.twin, unit_id=daq.unit_id, parity=daq.parity,
-                                               stopbits=daq.stopbits)
+                                               stopbits=daq.stopbits,
+                                               register_map=daq.register_map)
             self.daq.start()
             self._started.append(self.daq)
             return {"serial_port": self.daq.port, "baudrate": daq.baudrate or 115200}
         self.daq = simulated_daq_class(self.twin, host="127.0.0.1", port=daq.port or 0,
-                                       unit_id=daq.unit_id)
+                                       unit_id=daq.unit_id, register_map=daq.register_map)
         self.daq.start()
         self._started.append(self.daq)
         host, port = self.daq.address

@@ -101,10 +101,10 @@ def test_angle_reference(measure, bench):
     """Phase a's back-EMF rising zero crossing against the DAQ's angle channel (issue 23 item 0):
     measured, checked against the bench file's ``[daq] emf_a_rising_zero_elec_deg`` when it
     states one, and recorded in every later capture's meta for the diagnosis."""
-    register_map = getattr(bench.daq, "map", None)
+    register_map = getattr(bench.acquisition, "map", None)   # DAQ register or scope channel map
     if register_map is not None and EMF_CHANNEL not in {ch.name for ch in register_map.channels}:
         pytest.skip(not_determinable(
-            f"the DAQ's register map has no {EMF_CHANNEL} channel: the back EMF's angle cannot "
+            f"the acquisition instrument has no {EMF_CHANNEL} channel: the back EMF's angle cannot "
             "be measured; captures carry no angle reference (the diagnosis then measures it "
             "from the phase currents or reports signs as not identifiable)"))
     config = bench.config

@@ -6,7 +6,10 @@ or discrete inputs (exception 2), unlisted addresses exception 2, configuration 
 (exception 3) and refused while a capture runs (exception 6); the buffer is read paged or with
 auto-increment (``buffer_read_mode``), in the full or packed ``capture_format``. A pymodbus server
 (``SimDevice`` action hook) carries it over TCP or RTU; any other server implementation can call
-``DaqDevice.handle`` (the tests serve it with modbus-tk).
+``DaqDevice.handle`` (the tests serve it with modbus-tk). A map whose ``[transfer]`` is
+``file_record`` (another vendor's DAQ, e.g. ``drivers/data/daq_file_record_example.toml``) is
+served too: its buffer answers Read File Record (0x14, ``DaqDevice.read_file_record``), its
+registers by their roles (``[roles]``); on the shipped map 0x14 stays exception 1.
 
 A capture runs in simulated time in a worker thread: under the twin's lock it calls
 ``twin.advance(settle_s, rate, channels=())`` (nothing recorded), waits for the drive's next PWM
@@ -51,6 +54,7 @@ import logging
 import math
 import os
 import select
+import struct
 import threading
 import time
 import tty
@@ -60,6 +64,7 @@ import numpy as np
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ModbusIOException
 from pymodbus.pdu import ExceptionResponse
+from pymodbus.pdu.file_message import FileRecord, ReadFileRecordRequest, ReadFileRecordResponse
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
@@ -218,6 +223,39 @@ class DaqDevice:
                 self._set("dyno_speed_setpoint_rpm", self._speed_setpoint_rpm)
             return [image[a] for a in range(address, address + count)]
 
+    def read_file_record(self, file: int, record: int, count: int) -> list[int]:
+        """One Read File Record (0x14) sub-request on a ``file_record`` map: the buffer words
+        at (file, record) as its ``[transfer]`` lays them out; raises Refusal like the spec
+        (function not offered 1, file/record outside 2, length 3) and the device (busy 6,
+        past the captured data 2)."""
+        capturing = self._state == self.map.states["capturing"]
+        try:
+            words = self._file_record(file, record, count)
+        except Refusal:
+            self.traffic.add(2 + 7, 2, capturing)
+            raise
+        self.traffic.add(2 + 7, 4 + 2 * count, capturing)
+        return words
+
+    def _file_record(self, file: int, record: int, count: int) -> list[int]:
+        transfer = self.map.transfer
+        if transfer.kind != "file_record":
+            raise Refusal(EXC_ILLEGAL_FUNCTION, "this DAQ's buffer is not in file records")
+        if self.fail_next_kind == "exception":
+            self.fail_next_kind = None
+            raise Refusal(EXC_DEVICE_FAILURE, "injected failure")
+        if not 1 <= count <= transfer.words_per_request:
+            raise Refusal(EXC_ILLEGAL_VALUE, f"record length {count}")
+        begin = transfer.word_of(file, record)
+        if begin < 0 or not 0 <= record <= transfer.records_per_file - count:
+            raise Refusal(EXC_ILLEGAL_ADDRESS, f"file {file} record {record}+{count}")
+        with self._lock:
+            if self._state == self.map.states["capturing"]:
+                raise Refusal(EXC_BUSY, "capturing")
+            if self._state != self.map.states["done"] or begin + count > len(self._words):
+                raise Refusal(EXC_ILLEGAL_ADDRESS, "past the captured data")
+            return self._words[begin:begin + count].tolist()
+
     def _set(self, name: str, value) -> None:
         reg = self.map[name]
         self._image[reg.table].update(zip(range(reg.address, reg.address + reg.words),
@@ -229,8 +267,9 @@ class DaqDevice:
                             ("words_per_sample", self._words_per_sample),
                             *self._first_values.items()):
             self._set(name, value)
-        window = self.map["buffer_window"]
-        if address + count > window.address and address < window.address + window.words:
+        window = self.map.registers.get("buffer_window")
+        if window is not None and address + count > window.address \
+                and address < window.address + window.words:
             self._fill_window(address, count, window)
 
     def _fill_window(self, address: int, count: int, window) -> None:
@@ -359,7 +398,8 @@ class DaqDevice:
         wanted = config["samples"]
         n = min(wanted, capacity)
         channels = self.map.channels_in(config["channel_mask"])
-        packed = config.get("capture_format") == self.map.capture_formats.get("packed")
+        packed = self.map.offers_packed and \
+            config.get("capture_format") == self.map.capture_formats.get("packed")
         flags = 1 << self.map.status_flags["overrun"] if wanted > capacity else 0
         ticks = stored_ticks(n, drop_every_nth(self.twin))
         counter = self.map.sample_counter
@@ -622,6 +662,8 @@ class SimulatedDaq:
         else:
             self._server = _InOrderTcpServer(device, address=(self._host, self._port),
                                              trace_packet=self._trace_packet)
+        self._server.daq_device = self.device       # answers Read File Record (0x14)
+        self._server.decoder.register(_FileRecordRequest)
         await self._server.serve_forever(background=True)
         if self._bridge is None:
             self._bound = tuple(self._server.transport.sockets[0].getsockname()[:2])
@@ -675,6 +717,8 @@ class _InOrderRequestHandler(ServerRequestHandler):
                 self.last_pdu, self.last_addr = self._queue.popleft()
                 if self.last_pdu.function_code in _DATASTORE_FCS:
                     await self.handle_request()
+                elif self.last_pdu.function_code == ReadFileRecordRequest.function_code:
+                    self.server_send(self._file_records(self.last_pdu), self.last_addr)
                 else:
                     refusal = ExceptionResponse(self.last_pdu.function_code,
                                                 ExcCodes.ILLEGAL_FUNCTION)
@@ -683,6 +727,47 @@ class _InOrderRequestHandler(ServerRequestHandler):
                     self.server_send(refusal, self.last_addr)
         finally:
             self._draining = False
+
+
+    def _file_records(self, request: _FileRecordRequest):
+        """The answer to a Read File Record request: each sub-request's words from the DAQ
+        device (pymodbus's own server answers 0x14 with a placeholder), or its exception."""
+        device = self.server.daq_device
+        try:
+            if not request.sub_requests:
+                raise Refusal(EXC_ILLEGAL_VALUE, "byte count outside 0x07..0xF5")
+            records = []
+            for reference, file, record, length in request.sub_requests:
+                if reference != FILE_REFERENCE_TYPE:
+                    raise Refusal(EXC_ILLEGAL_ADDRESS, f"reference type {reference}, not 6")
+                words = device.read_file_record(file, record, length)
+                records.append(FileRecord(record_data=struct.pack(f">{length}H", *words)))
+        except Refusal as refusal:
+            answer = ExceptionResponse(request.function_code, ExcCodes(refusal.code))
+        else:
+            answer = ReadFileRecordResponse(records=records)
+        answer.transaction_id = request.transaction_id
+        answer.dev_id = request.dev_id
+        return answer
+
+
+#: Read File Record's reference type (spec v1.1b3 §6.14: "must be specified as 6").
+FILE_REFERENCE_TYPE = 6
+
+
+class _FileRecordRequest(ReadFileRecordRequest):
+    """Read File Record request decoded as the spec lays it out: ``sub_requests`` holds
+    (reference type, file, record, record length in registers) of each 7-byte group, none if
+    the byte count is outside 0x07..0xF5 or not whole groups. (pymodbus's own request halves
+    the record length and refuses an odd one.)"""
+
+    def decode(self, data: bytes) -> None:
+        byte_count = int(data[0]) if data else 0
+        whole = 0x07 <= byte_count <= 0xF5 and byte_count % 7 == 0 \
+            and len(data) >= 1 + byte_count
+        self.sub_requests = [struct.unpack(">BHHH", data[1 + i:8 + i])
+                             for i in range(0, byte_count, 7)] if whole else []
+        self.records = []
 
 
 class _InOrderTcpServer(ModbusTcpServer):

@@ -1,8 +1,9 @@
 """hil analyze CAPTURE: ripple metrics, top orders and uncertainty budget of one capture.
 
 CAPTURE is a ripple-hil ``.npz`` capture, or — with ``--time-col``, ``--torque-col`` and
-``--angle-col`` or ``--speed-col`` (and their units) — a CSV or ``.npz`` export of another DAQ
-(read by ``hil.capture_import``).
+``--angle-col`` or ``--speed-col`` (and their units) — a CSV or ``.npz`` export of another DAQ, or
+an ASAM MDF4 or NI TDMS measurement file, whose units come from the file and whose columns, when
+no option names them, are found by their usual names (read by ``hil.capture_import``).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pathlib import Path
 
 from hil.capture import Capture
 from hil.capture_import import (ANGLE_KINDS, ANGLE_UNITS, SPEED_UNITS, TIME_UNITS, TORQUE_UNITS,
-                                import_capture)
+                                import_capture, import_with_defaults, is_measurement_file)
 from hil.errors import InputError
 
 #: Options that select the columns of a foreign capture (any of them switches to importing).
@@ -34,8 +35,8 @@ def register(subparsers) -> None:
                     "revolutions and print mean, pk-pk, RMS, order spectrum and the uncertainty "
                     "budget (k = 2).")
     parser.add_argument("capture", metavar="CAPTURE",
-                        help="capture file: a ripple-hil .npz, or with --time-col etc. a CSV or "
-                             ".npz export of another DAQ")
+                        help="capture file: a ripple-hil .npz, an MDF4 (.mf4) or TDMS file, or "
+                             "with --time-col etc. a CSV or .npz export of another DAQ")
     parser.add_argument("--order", type=int, default=None, metavar="K",
                         help="electrical order to report by name (e.g. 6 for dead time)")
     parser.add_argument("--max-order", type=int, default=DEFAULT_MAX_ORDER, metavar="K",
@@ -63,16 +64,16 @@ def register(subparsers) -> None:
     other.add_argument("--angle-col", metavar="NAME", help="column of the rotor angle")
     other.add_argument("--speed-col", metavar="NAME",
                        help="column of the shaft speed (instead of an angle)")
-    other.add_argument("--time-unit", choices=tuple(TIME_UNITS), default="s",
-                       help="unit of the time column (default s)")
-    other.add_argument("--torque-unit", choices=tuple(TORQUE_UNITS), default="nm",
-                       help="unit of the torque column (default nm = N*m)")
-    other.add_argument("--angle-unit", choices=tuple(ANGLE_UNITS), default="rad",
-                       help="unit of the angle column (default rad)")
+    other.add_argument("--time-unit", choices=tuple(TIME_UNITS), default=None,
+                       help="unit of the time column (default: the file's, else s)")
+    other.add_argument("--torque-unit", choices=tuple(TORQUE_UNITS), default=None,
+                       help="unit of the torque column (default: the file's, else nm = N*m)")
+    other.add_argument("--angle-unit", choices=tuple(ANGLE_UNITS), default=None,
+                       help="unit of the angle column (default: the file's, else rad)")
     other.add_argument("--angle-kind", choices=ANGLE_KINDS, default="mech",
                        help="mechanical (default) or electrical angle (divided by --pole-pairs)")
-    other.add_argument("--speed-unit", choices=tuple(SPEED_UNITS), default="rpm",
-                       help="unit of the speed column (default rpm)")
+    other.add_argument("--speed-unit", choices=tuple(SPEED_UNITS), default=None,
+                       help="unit of the speed column (default: the file's, else rpm)")
     parser.set_defaults(func=run)
 
 
@@ -107,6 +108,8 @@ def load_capture(args: argparse.Namespace) -> Capture:
                               time_unit=args.time_unit, torque_unit=args.torque_unit,
                               angle_unit=args.angle_unit, speed_unit=args.speed_unit,
                               angle_kind=args.angle_kind, pole_pairs=args.pole_pairs)
+    if is_measurement_file(path):
+        return import_with_defaults(path, pole_pairs=args.pole_pairs)
     hint = ("for a CSV or another DAQ's .npz give --time-col, --torque-col and --angle-col or "
             "--speed-col")
     if path.is_dir():

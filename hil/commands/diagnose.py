@@ -3,8 +3,8 @@
 Each capture's operating point is what is stated for it (``FILE@CURRENT_A[,ANGLE_DEG]`` or a
 ``--manifest`` entry, hil.diagnosis.manifest), else the run record it sits in
 (``<record>/captures/``), else its meta (simulated captures), else ``--current-a``; the speed is
-measured from the capture. Foreign files (CSV, ``.npz`` of arrays) are imported with
-:mod:`hil.capture_import`. The drive's current loop, the transducer's bandwidth and accuracy
+measured from the capture. Foreign files (CSV, ``.npz`` of arrays, MDF4, TDMS) are imported
+with :mod:`hil.capture_import`. The drive's current loop, the transducer's bandwidth and accuracy
 class come from the record's bench (or ``--bench FILE``), then the manifest's [drive]/[motor],
 then the options. Each capture's angle reference (hil/diagnosis/README.md) is stated
 (``--emf-a-zero-elec-deg``, the manifest), recorded (the capture's meta), measured from its phase
