@@ -16,6 +16,8 @@ bad input (exit 2).
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import json
 from pathlib import Path
 
@@ -23,7 +25,7 @@ from pathlib import Path
 def register(subparsers) -> None:
     parser = subparsers.add_parser("verify", help="check a run record's hashes and signature "
                                                   "(record.json and every capture)",
-                                   description=__doc__.splitlines()[0].replace("``", ""))
+                                   description=description(__doc__))
     parser.add_argument("record_dir", metavar="RECORD_DIR", type=Path,
                         help="record folder (or its record.json)")
     parser.add_argument("--trusted-key", action="append", default=[], metavar="HEX|FILE",
