@@ -109,14 +109,20 @@ def source_of(entry: dict) -> str:
 
 
 def lost_with_bench(record: dict, test: dict) -> bool:
-    """The test during which the bench was lost (``run.abort.step`` names it; the plugin's
-    message starts "bench lost"): it stopped on the link, not on the drive, so it judged
-    nothing — not determined, never a fail of its plan or of the run."""
-    abort = (record.get("run") or {}).get("abort")
-    if not isinstance(abort, dict) or test.get("outcome") not in ("failed", "error"):
+    """The test during which the bench was lost or the record could not be written
+    (``run.abort`` / ``run.storage_error``: their ``step`` names it; the plugin's message
+    starts "bench lost" / "record storage failed"): it stopped on the link or the disk, not on
+    the drive, so it judged nothing — not determined, never a fail of its plan or of the run."""
+    if test.get("outcome") not in ("failed", "error"):
         return False
-    return (str(abort.get("step") or "").startswith(f"{test.get('test_id')} (")
-            or str(test.get("message") or "").startswith("bench lost"))
+    run = record.get("run") or {}
+    for fault, message in ((run.get("abort"), "bench lost"),
+                           (run.get("storage_error"), "record storage failed")):
+        if isinstance(fault, dict) and (
+                str(fault.get("step") or "").startswith(f"{test.get('test_id')} (")
+                or str(test.get("message") or "").startswith(message)):
+            return True
+    return False
 
 
 def test_state(test: dict) -> str | None:

@@ -93,3 +93,14 @@ def test_one_count_in_the_records_words():
     lines = summary_lines({"status": "complete", "tests": tests})
     assert "tests: 1 passed, 1 failed, 1 measured, no verdict, 1 not run" in lines
     assert overall_statement({"tests": tests}, None).counts == counts
+
+
+def test_a_test_stopped_by_a_full_disk_is_not_a_fail():
+    record = lost_run()
+    record["status"] = "storage-error"
+    record["run"] = {"storage_error": {"path": "journal.jsonl", "errno_name": "ENOSPC",
+                                       "step": "test_vanish.py::test_point[0.3] (call)"}}
+    record["tests"][2]["message"] = "record storage failed: cannot write journal.jsonl"
+    stated = overall_statement(record, [])
+    assert stated.overall == NOT_STATED and stated.bad_tests == []
+    assert "FAIL" not in "\n".join(summary_lines(record))
