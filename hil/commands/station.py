@@ -105,7 +105,7 @@ def run(args) -> int:
         token = token or secrets.token_urlsafe(18)
     if token is not None and len(token) < 16:
         raise InputError("--token: at least 16 characters")
-    if is_wildcard(args.host) and not getattr(args, "allow_host", None):
+    if is_wildcard(args.host) and not args.allow_host:
         raise InputError(f"--host {args.host} serves every address: name the ones the "
                          f"operators' browsers use with --allow-host (any other Host is refused)")
     if args.bench:
@@ -115,18 +115,18 @@ def run(args) -> int:
     own = own_plans(args.plan)
     offered = available_plans() + list(own)
     saved = selections(args.selection, offered)
+    listening = bind(args.host, args.port)        # a port in use: refused before any URL
     manager = RunManager(args.bench, args.record_dir, own_plans=own)
     station = Station(manager, offered, f"bench: {args.bench or 'simulated (in-process)'}",
                       totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up,
                       selections=saved)
-    listening = bind(args.host, args.port)        # a port in use: refused before any URL
     shown = args.host if not is_wildcard(args.host) else args.allow_host[0]
     shown = f"[{shown}]" if ":" in shown else shown
     url = f"http://{shown}:{args.port}/" + (f"?token={token}" if token else "")
     print(f"hil station: {url} (records in {manager.record_root}; Ctrl-C to stop serving)",
           flush=True)
     app = create_app(station, token, address=(args.host, args.port),
-                     allow_hosts=tuple(getattr(args, "allow_host", None) or ()))
+                     allow_hosts=tuple(args.allow_host))
     config = uvicorn.Config(app, log_level="warning", lifespan="on",
                             timeout_graceful_shutdown=5)
     server = uvicorn.Server(config)
@@ -161,5 +161,4 @@ def bind(host: str, port: int) -> socket.socket:
                              f"program is serving there); choose another --port") from None
         raise InputError(f"--host {host} --port {port}: cannot serve there: "
                          f"{exc.strerror or exc}") from None
-    listening.set_inheritable(True)
-    return listening
+    return listening                 # not inheritable: the runs' child processes never hold it
