@@ -30,6 +30,7 @@ from typing import Any, NoReturn
 
 import can
 
+from hil import plausibility
 from hil.errors import InputError
 from hil.motor import KE_DEFINITIONS, MotorParameters
 
@@ -409,6 +410,7 @@ class BenchConfig:
                     sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
                     base_dir=ctx.base_dir, **sections)
         bench._check(ctx)
+        plausibility.check(bench, ctx.fail)      # units and physics (hil/plausibility.py)
         return bench
 
     def _check(self, ctx: "_Context") -> None:

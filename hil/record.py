@@ -58,6 +58,10 @@ from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
 
 #: ``hil run`` / pytest exit code of a run stopped because its record could not be written.
 EXIT_STORAGE = 8
+#: ``hil run`` / pytest exit code of a run that finished yet judged nothing: no model verdict,
+#: no requirement verdict (only points measured with no verdict, not determinable here, or the
+#: bench self-check): not a pass (``reports.statement.judged_tests``).
+EXIT_NOTHING_JUDGED = 9
 
 FORMAT = "ripple-hil-record/2"
 #: Formats :func:`load_record` reads (version 1: record.json rewritten per test, no seal).

@@ -381,11 +381,10 @@ def _limit(requirement: dict) -> str:
 
 
 def _outcome_counts(record: dict) -> dict[str, int]:
-    counts = {outcome: 0 for outcome in ("passed", "failed", "error", "skipped", MEASURED,
-                                         NOT_DETERMINABLE)}
-    for test in record.get("tests", []):
-        counts[test.get("outcome")] = counts.get(test.get("outcome"), 0) + 1
-    return counts
+    """The one count (``reports.statement.outcome_counts``: each test once, by outcome)."""
+    from ripple_hil_reports.statement import outcome_counts
+
+    return outcome_counts(record)
 
 
 def _drive_text(drive: dict | None) -> str:

@@ -28,7 +28,9 @@ not met — in any run status: a failure that happened is stated, with "the rest
 when the run did not finish) > NOT STATED (the run did not finish every selected test, a source
 not determined, a requirement given that judged no point, or nothing at all judged) >
 CONDITIONAL PASS > PASS. Never PASS with a failed or errored test, an incomplete run, a source not
-determined or a broken hash. A PASS names what it covers, e.g. "PASS (model validation and
+determined or a broken hash. A test stopped by a lost bench (:func:`lost_with_bench`) failed on
+the link, not on the drive: it is not determined, never a FAIL of its plan or of the run (the
+run reads NOT STATED, aborted). A PASS names what it covers, e.g. "PASS (model validation and
 self-check; no requirements given)".
 
 A requirement's statement is the binary statement of its decision rule: under guarded
@@ -106,6 +108,23 @@ def source_of(entry: dict) -> str:
     return module.removeprefix("test_") or "other"
 
 
+def lost_with_bench(record: dict, test: dict) -> bool:
+    """The test during which the bench was lost or the record could not be written
+    (``run.abort`` / ``run.storage_error``: their ``step`` names it; the plugin's message
+    starts "bench lost" / "record storage failed"): it stopped on the link or the disk, not on
+    the drive, so it judged nothing — not determined, never a fail of its plan or of the run."""
+    if test.get("outcome") not in ("failed", "error"):
+        return False
+    run = record.get("run") or {}
+    for fault, message in ((run.get("abort"), "bench lost"),
+                           (run.get("storage_error"), "record storage failed")):
+        if isinstance(fault, dict) and (
+                str(fault.get("step") or "").startswith(f"{test.get('test_id')} (")
+                or str(test.get("message") or "").startswith(message)):
+            return True
+    return False
+
+
 def test_state(test: dict) -> str | None:
     """One test's part in its source's state: a decision of :data:`STATE_RANK`, "not run",
     :data:`MEASURED` (judged nothing), :data:`NO_MODEL_VERDICT` (judged by requirements only),
@@ -136,6 +155,32 @@ def test_state(test: dict) -> str | None:
     if outcome == "passed" and test.get("measured") and not test.get("checks"):
         return MEASURED      # measure() judged nothing (a record written before the outcome)
     return "fail" if outcome == "failed" else "pass" if outcome == "passed" else NOT_DETERMINED
+
+
+#: The words tests are counted in, in this order: the record's outcomes. pytest's own line
+#: uses the same words (``fixtures.plugin``'s ``pytest_report_teststatus`` names the two
+#: ripple-hil adds), so the summary, page 1 and pytest give one count.
+OUTCOME_ORDER = ("passed", "failed", "error", "skipped", NOT_DETERMINABLE, MEASURED, "xfailed",
+                 "xpassed", NOT_RUN)
+
+
+def is_test(entry: dict) -> bool:
+    """A pytest test's own entry (a measurement a test makes beside its own, e.g. the
+    self-check's ``<nodeid>-reference``, is part of that test, not a test)."""
+    return entry.get("nodeid") in (None, entry.get("test_id"))
+
+
+def outcome_counts(record: dict) -> dict[str, int]:
+    """Each test of the record counted once by its recorded outcome (:data:`OUTCOME_ORDER`,
+    zeros left out)."""
+    counts = Counter(str(t.get("outcome")) for t in record.get("tests", []) if is_test(t))
+    order = {name: i for i, name in enumerate(OUTCOME_ORDER)}
+    return {name: counts[name] for name in sorted(counts, key=lambda n: order.get(n, len(order)))}
+
+
+def counts_text(counts: dict[str, int]) -> str:
+    """``38 passed, 29 measured, no verdict``."""
+    return ", ".join(f"{n} {name}" for name, n in counts.items() if n) or "none recorded"
 
 
 @dataclass
@@ -178,7 +223,7 @@ def source_states(record: dict) -> dict[str, SourceState]:
     for test in record.get("tests", []):
         if test.get("kind") == "self_check":
             continue
-        state = test_state(test)
+        state = NOT_DETERMINED if lost_with_bench(record, test) else test_state(test)
         states.setdefault(source_of(test), [])
         if state is not None:
             states[source_of(test)].append((state, test))
@@ -226,6 +271,11 @@ class Statement:
     requirements_judged: int = 0
     #: Requirement ids given that applied to no measured point.
     unjudged_requirements: list[str] = field(default_factory=list)
+    #: Tests by recorded outcome (:func:`outcome_counts`): the one count of every sink.
+    counts: dict[str, int] = field(default_factory=dict)
+    #: Tests that judged the drive (a model decision or a requirement verdict); 0: the run
+    #: judged nothing and ``hil run`` exits :data:`hil.record.EXIT_NOTHING_JUDGED`.
+    judged: int = 0
 
     @property
     def model_text(self) -> str:
@@ -358,7 +408,8 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
     tests = record.get("tests", [])
     status = record.get("status")
     complete = status == "complete"
-    bad = [t["test_id"] for t in tests if t.get("outcome") in BAD_OUTCOMES]
+    bad = [t["test_id"] for t in tests
+           if t.get("outcome") in BAD_OUTCOMES and not lost_with_bench(record, t)]
     self_check, failed_checks, voided = self_check_statement(record)
 
     verdicts = [r for t in tests for r in t.get("requirements") or []]
@@ -412,7 +463,28 @@ def overall_statement(record: dict, integrity_problems: list[str] | None) -> Sta
                      integrity=integrity, bad_tests=bad, voided=voided, sources=sources,
                      requirements_given=len(listed),
                      requirements_judged=len(listed) - len(unjudged),
-                     unjudged_requirements=unjudged)
+                     unjudged_requirements=unjudged, counts=outcome_counts(record),
+                     judged=judged_tests(record))
+
+
+def judged_tests(record: dict) -> int:
+    """How many tests judged the drive: a model decision of :data:`STATE_RANK` (or a test
+    failed on its model), or a requirement verdict; the bench self-check, points measured with
+    no verdict, points not determinable, not run or lost with the bench judge nothing."""
+    judged = 0
+    for test in record.get("tests", []):
+        if test.get("kind") == "self_check" or lost_with_bench(record, test):
+            continue
+        decision = (test.get("verdict") or {}).get("decision")
+        if test.get("requirements") or decision in DECISIONS:
+            judged += 1
+        elif not test.get("checks") and test_state(test) in ("pass", "fail"):
+            judged += 1                # a plain test's own assertions (no measure())
+    checks = list(((record.get("sensitivity") or {}) if isinstance(record.get("sensitivity"),
+                                                                     dict) else {}).values())
+    checks += [check for source in {source_of(t) for t in record.get("tests", [])}
+               for _, check in plan_checks(record, source)]
+    return judged + sum(isinstance(c, dict) and "accepted" in c for c in checks)
 
 
 def _scope(verdicts: list, judged_states: list, self_check: str) -> str:

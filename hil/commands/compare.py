@@ -5,6 +5,8 @@ RUN: a record ID, a unique prefix of one, or a record folder."""
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import json
 from pathlib import Path
 
@@ -13,7 +15,7 @@ def register(subparsers) -> None:
     from hil.results.cli_options import add_database_options
 
     parser = subparsers.add_parser("compare", help="two runs side by side, differences with U",
-                                   description=__doc__.splitlines()[0].replace("``", ""))
+                                   description=description(__doc__))
     parser.add_argument("run_a", metavar="RUN_A")
     parser.add_argument("run_b", metavar="RUN_B")
     parser.add_argument("--orders", action="store_true",

@@ -9,6 +9,8 @@ against its row (seal hash and status). Indexing is idempotent on the record ID.
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import json
 import sys
 from pathlib import Path
@@ -18,7 +20,7 @@ from hil.results.cli_options import add_database_options, database_error, engine
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser("db", help="results database: sync, import, export, verify",
-                                   description=__doc__.splitlines()[0].replace("``", ""))
+                                   description=description(__doc__))
     actions = parser.add_subparsers(dest="db_action", metavar="ACTION",
                                     parser_class=type(parser))
     actions.required = True

@@ -3,6 +3,8 @@ drive firmware and station (status, overall statement, failed tests, seal hash).
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import json
 
 
@@ -10,7 +12,7 @@ def register(subparsers) -> None:
     from hil.results.cli_options import add_database_options
 
     parser = subparsers.add_parser("history", help="runs in the results database",
-                                   description=__doc__.splitlines()[0].replace("``", ""))
+                                   description=description(__doc__))
     parser.add_argument("--dut", metavar="SN", help="only this DUT serial")
     parser.add_argument("--firmware", metavar="V", help="only this drive firmware")
     parser.add_argument("--station", metavar="S", help="only this station")

@@ -10,6 +10,8 @@ an error while the ``-o`` file carries the addresses.
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import os
 import signal
 import sys
@@ -22,7 +24,7 @@ from hil.errors import InputError
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser("sim-bench", help="start the simulated instruments; print a "
-                                   "bench file for them", description=__doc__.splitlines()[0])
+                                   "bench file for them", description=description(__doc__))
     parser.add_argument("--bench", metavar="FILE",
                         help="simulated bench file to start from (default: the shipped one)")
     parser.add_argument("-o", "--output", metavar="FILE.toml",

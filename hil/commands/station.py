@@ -4,13 +4,16 @@ Serves on 127.0.0.1 by default. Enter or scan the unit's serial number, pick the
 the station runs the same ``hil run`` as the command line (simulated bench unless --bench);
 Stop is Ctrl-C for that run (drive made safe, record ``interrupted``). One run per bench at a
 time; closing the browser does not stop the run. Another address needs --host and an access
-token (--token, or one generated and printed with the URL).
+token (--token, or one generated and printed with the URL); on loopback a --token is allowed.
+Requests naming another Host, and commands not from the station's own page, are refused (403).
 """
 
 from __future__ import annotations
 
+import errno
 import ipaddress
 import secrets
+import socket
 import sys
 
 from hil.errors import InputError
@@ -28,7 +31,12 @@ def register(subparsers) -> None:
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to serve on (default 127.0.0.1; any other needs a token)")
     parser.add_argument("--token", metavar="TEXT",
-                        help="access token for a non-loopback --host (default: generated)")
+                        help="access token: required for a non-loopback --host (default: "
+                             "generated), optional on loopback")
+    parser.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                        help="another name of --host the operators' browsers use (e.g. the "
+                             "machine's DNS name); requests naming any other Host are refused; "
+                             "repeatable")
     parser.add_argument("--record-dir", metavar="DIR", default="records",
                         help="folder of the run records (default: records)")
     parser.add_argument("--plan", action="append", default=[], metavar="FILE.py",
@@ -93,13 +101,13 @@ def run(args) -> int:
     if not 0 < args.port < 65536:
         raise InputError(f"--port {args.port}: allowed 1…65535")
     token = args.token
-    if is_loopback(args.host):
-        if token:
-            raise InputError("--token is only for a non-loopback --host")
-    else:
+    if not is_loopback(args.host):
         token = token or secrets.token_urlsafe(18)
-        if len(token) < 16:
-            raise InputError("--token: at least 16 characters")
+    if token is not None and len(token) < 16:
+        raise InputError("--token: at least 16 characters")
+    if is_wildcard(args.host) and not args.allow_host:
+        raise InputError(f"--host {args.host} serves every address: name the ones the "
+                         f"operators' browsers use with --allow-host (any other Host is refused)")
     if args.bench:
         from hil.config import load_bench
 
@@ -107,16 +115,50 @@ def run(args) -> int:
     own = own_plans(args.plan)
     offered = available_plans() + list(own)
     saved = selections(args.selection, offered)
+    listening = bind(args.host, args.port)        # a port in use: refused before any URL
     manager = RunManager(args.bench, args.record_dir, own_plans=own)
     station = Station(manager, offered, f"bench: {args.bench or 'simulated (in-process)'}",
                       totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up,
                       selections=saved)
-    url = f"http://{args.host}:{args.port}/" + (f"?token={token}" if token else "")
+    shown = args.host if not is_wildcard(args.host) else args.allow_host[0]
+    shown = f"[{shown}]" if ":" in shown else shown
+    url = f"http://{shown}:{args.port}/" + (f"?token={token}" if token else "")
     print(f"hil station: {url} (records in {manager.record_root}; Ctrl-C to stop serving)",
           flush=True)
-    config = uvicorn.Config(create_app(station, token), host=args.host, port=args.port,
-                            log_level="warning", lifespan="on", timeout_graceful_shutdown=5)
+    app = create_app(station, token, address=(args.host, args.port),
+                     allow_hosts=tuple(args.allow_host))
+    config = uvicorn.Config(app, log_level="warning", lifespan="on",
+                            timeout_graceful_shutdown=5)
     server = uvicorn.Server(config)
     station.shutting_down = lambda: server.should_exit
-    server.run()
+    server.run(sockets=[listening])
     return 0 if server.started else 2
+
+
+def is_wildcard(host: str) -> bool:
+    """``0.0.0.0`` / ``::``: every address of the machine."""
+    try:
+        return ipaddress.ip_address(host).is_unspecified
+    except ValueError:
+        return False
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """The listening socket, bound before the URL is printed: a port in use (or an address this
+    machine does not have) is bad input, exit 2, and no URL is shown."""
+    try:
+        family = socket.AF_INET6 if ipaddress.ip_address(host).version == 6 else socket.AF_INET
+    except ValueError:
+        family = socket.AF_INET
+    listening = socket.socket(family, socket.SOCK_STREAM)
+    listening.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        listening.bind((host, port))
+    except OSError as exc:
+        listening.close()
+        if exc.errno == errno.EADDRINUSE:
+            raise InputError(f"--port {port}: the port is in use on {host} (another station or "
+                             f"program is serving there); choose another --port") from None
+        raise InputError(f"--host {host} --port {port}: cannot serve there: "
+                         f"{exc.strerror or exc}") from None
+    return listening                 # not inheritable: the runs' child processes never hold it

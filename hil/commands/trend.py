@@ -4,6 +4,8 @@ Bissell 1990 for Cpk) and the measured yield with its Clopper–Pearson interval
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import json
 from pathlib import Path
 
@@ -12,7 +14,7 @@ def register(subparsers) -> None:
     from hil.results.cli_options import add_database_options
 
     parser = subparsers.add_parser("trend", help="control chart, Cp/Cpk and measured yield over "
-                                                 "runs", description=__doc__.splitlines()[0]
+                                                 "runs", description=description(__doc__)
                                    .replace("``", ""))
     what = parser.add_mutually_exclusive_group(required=True)
     what.add_argument("--requirement", metavar="ID", help="a requirement's verdicts")

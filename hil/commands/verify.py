@@ -8,10 +8,15 @@ that is missing, altered or outside the record folder, and each journal line tha
 hash chain; prints the signing key's fingerprint. A record edited and re-hashed (``sha256sum``)
 fails: its signature does not match. Exit 1 also for a record that was never sealed (status
 ``running``: the run was killed before it could finish) and for one sealed before signing
-existed ("unsigned": anyone could have re-sealed it).
+existed ("unsigned": anyone could have re-sealed it). A ``record.json`` that no longer reads as
+a record (edited JSON, an unknown status such as ``"complete "``, a damaged journal) is
+INVALID, exit 1, however it was edited; only a folder without a readable ``record.json`` is
+bad input (exit 2).
 """
 
 from __future__ import annotations
+
+from hil.commands import description
 
 import json
 from pathlib import Path
@@ -20,7 +25,7 @@ from pathlib import Path
 def register(subparsers) -> None:
     parser = subparsers.add_parser("verify", help="check a run record's hashes and signature "
                                                   "(record.json and every capture)",
-                                   description=__doc__.splitlines()[0].replace("``", ""))
+                                   description=description(__doc__))
     parser.add_argument("record_dir", metavar="RECORD_DIR", type=Path,
                         help="record folder (or its record.json)")
     parser.add_argument("--trusted-key", action="append", default=[], metavar="HEX|FILE",
@@ -36,8 +41,15 @@ def run(args) -> int:
     from hil.record import load_record, seal_check, verify_record
     from hil.seal import trusted_keys
 
+    from hil.errors import InputError
+
     folder = args.record_dir.parent if args.record_dir.name == "record.json" else args.record_dir
-    data = load_record(folder)
+    try:
+        data = load_record(folder)
+    except InputError as exc:
+        if not _readable(folder):
+            raise                          # not a record folder: bad input, exit 2
+        return _unreadable_record(args, folder, str(exc))
     trusted = trusted_keys(args.trusted_key)
     problems = verify_record(folder, data, trusted)
     check = seal_check(folder, data, trusted)
@@ -68,3 +80,35 @@ def run(args) -> int:
         print(f"{folder}: intact (record.json sealed and {check.text()}; {captures} capture(s) "
               f"match their SHA-256; status {data['status']})")
     return 0 if intact else 1
+
+
+def _readable(folder: Path) -> bool:
+    try:
+        (folder / "record.json").read_bytes()
+        return True
+    except OSError:
+        return False
+
+
+def _unreadable_record(args, folder: Path, reason: str) -> int:
+    """A ``record.json`` that is there but no longer reads as a record: INVALID, exit 1, with
+    what its seal says of it."""
+    from hil.record import SEAL_FILE, _sha256_file
+
+    problems = [reason.removeprefix(f"record {str(folder)!r}: ")]
+    try:
+        sealed = (folder / SEAL_FILE).read_text(encoding="ascii").split()[0]
+    except (OSError, UnicodeDecodeError, IndexError):
+        sealed = None
+    if sealed is not None and sealed != _sha256_file(folder / "record.json"):
+        problems.append(f"record.json does not match its seal {SEAL_FILE}: it was changed "
+                        f"after the run finished")
+    if args.json:
+        print(json.dumps({"record": str(folder), "record_id": None, "status": None,
+                          "sealed": sealed is not None, "intact": False, "signature": None,
+                          "key_fingerprint": None, "captures": None, "problems": problems}))
+    else:
+        print(f"{folder}: INVALID ({len(problems)} problem(s)):")
+        for problem in problems:
+            print(f"  {problem}")
+    return 1

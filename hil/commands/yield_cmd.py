@@ -9,6 +9,8 @@ chunks to ``--out``. ``--target-yield 99`` adds the inverse design: the loosest 
 
 from __future__ import annotations
 
+from hil.commands import description
+
 import argparse
 import dataclasses
 import json
@@ -225,7 +227,7 @@ def format_design(d: dict) -> list[str]:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("yield", help="Monte Carlo yield of a ripple limit over "
-                                   "tolerances", description=__doc__.splitlines()[0])
+                                   "tolerances", description=description(__doc__))
     parser.add_argument("tolerances", help="tolerance file (TOML), e.g. "
                         "hil/examples/tolerances.toml")
     parser.add_argument("--engine", choices=ENGINES, default="closed-form")

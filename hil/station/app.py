@@ -13,10 +13,11 @@ tails the record's journal) every :data:`TICK_S` and, when anything changed, ren
 point's plot once and wakes every open event stream. A browser that closes changes nothing; one
 that opens gets the current state at once.
 
-POSTs need ``Content-Type: application/json``: a cross-site form cannot send that without a
-CORS preflight, which this application never grants, so another web page in the operator's
-browser cannot press Start or Stop. On any address other than loopback an access token is
-required (``?token=`` once, then a cookie; or ``Authorization: Bearer``).
+Every request passes :mod:`hil.station.guard` first: a ``Host`` that is not the station's
+address, a command whose ``Origin``/``Referer`` is not the station's own page, or one without
+the page's token is 403 (design.md §6). POSTs also need ``Content-Type: application/json``.
+On any address other than loopback an access token is required, on loopback it is allowed
+(``?token=`` once, then a cookie; or ``Authorization: Bearer``).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from hil.station import view
+from hil.station.guard import CSRF_META, PageTokens, StationGuard, allowed_hosts
 from hil.station.history import History
 from hil.station.journal import read_record
 from hil.station.plots import point_svg
@@ -229,11 +231,18 @@ class Station:
         return out
 
 
-def create_app(station: Station, token: str | None = None) -> Starlette:
-    """The ASGI application of one station (``token``: required on every request when set)."""
+def create_app(station: Station, token: str | None = None, *, address: tuple[str, int],
+               allow_hosts: tuple[str, ...] = ()) -> StationGuard:
+    """The ASGI application of one station served at ``address`` (host, port) behind its
+    guard (``hil.station.guard``; ``allow_hosts``: further names of that address); ``token``:
+    the access token, required on every request when set."""
+    page_tokens = PageTokens()
+    index_html = (STATIC / "index.html").read_text(encoding="utf-8")
 
     async def page(request: Request) -> Response:
-        return FileResponse(STATIC / "index.html", media_type="text/html")
+        meta = f'<meta name="{CSRF_META}" content="{page_tokens.issue()}">'
+        return Response(index_html.replace("<head>", "<head>\n" + meta, 1),
+                        media_type="text/html", headers={"Cache-Control": "no-store"})
 
     async def state(request: Request) -> Response:
         return JSONResponse(station.state)
@@ -327,7 +336,8 @@ def create_app(station: Station, token: str | None = None) -> Starlette:
               Route("/records/{record}/{file}", record_file),
               Mount("/static", StaticFiles(directory=STATIC), name="static")]
     app = Starlette(routes=routes, lifespan=lifespan)
-    return TokenGate(app, token) if token else app
+    return StationGuard(TokenGate(app, token) if token else app,
+                        allowed_hosts(*address, allow_hosts), page_tokens)
 
 
 def view_record(folder: Path | None) -> dict | None:

@@ -149,3 +149,16 @@ def test_json_errors_are_one_json_object(capsys, argv, kind):
     error = json.loads(out)["error"]
     assert error["kind"] == kind and error["exit_status"] == 2
     assert error["command"].startswith("hil") and error["message"] in err
+
+
+def test_no_command_help_is_cut_mid_sentence():
+    """Each command's --help description is a whole paragraph: it ends a sentence (issue 32,
+    "Why" 6: compare, trend and history stopped at the end of a docstring line)."""
+    from hil.cli import COMMAND_MODULES, COMMAND_NAMES, build_parser
+
+    for command in (COMMAND_NAMES.get(module, module) for module in COMMAND_MODULES):
+        parser = build_parser([command])
+        sub = next(action for action in parser._actions
+                   if getattr(action, "choices", None) and command in action.choices)
+        text = sub.choices[command].description or ""
+        assert text.rstrip().endswith((".", ")", ":")), (command, text)

@@ -23,6 +23,7 @@ from pypdf import PdfReader
 
 from hil.cli import main as hil_main
 from hil.config import example_bench_path
+from hil.outcome_kinds import MEASURED
 from hil.record import load_record, verify_record
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.timeout(300)]
@@ -323,6 +324,49 @@ def test_an_in_process_bench_that_vanishes_aborts_the_run(tmp_path):
                                                        "not run"]
     assert record["run"]["abort"]["instrument"] == "drive"
     assert "InstrumentTimeout" in record["run"]["abort"]["error"]
+    # a lost link is not a failure of the drive: never FAIL of the plan or of the run
+    summary = done.stdout.split("ripple-hil summary")[1].split("short test summary")[0]
+    assert "FAIL" not in summary, summary           # pytest's own "FAILED" line stays its own
+    assert "dc_offset: NOT DETERMINED" in summary
+    assert "overall: NOT STATED (aborted: the bench was lost" in summary
+    # one count: the summary's tests line and pytest's own line in the same words
+    assert "tests: 2 passed, 1 failed, 2 not run" in summary
+    assert re.search(r"^1 failed, 2 passed in ", done.stdout, re.M), done.stdout[-500:]
+
+
+JUDGES_NOTHING = '''
+import pytest
+from hil.measurement import PointPlan
+from hil.outcome_kinds import not_determinable
+
+pytestmark = pytest.mark.ripple_source("ripple_map")
+
+
+def test_measured(measure):
+    measure(PointPlan(source="ripple_map", injection={}, speed_rpm=500.0, current_a=20.0,
+                      revolutions=2, rule=None))
+
+
+def test_refused():
+    pytest.skip(not_determinable("ripple not resolvable here"))
+'''
+
+
+def test_a_run_that_judged_nothing_exits_9_and_pytest_counts_in_the_records_words(tmp_path):
+    (tmp_path / "test_nothing.py").write_text(JUDGES_NOTHING)
+    done = subprocess.run(PYTEST + ["test_nothing.py", "--hil-record", "records"],
+                          capture_output=True, text=True, timeout=240, cwd=tmp_path, env=ENV)
+    assert done.returncode == 9, done.stdout[-3000:]          # hil.record.EXIT_NOTHING_JUDGED
+    record = load_record(only_record(tmp_path / "records"))
+    assert record["status"] == "complete" and record["run"]["exit_status"] == 9
+    assert [t["outcome"] for t in record["tests"]] == [MEASURED, "not determinable"]
+    summary = done.stdout.split("ripple-hil summary")[1]
+    assert "tests: 1 not determinable, 1 measured, no verdict" in summary
+    assert "overall: NOT STATED" in summary
+    # pytest's own line: never "1 passed, 1 skipped" for a point that judged nothing
+    last = done.stdout.strip().splitlines()[-1]
+    assert "1 measured, no verdict" in last and "1 not determinable" in last, last
+    assert "passed" not in last and "skipped" not in last, last
 
 
 # ---------------------------------------------------------------------------------- Ctrl-C twice

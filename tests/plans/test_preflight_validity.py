@@ -64,7 +64,8 @@ def test_a_run_whose_first_points_are_refused_still_agrees_its_rules_first(tmp_p
     """The self-check runs first; refused (2500 rpm / 20 A needs more than V_dc/√3), it is
     skipped after the decision rules and the regions are in the record, not before."""
     done, tests = run(tmp_path, bench_at(tmp_path, 2500.0, 20.0), "test_self_check.py")
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    # every point refused as not determinable: nothing judged, exit 9 (EXIT_NOTHING_JUDGED)
+    assert done.returncode == 9, done.stdout[-2000:] + done.stderr[-2000:]
     entry = tests["test_bench_self_check"]
     assert entry["message"].startswith(NOT_DETERMINABLE_PREFIX + "voltage headroom"), entry
     record = load_record(sorted((tmp_path / "records").iterdir())[-1])

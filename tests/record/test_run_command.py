@@ -80,7 +80,7 @@ def test_the_summary_fits_80_columns_and_states_the_run():
     assert all(len(line) <= WIDTH for line in lines), [len(line) for line in lines]
     assert lines[0].startswith("source") and "margin %" in lines[0]
     assert lines[1].split()[-1] == "+0.30" and lines[2].split()[-1] == "-0.20"
-    assert "pytest outcomes: 1 passed, 1 failed, 1 not run" in lines
+    assert "tests: 1 passed, 1 failed, 1 not run" in lines
     # a failure that happened is FAIL in any run status, the rest not stated (issue 22 item 3)
     assert any(line.startswith("status: partial-selection; overall: FAIL (1 test(s) failed")
                for line in lines)

@@ -133,3 +133,26 @@ def test_deleting_reports_jsonl_does_not_give_a_second_rev_1(key_dir, tmp_path, 
     (folder / SIG_FILE).write_text(original[0] + original[2])
     assert main(["report", str(folder), "--reason", "again"]) == 2
     assert "does not follow the line before it" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("edit", [
+    lambda text: text.replace('"status": "complete"', '"status": "complete "'),  # the issue's
+    lambda text: text.replace('"outcome": "failed"', '"outcome": "great"'),
+    lambda text: text.replace('"format"', '"formt"'),
+    lambda text: text[:-10],                                                      # not JSON
+], ids=["status", "outcome", "format", "truncated"])
+def test_a_record_edited_into_an_unreadable_one_is_invalid_not_bad_input(key_dir, tmp_path,
+                                                                         capsys, edit):
+    """However record.json was edited, ``hil verify`` says INVALID and exits 1; only a folder
+    without a record.json is bad input (exit 2)."""
+    folder = finished_record(tmp_path / "records")
+    path = folder / "record.json"
+    text = path.read_text()
+    assert '"status": "complete"' in text and '"outcome": "failed"' in text
+    path.write_text(edit(text))
+    assert main(["verify", str(folder)]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith(f"{folder}: INVALID") and "does not match its seal" in out, out
+    assert main(["verify", str(folder), "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["intact"] is False
+    assert main(["verify", str(tmp_path / "no-such-record")]) == 2

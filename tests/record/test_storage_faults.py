@@ -63,7 +63,7 @@ import hil.record
 
 FAIL_AFTER = int(os.environ["FULL_DISK_AFTER_JOURNAL_LINES"])
 EVERYTHING = bool(os.environ.get("FULL_DISK_EVERYTHING"))
-state = {"lines": 0, "full": False}
+state = {"lines": 0, "full": bool(os.environ.get("FULL_DISK_AT_START"))}
 
 
 def enospc():
@@ -113,8 +113,8 @@ def run_plan(tmp_path: Path, fail_after: int, everything: bool = False, *extra: 
                            "-p", "no:cacheprovider", "--hil-record", str(tmp_path / "records"),
                            *extra],
                           capture_output=True, text=True, timeout=280, cwd=tmp_path, env=env)
-    folder = next((tmp_path / "records").glob("*/record.json")).parent
-    return done, folder
+    header = next((tmp_path / "records").glob("*/record.json"), None)
+    return done, header.parent if header is not None else None
 
 
 @pytest.mark.parametrize("everything", [False, True], ids=["journal-only", "whole-disk"])
@@ -161,6 +161,20 @@ def test_a_full_disk_mid_run_stops_at_once_with_the_drive_safe(tmp_path, everyth
     assert all(t["outcome"] == MEASURED for t in record["tests"][:stopped])
     assert record["tests"][stopped]["outcome"] in ("failed", "error")
     assert all(t["outcome"] == "not run" for t in record["tests"][stopped + 1:])
+
+
+def test_a_full_disk_before_the_start_is_bad_input_on_stderr(tmp_path, monkeypatch):
+    """The header of the record cannot be written (a full disk, the folder itself creatable):
+    exit 2 with one line on stderr, as the README says, not exit 8 on stdout; no test runs."""
+    monkeypatch.setenv("FULL_DISK_AT_START", "1")
+    done, folder = run_plan(tmp_path, 0, True)
+    assert done.returncode == 2, done.stdout[-3000:] + done.stderr[-3000:]
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("ripple-hil: the record cannot be written, "
+                                                   "no test run"), done.stderr
+    assert "No space left on device" in lines[0]
+    assert "the record cannot be written" not in done.stdout
+    assert folder is None or not list(folder.glob("captures/*.npz"))
 
 
 def test_an_unwritable_record_root_is_refused_before_the_bench(tmp_path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 
 import pytest
 
@@ -14,8 +15,16 @@ from hil.station.app import Station, create_app
 from hil.station.runs import RunManager
 
 
+#: The address the stations of these tests serve, and the Host header naming it.
+ADDRESS = ("127.0.0.1", 8725)
+HOST = "127.0.0.1:8725"
+
+
 def call(app, method: str, path: str, body: bytes = b"", headers=(), query: str = ""):
-    """One HTTP request straight into the ASGI app: (status, headers, body)."""
+    """One HTTP request straight into the ASGI app: (status, headers, body); ``Host`` is the
+    station's own unless ``headers`` name one."""
+    if not any(key.lower() == "host" for key, _ in headers):
+        headers = [("Host", HOST), *headers]
     sent, requests = [], [{"type": "http.request", "body": body, "more_body": False}]
 
     async def receive():          # the request once, then a client that stays connected
@@ -36,6 +45,14 @@ def call(app, method: str, path: str, body: bytes = b"", headers=(), query: str 
     return start["status"], dict((k.decode(), v.decode()) for k, v in start["headers"]), content
 
 
+def own_page(app, content_type: str = "application/json") -> list[tuple[str, str]]:
+    """The headers of a command sent by the station's own page: its Origin and the token the
+    page was served with."""
+    page = call(app, "GET", "/")[2].decode()
+    token = re.search(r'<meta name="hil-csrf" content="([^"]+)">', page).group(1)
+    return [("Origin", f"http://{HOST}"), ("X-HIL-CSRF", token), ("Content-Type", content_type)]
+
+
 @pytest.fixture
 def station(tmp_path):
     manager = RunManager(None, tmp_path / "records")
@@ -44,7 +61,7 @@ def station(tmp_path):
 
 
 def test_token_is_required_and_then_kept_in_a_cookie(station):
-    app = create_app(station, token="s3cret-token-0123456789")
+    app = create_app(station, token="s3cret-token-0123456789", address=ADDRESS)
     assert call(app, "GET", "/api/state")[0] == 401
     assert call(app, "GET", "/api/state", query="token=wrong")[0] == 401
     status, headers, _ = call(app, "GET", "/api/state", query="token=s3cret-token-0123456789")
@@ -56,26 +73,30 @@ def test_token_is_required_and_then_kept_in_a_cookie(station):
 
 
 def test_commands_need_json_and_valid_input(station):
-    app = create_app(station)
+    app = create_app(station, address=ADDRESS)
     status, _, body = call(app, "POST", "/api/start", b"unit=SN-1&plans=baseline",
-                           headers=[("Content-Type", "application/x-www-form-urlencoded")])
-    assert status == 415 and station.manager.run is None      # a cross-site form cannot start
+                           headers=own_page(app, "application/x-www-form-urlencoded"))
+    assert status == 415 and station.manager.run is None      # a form cannot start
     status, _, body = call(app, "POST", "/api/start", json.dumps(
-        {"unit": "SN 1; rm -rf", "plans": ["baseline"]}).encode(),
-        headers=[("Content-Type", "application/json")])
+        {"unit": "SN 1; rm -rf", "plans": ["baseline"]}).encode(), headers=own_page(app))
     assert status == 409 and "serial number" in json.loads(body)["refused"]
     status, _, body = call(app, "POST", "/api/start", json.dumps(
-        {"unit": "SN-1", "plans": ["no_such_plan"]}).encode(),
-        headers=[("Content-Type", "application/json")])
+        {"unit": "SN-1", "plans": ["no_such_plan"]}).encode(), headers=own_page(app))
     assert status == 409 and "no_such_plan" in json.loads(body)["refused"]
-    status, _, body = call(app, "POST", "/api/stop", b"{}",
-                           headers=[("Content-Type", "application/json")])
+    status, _, body = call(app, "POST", "/api/stop", b"{}", headers=own_page(app))
     assert status == 409 and json.loads(body)["refused"] == "no run is going on"
     assert station.manager.run is None
 
 
+def test_a_request_without_a_host_header_is_refused(station):
+    app = create_app(station, address=ADDRESS)
+    scope_without_host = [("X-Nothing", "1")]
+    status, _, body = call(app, "GET", "/api/state", headers=[("Host", "")] + scope_without_host)
+    assert status == 403 and b"not this station's address" in body
+
+
 def test_record_files_only_from_the_record_folder(station, tmp_path):
-    app = create_app(station)
+    app = create_app(station, address=ADDRESS)
     (tmp_path / "records" / "r1").mkdir()
     (tmp_path / "records" / "r1" / "record.json").write_text("{}")
     (tmp_path / "secret.json").write_text("{}")
@@ -93,14 +114,18 @@ def test_cli_address_rules():
         bench = None
         port = 8725
         host = "127.0.0.1"
-        token = "a-token-that-is-long-enough"
+        token = "short"
         record_dir = "records"
         plan = []
+        allow_host = []
 
-    with pytest.raises(InputError, match="only for a non-loopback"):
+    with pytest.raises(InputError, match="at least 16"):       # a token is allowed on loopback
         station_command(Args)
-    Args.host, Args.token = "0.0.0.0", "short"
+    Args.host = "0.0.0.0"
     with pytest.raises(InputError, match="at least 16"):
+        station_command(Args)
+    Args.token = "a-token-that-is-long-enough"
+    with pytest.raises(InputError, match="--allow-host"):      # every address: name the Host
         station_command(Args)
 
 

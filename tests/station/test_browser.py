@@ -112,12 +112,13 @@ def station(tmp_path_factory):
         shutil.rmtree(profile, ignore_errors=True)
 
 
-def browser():
+def browser(*extra_flags: str):
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
     for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                  "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--window-size=1200,1900"):
+                 "--disable-component-update", "--disable-sync", "--window-size=1200,1900",
+                 *extra_flags):
         options.add_argument(flag)
     PROFILES.append(tempfile.mkdtemp(prefix="hil-station-chromium-"))
     options.add_argument(f"--user-data-dir={PROFILES[-1]}")
@@ -273,3 +274,61 @@ def test_operator_prompts_on_the_page(station):
     asked = {p["key"]: (p["answer"], p["by"]) for p in record["operator_prompts"]["prompts"]}
     assert asked == {"couple": ("continue", "station operator"),
                      "supply_v": ("47.5", "station operator")}
+
+
+#: In the page: POST the issue's JSON to ``arguments[0]`` and hand back the HTTP status (or the
+#: error text when the browser itself blocks the request).
+POST_START = """
+const done = arguments[arguments.length - 1];
+fetch(arguments[0], {method: "POST", headers: {"Content-Type": "application/json"},
+                     body: JSON.stringify({unit: "X1", plans: ["baseline"]})})
+  .then((r) => done(r.status)).catch((e) => done(String(e)));
+"""
+#: In another origin's page: every way a page can send a command without CORS (a no-cors fetch,
+#: a form posted into a frame), then a preflighted JSON fetch; resolves when all have ended.
+CROSS_ORIGIN = """
+const [url, done] = [arguments[0], arguments[arguments.length - 1]];
+const body = JSON.stringify({unit: "X1", plans: ["baseline"]});
+const frame = document.createElement("iframe"); frame.name = "sink";
+document.body.appendChild(frame);
+const form = document.createElement("form");
+form.method = "POST"; form.action = url; form.enctype = "text/plain"; form.target = "sink";
+const field = document.createElement("input"); field.name = body.slice(0, -2);
+field.value = '"}'; form.appendChild(field); document.body.appendChild(form);
+form.submit();
+Promise.allSettled([
+  fetch(url, {method: "POST", mode: "no-cors", headers: {"Content-Type": "text/plain"}, body}),
+  fetch(url, {method: "POST", headers: {"Content-Type": "application/json"}, body}),
+]).then((results) => setTimeout(() => done(results.map((r) => r.status)), 1500));
+"""
+
+
+def test_a_rebinding_page_and_another_origin_start_nothing(station, tmp_path):
+    """A page of evil.example whose name resolves to 127.0.0.1 (DNS rebinding: same-origin to
+    the browser) and a page of another origin each try to press Start: nothing starts."""
+    import http.server
+    import threading
+
+    port = station["url"].rsplit(":", 1)[1]
+    records = station["records"]
+    before = sorted(p.name for p in records.iterdir()) if records.is_dir() else []
+    run_before = json.loads(urllib.request.urlopen(station["url"] + "/api/state").read())["run"]
+    (tmp_path / "attack.html").write_text("<!doctype html><title>another site</title><body>")
+    handler = lambda *a: http.server.SimpleHTTPRequestHandler(*a, directory=str(tmp_path))  # noqa
+    other = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=other.serve_forever, daemon=True).start()
+    driver = browser("--host-resolver-rules=MAP evil.example 127.0.0.1")
+    try:
+        driver.get(f"http://evil.example:{port}/")          # the station under another name
+        assert "not this station's address" in driver.page_source
+        assert driver.execute_async_script(POST_START, "/api/start") == 403
+        driver.get(f"http://127.0.0.1:{other.server_address[1]}/attack.html")
+        settled = driver.execute_async_script(CROSS_ORIGIN, station["url"] + "/api/start")
+        assert settled == ["fulfilled", "rejected"], settled   # no-cors sent; JSON preflight
+    finally:                                                   # refused by the browser
+        driver.quit()
+        other.shutdown()
+    time.sleep(0.5)
+    after = sorted(p.name for p in records.iterdir()) if records.is_dir() else []
+    state = json.loads(urllib.request.urlopen(station["url"] + "/api/state").read())
+    assert after == before and state["run"] == run_before, "a foreign page started a run"

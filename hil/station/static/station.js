@@ -28,8 +28,10 @@ function link(href, label) {
 }
 
 async function post(path, body) {
-  const response = await fetch(path, {method: "POST", headers: {"Content-Type": "application/json"},
-                                      body: JSON.stringify(body || {})});
+  const token = document.querySelector('meta[name="hil-csrf"]');   // this page's token
+  const response = await fetch(path, {method: "POST", body: JSON.stringify(body || {}),
+                                      headers: {"Content-Type": "application/json",
+                                                "X-HIL-CSRF": token ? token.content : ""}});
   const answer = await response.json().catch(() => ({}));
   $("message").textContent = response.ok ? "" : (answer.refused || ("refused: HTTP " + response.status));
   return response.ok;
