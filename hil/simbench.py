@@ -145,7 +145,8 @@ class SimulatedBench:
         if self.cross_process:
             from ripple_hil_drivers.simulated.can_remote_server import RemoteSimulatedDrive
 
-            self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate).start()
+            self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate,
+                                              identity=self.config.sim_drive_identity).start()
             self._started.append(self.drive)
             return self.drive.bench_table()
         from ripple_hil_drivers.canopen_transport import CanBusSettings
@@ -153,7 +154,8 @@ class SimulatedBench:
 
         channel = f"ripple-hil-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
-        self.drive = SimulatedDrive(self.twin, settings, node_id).start()
+        self.drive = SimulatedDrive(self.twin, settings, node_id,
+                                    identity=self.config.sim_drive_identity).start()
         self._started.append(self.drive)
         return {"interface": "virtual", "channel": channel}
 

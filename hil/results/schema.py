@@ -10,15 +10,16 @@ The schema grows by Alembic migrations (``hil/results/migrations``): 0001 is the
 (runs, points, requirement verdicts); 0002 added the order spectra of each point and the diagnosis
 estimates of each run; 0003 made every string column that carries a value of the record unbounded
 ``Text`` (an outcome such as "measured, no verdict" did not fit PostgreSQL's ``varchar(16)``; the
-record, not the schema, decides what a value may be). Only the record ID (the record writer's fixed
+record, not the schema, decides what a value may be). 0004 added the unit's traceability (how its serial was
+stated and checked, the drive's own 0x1018 identity). Only the record ID (the record writer's fixed
 ``YYYYMMDDTHHMMSSZ-xxxxxx``), the seal hash and the time of indexing keep a length. Edit a table here only together with a new
 migration.
 """
 
 from __future__ import annotations
 
-from sqlalchemy import (Boolean, Column, Float, ForeignKey, Index, Integer, MetaData, String,
-                        Table, Text, UniqueConstraint)
+from sqlalchemy import (BigInteger, Boolean, Column, Float, ForeignKey, Index, Integer, MetaData,
+                        String, Table, Text, UniqueConstraint)
 
 metadata = MetaData()
 
@@ -42,6 +43,14 @@ runs = Table(
     Column("drive_serial", Text),
     Column("drive_firmware", Text),
     Column("motor_serial", Text),
+    # ---- added by migration 0004: the unit's traceability (hil.dut)
+    Column("dut_stated_by", Text),                            # --dut-serial, station scan, …
+    Column("dut_serial_check", Text),                         # match, not compared, …
+    Column("dut_serial_override", Text),                      # the recorded reason, if any
+    Column("drive_vendor_id", BigInteger),                    # CiA 301 0x1018:01 as read
+    Column("drive_product_code", BigInteger),                 # 0x1018:02
+    Column("drive_revision", BigInteger),                     # 0x1018:03
+    Column("drive_serial_number", BigInteger),                # 0x1018:04
     Column("n_tests", Integer, nullable=False),
     Column("n_failed", Integer, nullable=False),              # failed or errored
     Column("indexed_utc", String(32), nullable=False),

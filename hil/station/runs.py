@@ -112,6 +112,7 @@ class RunManager:
                 command += ["--source", name]
             if operator:
                 command += ["--operator", operator]
+            command += ["--dut-serial", unit_serial]     # checked against the drive (hil.dut)
             command += ["--", "--hil-unit-serial", unit_serial, "--hil-station-run", token,
                         "--hil-station-answers", str(answers), *self.extra_args,
                         *[self.own_plans[name] for name in sources if name in self.own_plans]]

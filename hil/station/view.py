@@ -140,8 +140,10 @@ def final_statement(record: dict, folder: Path) -> dict:
 
 
 def unit_of(record: dict) -> str | None:
-    """The unit serial number the run recorded (``--hil-unit-serial``)."""
-    return (record.get("unit") or {}).get("serial_number")
+    """The unit serial number the run recorded (its ``dut`` section, ``hil.dut``; an older
+    record's ``unit`` section)."""
+    return (record.get("dut") or {}).get("serial") or \
+        (record.get("unit") or {}).get("serial_number")
 
 
 def drive_identity(record: dict) -> str | None:

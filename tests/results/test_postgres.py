@@ -20,10 +20,12 @@ from hil.record import load_record, verify_record
 from hil.results import index_after_run
 from hil.results.db import engine_for, head_revision, normalise_url, upgrade
 from hil.results.ingest import sealed_records, sync
+from hil.results.queries import history
 from hil.results.schema import point_orders, points, runs
 from hil.results.synthetic import point_entry, synthetic_record
 
 from conftest import wait_for
+from real_runs import FULL_DUT, STATION_UNIT
 
 STATION = textwrap.dedent("""
     import json, random, sys
@@ -68,6 +70,14 @@ def _indexed_tests(url: str) -> dict[str, dict[str, str]]:
     for row in rows:
         out.setdefault(row.record_id, {})[row.test_id] = row.outcome
     return out
+
+
+def _runs(url: str, record_id: str) -> list[dict]:
+    engine = create_engine(normalise_url(url))
+    with engine.connect() as connection:
+        rows = connection.execute(select(runs).where(runs.c.record_id == record_id)).all()
+    engine.dispose()
+    return [row._asdict() for row in rows]
 
 
 def _counts(url: str) -> tuple[int, int, int, int]:
@@ -125,6 +135,11 @@ def test_real_runs_are_indexed_whole(backend, request, real_records):
     full = indexed[load_record(real_records.full)["record_id"]]
     assert MEASURED in full.values()
     assert len(full) >= 60 and set(full.values()) <= {"passed", MEASURED, NOT_DETERMINABLE}
+    # the station's scanned unit and the run's --dut-serial are the DUT column (issue 32.2)
+    station_id = load_record(real_records.station)["record_id"]
+    assert [r["record_id"] for r in history(engine_for(url), dut=STATION_UNIT)] == [station_id]
+    assert [r["dut_stated_by"] for r in _runs(url, station_id)] == ["station scan"]
+    assert len(history(engine_for(url), dut=FULL_DUT)) == 1
 
 
 #: records the killed sync works through
