@@ -106,8 +106,8 @@ class DriveConfig:
     current_loop_angle_compensation: bool = _key(False, "bool")
     #: The label the unit under test carries for the drive's serial number 0x1018:04, as a
     #: Python format of ``serial`` (e.g. "EPS-A-{serial:04d}"): a stated or scanned DUT serial
-    #: is checked against it before the bench is driven (``hil.dut``). "": not stated.
-    serial_label: str = _key("", "str")
+    #: is checked against it before the bench is driven (``hil.dut``). None: not stated.
+    serial_label: str | None = _key(None, "str")
 
     def current_loop_equivalent_bandwidth_hz(self, pwm_frequency_hz: float = 20_000.0
                                              ) -> float | None:
