@@ -94,7 +94,7 @@ def item_tested(record: dict) -> str | None:
         return None
     drive = dut.get("drive_identity") or {}
     own = drive.get("serial")
-    parts = [f"unit {dut['serial']} ({dut.get('stated_by')})" if dut.get("serial")
+    parts = [f"{dut['serial']} ({dut.get('stated_by')})" if dut.get("serial")
              else "unit serial not stated"]
     if own is not None:
         others = ", ".join(f"{key} 0x{int(drive[key]):08X}"

@@ -63,7 +63,7 @@ def test_an_override_is_recorded_on_page_1_and_the_serial_is_the_dut_column(
     assert dut["override"] == "label reprinted"
     assert dut["drive_identity"]["serial"] == 2 and dut["drive_identity"]["vendor"] == 0xABCD
     page = re.sub(r"\s+", " ", PdfReader(folder / "report.pdf").pages[0].extract_text())
-    assert "unit EPS-A-0003" in page and "override: label reprinted" in page
+    assert "unit EPS-A-0003 (--dut-serial)" in page and "override: label reprinted" in page
     assert "serial number 2" in page
     listed = hil("history", "--records", "records", "--dut", "EPS-A-0003", "--json",
                  cwd=tmp_path)
