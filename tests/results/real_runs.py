@@ -54,13 +54,15 @@ def make_real_records(root: Path) -> RealRecords:
         else:
             os.environ["RIPPLE_HIL_RESULTS_DB"] = saved
     try:
-        out, err = full.communicate(timeout=400)
-        assert full.returncode == 0, (out[-2000:], err[-2000:])
+        out, err = full.communicate(timeout=600)
+        # exit 1 (a point failed: seen once under load 28 on 2 cores, a dead-time point) is a
+        # real record too, and as good to index; anything else means no usable record
+        assert full.returncode in (0, 1), (out[-2000:], err[-2000:])
         deadline = time.monotonic() + 300
         while manager.run.alive and time.monotonic() < deadline:
             manager.refresh()
             time.sleep(0.1)
-        assert manager.run.exit_status == 0, manager.log_tail(20)
+        assert manager.run.exit_status in (0, 1), manager.log_tail(20)
     finally:
         manager.close()
     return RealRecords(full=_only_record(root / "full"), station=_only_record(root / "station"))
