@@ -118,6 +118,9 @@ class Cia402Drive:
         self._producer_period_s = self.producer_heartbeat_ms / 1000.0
         self._emcy: canopen.emcy.EmcyError | None = None
         self._identity: dict | None = None
+        #: Called with the identity read at connect, before anything is written to the drive
+        #: (heartbeat, PDOs, NMT): raising refuses the drive (``hil.dut``: the unit's serial).
+        self.identity_check = None
         self._rated_torque_cache_nm: float | None = None
         self.network: canopen.Network | None = None
         self.node: canopen.RemoteNode | None = None
@@ -245,6 +248,8 @@ class Cia402Drive:
                 raise self._error(ProtocolError, action,
                                   f"device type 0x{device_type:08X} is not a CiA 402 device")
             self._identity = self._read_identity()
+            if self.identity_check is not None:
+                self.identity_check(dict(self._identity))
             self._sdo(f"{action}: NMT pre-operational",   # PDO configuration allowed
                       lambda: node.nmt.send_command(0x80))
             self._write_verified(0x1017, self.producer_heartbeat_ms, f"{action}: set producer heartbeat time")

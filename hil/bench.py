@@ -18,7 +18,7 @@ import numpy as np
 from ripple_hil_drivers.errors import InstrumentError, LimitError
 from hil.capture import Capture
 from hil.config import BenchConfig
-from hil.errors import HilError
+from hil.errors import HilError, InputError
 
 logger = logging.getLogger(__name__)
 
@@ -100,7 +100,8 @@ class Bench:
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod
-    def open(cls, config: BenchConfig, *, seed: int = 0) -> "Bench":
+    def open(cls, config: BenchConfig, *, seed: int = 0,
+             drive_identity_check=None) -> "Bench":
         """Start the simulated instruments if needed, then connect the drivers.
 
         Order (issue 11 item 5): the DAQ and the torque transducer are connected and identified
@@ -108,7 +109,9 @@ class Bench:
         without addresses (the shipped one) starts its instruments in this process; one with
         addresses (written by ``hil sim-bench``) connects to them. If anything fails part-way,
         everything opened so far is closed again and :class:`BenchOpenError` names the
-        instrument, what was tried and why it failed.
+        instrument, what was tried and why it failed. ``drive_identity_check(identity)`` is
+        called with the drive's CiA 301 identity before anything is written to it (``hil.dut``);
+        an :class:`~hil.errors.InputError` it raises passes through unwrapped.
         """
         simulated = None
         opened: list = []
@@ -125,6 +128,8 @@ class Bench:
                 if role == "acquisition" and config.acquisition.kind == "modbus-daq":
                     continue
                 instrument = _opening(role, _tried(role, config), lambda: make(config))
+                if role == "drive" and drive_identity_check is not None:
+                    instrument.identity_check = drive_identity_check
                 _opening(role, _tried(role, config), instrument.connect)
                 opened.append(instrument)
                 identities[role] = _opening(role, f"identify ({_tried(role, config)})",
@@ -300,7 +305,7 @@ def _opening(role: str, tried: str, step):
     """Run one step of opening the bench; any failure becomes one :class:`BenchOpenError`."""
     try:
         return step()
-    except BenchOpenError:
+    except (BenchOpenError, InputError):      # InputError: the user's (hil.dut), not the bench's
         raise
     except InstrumentError as exc:
         raise BenchOpenError(role, tried, exc.detail) from exc

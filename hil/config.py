@@ -107,6 +107,10 @@ class DriveConfig:
     current_loop_emf_feedforward: bool = _key(False, "bool")
     current_loop_delay_periods: float = _key(1.0, "float", choices=(0.0, 0.5, 1.0, 1.5))
     current_loop_angle_compensation: bool = _key(False, "bool")
+    #: The label the unit under test carries for the drive's serial number 0x1018:04, as a
+    #: Python format of ``serial`` (e.g. "EPS-A-{serial:04d}"): a stated or scanned DUT serial
+    #: is checked against it before the bench is driven (``hil.dut``). None: not stated.
+    serial_label: str | None = _key(None, "str")
 
     def current_loop_equivalent_bandwidth_hz(self, pwm_frequency_hz: float = 20_000.0
                                              ) -> float | None:
@@ -382,6 +386,9 @@ class BenchConfig:
     #: ``[simulation.defects]``: test-only defects of the simulated drive (``hil.sim.defects``
     #: field names -> values, validated); empty on a real bench and by default
     sim_defects: dict = field(default_factory=dict)
+    #: ``[simulation.drive_identity]``: the CiA 301 identity (0x1018 ``vendor``, ``product``,
+    #: ``revision``, ``serial``) the simulated drive reports; empty: its defaults
+    sim_drive_identity: dict = field(default_factory=dict)
 
     @classmethod
     def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,
@@ -404,9 +411,10 @@ class BenchConfig:
         motor, motor_identity = _parse_motor(d.get("motor", {}), ctx)
         instruments = _parse_instruments(d.get("instrument", []), ctx)
         sim_defects = _parse_simulation(d.get("simulation", {}), ctx)
+        sim_identity = _parse_sim_identity(d.get("simulation", {}), ctx)
         bench = cls(simulated=simulated, motor=motor, motor_identity=motor_identity,
                     instruments=instruments, source=source, raw=_plain(d),
-                    sim_defects=sim_defects,
+                    sim_defects=sim_defects, sim_drive_identity=sim_identity,
                     sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
                     base_dir=ctx.base_dir, **sections)
         bench._check(ctx)
@@ -483,6 +491,8 @@ class BenchConfig:
         out["instrument"] = [_section_to_dict(entry) for entry in self.instruments]
         if self.sim_defects:
             out["simulation"] = {"defects": dict(self.sim_defects)}
+        if self.sim_drive_identity:
+            out.setdefault("simulation", {})["drive_identity"] = dict(self.sim_drive_identity)
         return out
 
     def with_overrides(self, changes: dict) -> "BenchConfig":
@@ -673,7 +683,7 @@ def _parse_simulation(table: Any, ctx: _Context) -> dict:
     """``[simulation]``: only ``defects`` (test-only, ``hil.sim.defects``), only when simulated."""
     if not isinstance(table, dict):
         ctx.fail(f"simulation must be a table ([simulation]), got {type(table).__name__}")
-    _reject_unknown(table.keys(), ("defects",), "simulation", ctx)
+    _reject_unknown(table.keys(), ("defects", "drive_identity"), "simulation", ctx)
     defects = table.get("defects", {})
     if not isinstance(defects, dict):
         ctx.fail(f"simulation.defects must be a table ([simulation.defects]), "
@@ -689,6 +699,26 @@ def _parse_simulation(table: Any, ctx: _Context) -> dict:
         return DriveDefects.from_dict(defects).to_dict()
     except InputError as exc:
         ctx.fail(str(exc))
+
+
+#: ``[simulation.drive_identity]`` keys: the 0x1018 sub-index each sets (UNSIGNED32).
+SIM_IDENTITY_KEYS = {"vendor": 1, "product": 2, "revision": 3, "serial": 4}
+
+
+def _parse_sim_identity(table: dict, ctx: _Context) -> dict:
+    """``[simulation.drive_identity]``: integers 0..2^32-1, only when simulated."""
+    identity = table.get("drive_identity", {}) if isinstance(table, dict) else {}
+    if not isinstance(identity, dict):
+        ctx.fail("simulation.drive_identity must be a table ([simulation.drive_identity])")
+    if identity and not ctx.simulated:
+        ctx.fail("simulation.drive_identity is the simulated drive's; allowed only with "
+                 "simulated = true")
+    _reject_unknown(identity.keys(), tuple(SIM_IDENTITY_KEYS), "simulation.drive_identity", ctx)
+    for key, value in identity.items():
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2 ** 32:
+            ctx.fail(f"simulation.drive_identity.{key} = {value!r} must be an integer in "
+                     f"0..4294967295 (CiA 301 0x1018 is UNSIGNED32)")
+    return dict(identity)
 
 
 # --------------------------------------------------------------------------- helpers

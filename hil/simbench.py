@@ -160,6 +160,7 @@ class SimulatedBench:
             from ripple_hil_drivers.simulated.can_remote_server import RemoteSimulatedDrive
 
             self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate,
+                                              identity=self.config.sim_drive_identity,
                                               **self._drive_dictionary()).start()
             self._started.append(self.drive)
             return self.drive.bench_table()
@@ -168,7 +169,9 @@ class SimulatedBench:
 
         channel = f"ripple-hil-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
-        self.drive = SimulatedDrive(self.twin, settings, node_id, **self._drive_dictionary()).start()
+        self.drive = SimulatedDrive(self.twin, settings, node_id,
+                                    identity=self.config.sim_drive_identity,
+                                    **self._drive_dictionary()).start()
         self._started.append(self.drive)
         return {"interface": "virtual", "channel": channel}
 

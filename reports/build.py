@@ -208,6 +208,7 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
                                f"Ke {motor.get('ke_v_s_per_rad')} V·s/rad, "
                                f"{motor.get('dc_bus_v')} V dc bus)"),
         ("Item tested: drive", _drive_text(drive)),
+        ("Item tested: unit", _unit_text(record)),
         ("Item received", fmt(lab.get("item_received")) if lab.get("item_received")
          else "not stated"),
         ("Tested (UTC)", f"{record.get('created_utc')} to "
@@ -395,6 +396,14 @@ def _drive_text(drive: dict | None) -> str:
                                            "sw_version") if identity.get(k)), None)
     return (f"{drive.get('model')}, s/n {drive.get('serial_number')}, firmware "
             f"{firmware or 'not reported'}")
+
+
+def _unit_text(record: dict) -> str:
+    """The unit under test's serial as stated, the drive's own 0x1018 identity, the check
+    between them and any override (``hil.dut``)."""
+    from hil.dut import item_tested
+
+    return item_tested(record) or "serial not recorded (a record from before issue 32)"
 
 
 def _instrument(record: dict, role: str) -> dict | None:

@@ -99,13 +99,18 @@ class SimulatedDrive:
 
     def __init__(self, twin, settings: CanBusSettings, node_id: int = 5, *, eds_path=None,
                  serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None,
-                 profile=None):
+                 profile=None, identity: dict | None = None):
         if not 1 <= node_id <= 127:
             raise ValueError(f"node_id={node_id} is outside 1..127")
         self.twin = twin
         self.settings = settings
         self.node_id = node_id
-        self.serial_number = serial_number
+        #: 0x1018 sub-index → value served in place of the EDS default (``identity``: vendor,
+        #: product, revision, serial, as ``[simulation.drive_identity]`` states them)
+        subs = {"vendor": 1, "product": 2, "revision": 3, "serial": 4}
+        self.identity_values = {4: serial_number} | {subs[k]: int(v)
+                                                     for k, v in (identity or {}).items()}
+        self.serial_number = self.identity_values[4]
         self._eds_path = eds_path
         self._kt = torque_constant_nm_per_a or TABLE_I.torque_constant_nm_per_a
         profile = load_profile(profile, eds_path)
@@ -368,8 +373,8 @@ class SimulatedDrive:
             return self._error_code
         if index == 0x1001:
             return self._error_register
-        if index == 0x1018 and subindex == 4:
-            return self.serial_number
+        if index == 0x1018 and subindex in self.identity_values:
+            return self.identity_values[subindex]
         return None
 
     # -- master-loss detection (heartbeat consumer 0x1016, abort connection option 0x6007) ---

@@ -67,7 +67,7 @@ def _report(args, result) -> int:
 def _sync(args) -> int:
     from hil.results.ingest import sealed_records, sync
 
-    engine = engine_from_args(args)
+    engine = engine_from_args(args, create=True)
     folders = sealed_records(args.records) if args.records.exists() else []
     return _report(args, sync(engine, folders, dut_serial=args.dut_serial))
 
@@ -80,7 +80,7 @@ def _import(args) -> int:
     missing = [str(p) for p in folders if not (p / "record.json").exists()]
     if missing:
         raise InputError(f"not a record folder: {', '.join(missing)}")
-    return _report(args, sync(engine_from_args(args), folders, dut_serial=args.dut_serial))
+    return _report(args, sync(engine_from_args(args, create=True), folders, dut_serial=args.dut_serial))
 
 
 def _export(args) -> int:

@@ -46,6 +46,7 @@ KEPT_PLUGINS = ("ripple_hil", "timeout")
 #: ``hil run`` option → the plugin option it fills in (each also accepted as ``--hil-...``).
 PLUGIN_OPTIONS = {"operator": "--hil-operator", "results_db": "--hil-results-db",
                   "dut_serial": "--hil-dut-serial",
+                  "dut_serial_override": "--hil-dut-serial-override",
                   "allow_expired_calibration": "--hil-allow-expired-calibration",
                   "customer": "--hil-customer", "authorizer": "--hil-authorizer",
                   "authorizer_function": "--hil-authorizer-function",
@@ -86,7 +87,12 @@ def register(subparsers) -> None:
                              "or 'off'; default: RIPPLE_HIL_RESULTS_DB, the bench file's [results] "
                              "url, else results.sqlite in the record folder's parent)")
     parser.add_argument("--dut-serial", metavar="SN",
-                        help="serial number of the unit under test (recorded and indexed)")
+                        help="serial number of the unit under test (recorded and indexed; "
+                             "checked against the drive's 0x1018 serial number, see "
+                             "[drive] serial_label, before the drive is driven)")
+    parser.add_argument("--dut-serial-override", metavar="REASON",
+                        help="run although --dut-serial is not the drive's serial (the reason "
+                             "is recorded and stated on page 1)")
     parser.add_argument("--customer", metavar="TEXT", help="customer named on the report")
     parser.add_argument("--authorizer", metavar="NAME",
                         help="person authorizing the report (default: the bench file's [lab])")

@@ -45,6 +45,17 @@ def register(subparsers) -> None:
     parser.add_argument("--selection", action="append", default=[], metavar="NAME=PLAN,…",
                         help="a saved selection of plans the operator picks with one button, "
                              "e.g. 'end of line=self_check,baseline,dc_offset'; repeatable")
+    parser.add_argument("--requirements", metavar="SPEC.toml",
+                        help="the customer's requirements every unit is judged against (the "
+                             "final banner states conformity to them; without any it says "
+                             "none were given)")
+    parser.add_argument("--selection-requirements", action="append", default=[],
+                        metavar="NAME=SPEC.toml",
+                        help="requirements of one saved --selection (a unit run with exactly "
+                             "its plans is judged against them instead); repeatable")
+    parser.add_argument("--results-db", metavar="URL",
+                        help="results database every unit's record is indexed in (as hil run "
+                             "--results-db; default: hil run's rule)")
     parser.set_defaults(func=run)
 
 
@@ -90,6 +101,29 @@ def selections(texts: list[str], plans: list[str]) -> dict[str, list[str]]:
     return out
 
 
+def selection_requirements(texts: list[str], saved: dict[str, list[str]]
+                           ) -> dict[frozenset, str]:
+    """``--selection-requirements NAME=SPEC.toml`` → {plans of that selection: file}, each file
+    loaded once here (a bad one: one line before serving)."""
+    from pathlib import Path
+
+    from hil.requirements import load_requirements
+
+    out: dict[frozenset, str] = {}
+    for text in texts:
+        name, _, path = text.partition("=")
+        if name.strip() not in saved or not path.strip():
+            raise InputError(f"--selection-requirements {text!r}: give NAME=SPEC.toml with NAME "
+                             f"a --selection ({', '.join(saved) or 'none given'})")
+        load_requirements(path.strip())
+        plans = frozenset(saved[name.strip()])
+        if plans in out:
+            raise InputError(f"--selection-requirements {text!r}: another selection with the "
+                             f"same plans already has requirements")
+        out[plans] = str(Path(path.strip()).resolve())
+    return out
+
+
 def run(args) -> int:
     import uvicorn
 
@@ -115,8 +149,19 @@ def run(args) -> int:
     own = own_plans(args.plan)
     offered = available_plans() + list(own)
     saved = selections(args.selection, offered)
+    requirements = None
+    if args.requirements:
+        from pathlib import Path
+
+        from hil.requirements import load_requirements
+
+        load_requirements(args.requirements)     # a bad file: one line, before serving
+        requirements = str(Path(args.requirements).resolve())
     listening = bind(args.host, args.port)        # a port in use: refused before any URL
-    manager = RunManager(args.bench, args.record_dir, own_plans=own)
+    manager = RunManager(args.bench, args.record_dir, own_plans=own, requirements=requirements,
+                         results_db=args.results_db,
+                         selection_requirements=selection_requirements(
+                             args.selection_requirements, saved))
     station = Station(manager, offered, f"bench: {args.bench or 'simulated (in-process)'}",
                       totals_loader=lambda: collect_totals(args.bench), warm_up=warm_up,
                       selections=saved)

@@ -66,13 +66,22 @@ def run(args) -> int:
     if result.get("runs_at_other_points"):
         print(f"left out: {result['runs_at_other_points']} run(s) that measured this test at "
               f"another operating point, injection or motor (another prediction and zone)")
-    if chart["sigma_short"] is not None:
-        print(f"control chart: centre {chart['centre']:.4g}, limits [{chart['lcl']:.4g}, "
+    if not chart["stated"]:
+        print(f"control chart: centre {chart['centre']:.4g} {unit}; limits NOT STATED: "
+              f"{chart['reason']}")
+    elif chart["sigma_short"] is not None:
+        lcl = "none" if chart["lcl"] is None else f"{chart['lcl']:.4g}"
+        print(f"control chart: centre {chart['centre']:.4g}, limits [{lcl}, "
               f"{chart['ucl']:.4g}] {unit} (σ̂ = MR̄/1.128 = {chart['sigma_short']:.3g}); "
               f"{len(chart['beyond'])} run(s) beyond")
-    print(f"mean {cap['mean']:.4g}, s {cap['s'] if cap['s'] is None else format(cap['s'], '.3g')}"
-          f"; Cp {_ci(cap['cp'], cap['cp_ci'])}; Cpk {_ci(cap['cpk'], cap['cpk_ci'])} "
-          f"(95 %; {cap['method']})")
+        if chart["lcl_note"]:
+            print(f"  {chart['lcl_note']}")
+    s_text = cap['s'] if cap['s'] is None else format(cap['s'], '.3g')
+    if cap["stated"]:
+        print(f"mean {cap['mean']:.4g}, s {s_text}; Cp {_ci(cap['cp'], cap['cp_ci'])}; Cpk "
+              f"{_ci(cap['cpk'], cap['cpk_ci'])} (95 %; {cap['method']})")
+    else:
+        print(f"mean {cap['mean']:.4g}, s {s_text}; Cp/Cpk NOT STATED: {cap['reason']}")
     if yld["total"]:
         print(f"measured yield {yld['passed']}/{yld['total']} = {100 * yld['yield']:.1f} % "
               f"[{100 * yld['ci'][0]:.1f}, {100 * yld['ci'][1]:.1f}] % (95 %, Clopper-Pearson)")

@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"--seed {args.seed} must be >= 0")
         changes["seed"] = args.seed
     spec = dataclasses.replace(spec, **changes)
-    from_db = _from_db(args, spec) if args.from_db else None
+    from_db = _from_db(args, spec, CombinerSettings(bounds=not args.no_bounds)) \
+        if args.from_db else None
     if from_db is not None:
         spec = from_db.pop("spec")
     for flag, value in (("--workers", args.workers), ("--chunk-size", args.chunk_size)):
@@ -115,10 +116,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _from_db(args: argparse.Namespace, spec) -> dict:
-    """Tolerances fitted to the diagnosed units in the results database, and their measured
-    yield (hil/results/fleet_yield.py states the method)."""
+def _from_db(args: argparse.Namespace, spec, settings: CombinerSettings) -> dict:
+    """Tolerances fitted to the diagnosed units in the results database, the yield they predict
+    with the fit's own uncertainty, and their measured yield (hil/results/fleet_yield.py and
+    fleet_interval.py state the methods)."""
     from hil.results.cli_options import engine_from_args
+    from hil.results.fleet_interval import predicted_yield
     from hil.results.fleet_yield import fit_parameters, fitted_spec, unit_yield
 
     engine = engine_from_args(args)
@@ -129,7 +132,9 @@ def _from_db(args: argparse.Namespace, spec) -> dict:
 
         raise InputError("--from-db needs a requirement id for the measured yield: "
                          "--measured-requirement ID")
-    return {"spec": fitted_spec(spec, fits), "fits": fits,
+    fitted = fitted_spec(spec, fits)
+    return {"spec": fitted, "fits": fits,
+            "predicted": predicted_yield(spec, fits, seed=spec.seed, settings=settings),
             "measured": unit_yield(engine, req_id)}
 
 
@@ -139,13 +144,20 @@ def format_from_db(d: dict, s: dict) -> list[str]:
         lines.append(f"  {name:<14} {f['units']} units: mean {f['mean']:+.4g}, s {f['s']:.3g}, "
                      f"mean u {f['mean_u']:.3g} -> sigma {f['sigma']:.3g}")
     m = d["measured"]
-    predicted = f"{100 * s['yield']:.2f} % [{100 * s['yield_ci95'][0]:.2f}, " \
-                f"{100 * s['yield_ci95'][1]:.2f}] % ({s['drives']:,} simulated drives)"
+    p = d["predicted"]
+    low, high = (100 * x for x in p["interval95"])
+    predicted = (f"{100 * p['yield']:.1f} % [{low:.1f}, {high:.1f}] % (95 % prediction "
+                 f"interval with the fit's uncertainty from {p['units']} units; {p['method']})"
+                 if p["stated"] else f"NOT STATED: {p['reason']}")
+    point = f"{100 * s['yield']:.2f} % [{100 * s['yield_ci95'][0]:.2f}, " \
+            f"{100 * s['yield_ci95'][1]:.2f}] % ({s['drives']:,} simulated drives; Monte " \
+            f"Carlo error only: the fitted values taken as exact)"
     measured = (f"{100 * m['yield']:.1f} % [{100 * m['ci'][0]:.1f}, {100 * m['ci'][1]:.1f}] % "
                 f"({m['passed']}/{m['total']} units, {m['requirement']})" if m["total"]
                 else f"no unit judged against {m['requirement']}")
-    return lines + ["yield        value [95 % Clopper-Pearson interval]",
-                    f"  predicted  {predicted}", f"  measured   {measured}"]
+    return lines + [f"  predicted  {predicted}",
+                    f"  at the fitted values  {point}",
+                    f"  measured   {measured} (95 % Clopper-Pearson interval)"]
 
 
 def _yield(value: float, ci: list[float], drives: int) -> str:

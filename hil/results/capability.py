@@ -9,6 +9,14 @@
   normal approximation (A. F. Bissell, "How reliable is your capability index?", Appl. Statist.
   39(3), 1990): Cpk ± z_{1−α/2}·√(1/(9n) + Cpk²/(2(n − 1))). Both assume a stable, normal
   process: the control chart is printed beside them to show whether it is.
+* When n is too small to state them (issue 32 item 5): control limits need at least
+  :data:`MIN_CONTROL_N` values (Montgomery §6.4: trial limits from 20–25 observations; fewer give
+  a σ̂ from too few moving ranges), Cp/Cpk at least :data:`MIN_CAPABILITY_N` (this project's
+  choice: below it Bissell's 95 % half-width exceeds ±0.65 at Cpk 1.33, and its normal
+  approximation is poorest). Below, the values are computed (JSON) but flagged ``stated: false``
+  with the reason, and the commands print the reason instead of the numbers. A 3σ̂ lower limit
+  below zero for a quantity that cannot be negative (a pk-pk, a % of the mean torque) is not a
+  limit: it is dropped, with a note saying why.
 * Measured yield: the share of runs accepted, with the Clopper–Pearson interval
   (``hil.tolerance.stats.yield_interval``).
 """
@@ -21,19 +29,32 @@ import numpy as np
 
 CONFIDENCE = 0.95
 D2_MOVING_RANGE_2 = 1.128
+MIN_CONTROL_N = 20
+MIN_CAPABILITY_N = 10
 
 
-def control_chart(values: list[float]) -> dict:
-    """Centre line, σ̂ from the moving range, 3σ̂ limits and the indices beyond them."""
+def control_chart(values: list[float], nonnegative: bool = False) -> dict:
+    """Centre line, σ̂ from the moving range, 3σ̂ limits and the indices beyond them; whether
+    n allows stating the limits, and a note when a lower limit below 0 was dropped."""
     x = np.asarray(values, dtype=float)
     centre = float(np.mean(x))
+    stated = len(x) >= MIN_CONTROL_N
+    reason = None if stated else (f"{len(x)} value(s) are too few to state control limits "
+                                  f"(at least {MIN_CONTROL_N})")
     if len(x) < 2:
         return {"centre": centre, "sigma_short": None, "ucl": None, "lcl": None,
-                "beyond": []}
+                "beyond": [], "stated": False, "reason": reason, "lcl_note": None}
     sigma = float(np.mean(np.abs(np.diff(x)))) / D2_MOVING_RANGE_2
     ucl, lcl = centre + 3 * sigma, centre - 3 * sigma
-    beyond = [int(i) for i in np.flatnonzero((x > ucl) | (x < lcl))]
-    return {"centre": centre, "sigma_short": sigma, "ucl": ucl, "lcl": lcl, "beyond": beyond}
+    note = None
+    if nonnegative and lcl < 0:
+        note = (f"the 3σ̂ lower limit {lcl:.4g} is below 0, which this quantity cannot reach: "
+                f"no lower limit (the values are not normal near 0)")
+        lcl = None
+    beyond = [int(i) for i in np.flatnonzero((x > ucl) | ((x < lcl) if lcl is not None
+                                                          else False))]
+    return {"centre": centre, "sigma_short": sigma, "ucl": ucl, "lcl": lcl, "beyond": beyond,
+            "stated": stated, "reason": reason, "lcl_note": note}
 
 
 def capability(values: list[float], lower: float | None, upper: float | None,
@@ -43,8 +64,11 @@ def capability(values: list[float], lower: float | None, upper: float | None,
 
     x = np.asarray(values, dtype=float)
     n = len(x)
+    stated = n >= MIN_CAPABILITY_N
     out = {"n": n, "mean": float(np.mean(x)) if n else None, "s": None, "cp": None,
            "cp_ci": None, "cpk": None, "cpk_ci": None, "confidence": confidence,
+           "stated": stated, "reason": None if stated else
+           f"{n} value(s) are too few to state Cp/Cpk (at least {MIN_CAPABILITY_N})",
            "method": "Cp: chi-square interval; Cpk: Bissell (1990) normal approximation"}
     if n < 2 or (lower is None and upper is None):
         return out

@@ -24,20 +24,36 @@ def _instrument(record: dict, role: str) -> dict:
 
 
 def dut_identity(record: dict, dut_serial: str | None = None) -> dict:
-    """Drive serial and firmware (the drive's CiA 301 identity objects 0x1018:04 / 0x100A as
-    queried, else the bench file's), motor serial (bench file), the DUT serial (``dut_serial``,
-    else one the run recorded, else the drive's)."""
+    """The DUT serial (``dut_serial`` given at indexing, else the record's ``dut`` section —
+    ``hil run --dut-serial`` or the station's scan, ``hil.dut`` — else an older record's
+    ``run.dut_serial`` or station ``unit``, else the drive's), how it was stated and checked
+    against the drive, the drive's CiA 301 identity (0x1018 vendor-ID, product code, revision,
+    serial number, as read; the bench file's serial when it states one) and firmware (0x100A),
+    and the motor serial (bench file)."""
     drive = _instrument(record, "drive")
     identity = drive.get("identity") or {}
     queried = identity.get("serial_number", identity.get("serial"))
     drive_serial = drive.get("serial_number") or (str(queried) if queried is not None else None)
     motor = (((record.get("bench") or {}).get("loaded") or {}).get("motor") or {})
     run = record.get("run") or {}
-    recorded = run.get("dut_serial") or (record.get("dut") or {}).get("serial")
+    dut = record.get("dut") or {}
+    own = dut.get("drive_identity") or {}
+    recorded = dut.get("serial") or run.get("dut_serial") or \
+        (record.get("unit") or {}).get("serial_number")
     return {"dut_serial": dut_serial or recorded or drive_serial,
             "drive_serial": drive_serial,
             "drive_firmware": identity.get("firmware") or identity.get("software_version"),
-            "motor_serial": motor.get("serial_number") or None}
+            "motor_serial": motor.get("serial_number") or None,
+            "dut_stated_by": "hil db --dut-serial" if dut_serial else dut.get("stated_by"),
+            "dut_serial_check": dut.get("check"), "dut_serial_override": dut.get("override"),
+            "drive_vendor_id": _int(own.get("vendor", identity.get("vendor"))),
+            "drive_product_code": _int(own.get("product", identity.get("product"))),
+            "drive_revision": _int(own.get("revision", identity.get("revision"))),
+            "drive_serial_number": _int(own.get("serial", queried))}
+
+
+def _int(value) -> int | None:
+    return int(value) if isinstance(value, int) and not isinstance(value, bool) else None
 
 
 def run_row(record: dict, record_path: str, seal_sha256: str, statement,

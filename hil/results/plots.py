@@ -14,11 +14,26 @@ def _pyplot():
     return plt
 
 
+#: A pk-pk difference or U_d beyond this (per unit of the nameplate torque: 100 %) is not on the
+#: scale of a torque ripple (e.g. the angle reference, measured with the drive disabled, whose
+#: U_d was ±1·10⁷ %): such a point is listed under the plot, not plotted (it would squash every
+#: other point to 0).
+OFF_SCALE_PU = 1.0
+
+
+def off_scale(point: dict) -> bool:
+    d = point["pk_pk_pu"]
+    return abs(d["difference"]) > OFF_SCALE_PU or (d["u_difference"] or 0.0) > OFF_SCALE_PU
+
+
 def compare_plot(result: dict, out: str | Path) -> None:
-    """Each matched point's pk-pk difference b − a (% of the nameplate torque) with ±U_d."""
+    """Each matched point's pk-pk difference b − a (% of the nameplate torque) with ±U_d;
+    points off that scale (:data:`OFF_SCALE_PU`) listed below the axes instead."""
     plt = _pyplot()
-    rows = [p for p in result["points"] if p["pk_pk_pu"]["difference"] is not None]
-    fig, ax = plt.subplots(figsize=(10, 0.35 * len(rows) + 1.8))
+    compared = [p for p in result["points"] if p["pk_pk_pu"]["difference"] is not None]
+    rows = [p for p in compared if not off_scale(p)]
+    listed = [p for p in compared if off_scale(p)]
+    fig, ax = plt.subplots(figsize=(10, 0.35 * len(rows) + 1.8 + 0.2 * len(listed)))
     for i, p in enumerate(rows):
         d = p["pk_pk_pu"]
         color = ("tab:gray" if d["changed"] is None
@@ -30,6 +45,11 @@ def compare_plot(result: dict, out: str | Path) -> None:
     ax.set_xlabel("pk-pk difference B − A, % of the nameplate torque (bars: ±U_d)")
     ax.set_title(f"B {result['run_b']} − A {result['run_a']}\nred: changed beyond U_d, "
                  "green: not, grey: another operating point (not judged)", fontsize=8)
+    if listed:
+        text = "not plotted (off the scale of a torque ripple, beyond ±100 %):\n" + "\n".join(
+            f"  {p['test_id'].split('::')[-1]}: d = {100 * p['pk_pk_pu']['difference']:.3g} % "
+            f"± {100 * (p['pk_pk_pu']['u_difference'] or 0.0):.3g} %" for p in listed)
+        fig.text(0.01, 0.0, text, fontsize=7, va="top", family="monospace")
     fig.tight_layout()
     fig.savefig(out, dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -46,16 +66,21 @@ def control_chart_plot(result: dict, out: str | Path) -> None:
     ax.plot(x, [o["value"] for o in obs], color="tab:blue", lw=0.6)
     ax.scatter(x, [o["value"] for o in obs], c=colors, s=8, zorder=3)
     ax.axhline(chart["centre"], color="black", lw=1, label="centre")
-    if chart["ucl"] is not None:
+    if chart["ucl"] is not None and chart.get("stated", True):
         ax.axhline(chart["ucl"], color="tab:orange", ls="--", label="±3σ̂ (moving range)")
-        ax.axhline(chart["lcl"], color="tab:orange", ls="--")
+        if chart["lcl"] is not None:
+            ax.axhline(chart["lcl"], color="tab:orange", ls="--")
     for limit, text in ((result["upper_limit"], "USL"), (result["lower_limit"], "LSL")):
         if limit is not None:
             ax.axhline(limit, color="tab:red", lw=1.2, label=text)
     cap = result["capability"]
     title = result["what"]
-    if cap["cpk"] is not None:
+    if cap["cpk"] is not None and cap.get("stated", True):
         title += f"; Cpk {cap['cpk']:.2f} [{cap['cpk_ci'][0]:.2f}, {cap['cpk_ci'][1]:.2f}]"
+    elif cap.get("reason"):
+        title += f"; Cpk not stated: {cap['reason']}"
+    if not chart.get("stated", True):
+        title += f"; control limits not stated: {chart['reason']}"
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("run (oldest first; red: not accepted)")
     ax.set_ylabel(result["unit"])

@@ -215,6 +215,7 @@ def trend(engine, *, requirement: str | None = None, source: str | None = None,
             "runs_at_other_points": other_point,
             "unit": rows[0].unit if requirement is not None else "pu of the nameplate torque",
             "observations": obs, "lower_limit": lower, "upper_limit": upper,
-            "control_chart": control_chart(values),
+            "control_chart": control_chart(
+                values, nonnegative=source is not None or rows[0].unit == "%"),
             "capability": capability(values, lower, upper),
             "measured_yield": measured_yield([o["accepted"] for o in obs])}

@@ -68,8 +68,16 @@ class RunManager:
 
     def __init__(self, bench_path: str | None, record_root: str | Path,
                  python: str = sys.executable, extra_args: list[str] | None = None,
-                 own_plans: dict[str, str] | None = None) -> None:
+                 own_plans: dict[str, str] | None = None, requirements: str | None = None,
+                 results_db: str | None = None,
+                 selection_requirements: dict[frozenset, str] | None = None) -> None:
         self.bench_path = bench_path
+        #: ``hil run --requirements`` of every unit, unless the plans picked are a saved
+        #: selection with its own (``selection_requirements``: frozenset of plans → file)
+        self.requirements = requirements
+        self.selection_requirements = dict(selection_requirements or {})
+        #: ``hil run --results-db`` of every unit (None: hil run's default rule)
+        self.results_db = results_db
         #: Plans of the lab's own (name → pytest file), offered beside the shipped ones.
         self.own_plans = dict(own_plans or {})
         self.record_root = Path(record_root).resolve()
@@ -112,6 +120,12 @@ class RunManager:
                 command += ["--source", name]
             if operator:
                 command += ["--operator", operator]
+            requirements = self.requirements_for(sources)
+            if requirements:
+                command += ["--requirements", requirements]
+            if self.results_db:
+                command += ["--results-db", self.results_db]
+            command += ["--dut-serial", unit_serial]     # checked against the drive (hil.dut)
             command += ["--", "--hil-unit-serial", unit_serial, "--hil-station-run", token,
                         "--hil-station-answers", str(answers), *self.extra_args,
                         *[self.own_plans[name] for name in sources if name in self.own_plans]]
@@ -128,6 +142,11 @@ class RunManager:
                            process=process, started_s=time.time(), answers_dir=answers,
                            log_path=log_path)
             return self.run
+
+    def requirements_for(self, sources: list[str]) -> str | None:
+        """The requirements file a unit with these plans is judged against: its saved
+        selection's when the plans are exactly one, else the station's."""
+        return self.selection_requirements.get(frozenset(sources), self.requirements)
 
     def stop(self) -> Run:
         """Ctrl-C for the child run: SIGINT (the drive is made safe, the record interrupted)."""

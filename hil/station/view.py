@@ -36,24 +36,30 @@ def short_name(test_id: str) -> str:
 
 
 def progress(record: dict, totals: dict[str, int] | None) -> list[dict]:
-    """Per plan (source): tests recorded, the plan's points, and how many passed / failed."""
+    """Per plan (source): pytest items recorded so far, the plan's collected points, and how
+    many passed / failed. Counted per pytest item (``nodeid``), as the totals are collected: a
+    test that records two entries (the self-check's transducer-dynamics point and its
+    reference) is one point, so done never exceeds the total ("self_check 4 / 3", issue 32)."""
     rows: dict[str, dict] = {}
     sources = list((totals or {}).keys()) or \
         list(((record.get("run") or {}).get("selection") or {}).get("sources") or [])
     for source in sources:
         rows[source] = {"source": source, "done": 0, "total": (totals or {}).get(source),
                         "passed": 0, "bad": 0, "not_run": 0}
+    items: dict[tuple[str, str], list[str]] = {}
     for test in record.get("tests", []):
-        row = rows.setdefault(test.get("source") or "other",
-                              {"source": test.get("source") or "other", "done": 0,
-                               "total": None, "passed": 0, "bad": 0, "not_run": 0})
-        outcome = test.get("outcome")
-        if outcome == "not run":
+        source = test.get("source") or "other"
+        key = (source, test.get("nodeid") or test["test_id"])
+        items.setdefault(key, []).append(test.get("outcome"))
+    for (source, _), outcomes in items.items():
+        row = rows.setdefault(source, {"source": source, "done": 0, "total": None,
+                                       "passed": 0, "bad": 0, "not_run": 0})
+        if all(outcome == "not run" for outcome in outcomes):
             row["not_run"] += 1
             continue
         row["done"] += 1
-        row["passed"] += outcome == "passed"
-        row["bad"] += outcome in ("failed", "error")
+        row["bad"] += any(outcome in ("failed", "error") for outcome in outcomes)
+        row["passed"] += all(outcome == "passed" for outcome in outcomes)
     return list(rows.values())
 
 
@@ -99,6 +105,9 @@ def alerts(record: dict) -> list[dict]:
                             f"tell the bench engineer if it happens twice.",
                     "detail": (abort or {}).get("error") or (lost[0].get("message") if lost
                                                              else "")})
+    stopped = stopped_by_operator(record)
+    if stopped:
+        out.append(stopped)
     statement, problems, voided = self_check_statement(record)
     if voided:
         failed = statement.startswith("FAILED")
@@ -113,6 +122,44 @@ def alerts(record: dict) -> list[dict]:
     return out
 
 
+def stopped_by_operator(record: dict) -> dict | None:
+    """A station run that ended by its Stop (SIGINT from the station; also the station being
+    shut down): what was done and what to do next, in operator words."""
+    interruption = record.get("interruption") if isinstance(record.get("interruption"),
+                                                            dict) else {}
+    if record.get("status") != "interrupted" or interruption.get("signal") not in (None,
+                                                                                  "SIGINT"):
+        return None
+    tests = record.get("tests", [])
+    done = len({t.get("nodeid") or t["test_id"] for t in tests if t.get("outcome") != "not run"})
+    left = len({t.get("nodeid") or t["test_id"] for t in tests
+                if t.get("outcome") == "not run"})
+    return {"kind": "stopped",
+            "text": f"This unit was stopped from the station (Stop) after {done} point(s); "
+                    f"{left} point(s) were not run. The drive was switched to its safe state "
+                    f"and the measured points are kept in the record, but the unit has no "
+                    f"result: do not release it. To test it, scan it and press Start again.",
+            "detail": ""}
+
+
+def banner(statement) -> dict:
+    """The final banner: conformity to the customer's requirements, the statement a line
+    station is for (design.md §7, statement 1). Without requirements it says so plainly and is
+    never a green PASS; the model validation and the self-check stay in the lines below."""
+    requirements = statement.requirements
+    if requirements == "no requirements given":
+        return {"tone": "none", "text": "No requirements were given: conformity of this unit "
+                                        "is NOT stated (the station judged no customer limit)."}
+    if requirements.startswith("PASS") and statement.overall in ("PASS", "CONDITIONAL PASS"):
+        return {"tone": "PASS", "text": f"Conforms to the requirements: {requirements}"}
+    if requirements.startswith("FAIL"):
+        return {"tone": "FAIL", "text": f"Does NOT conform to the requirements: {requirements}"}
+    return {"tone": "NOT STATED", "text": f"Conformity to the requirements not stated: "
+                                          f"{requirements}"
+                                          + ("" if statement.overall in ("PASS", "FAIL")
+                                             else f" (overall {statement.overall})")}
+
+
 def prompts(record: dict) -> list[dict]:
     """Operator questions asked and not yet answered."""
     asked = (record.get("operator_prompts") or {}).get("prompts") or []
@@ -125,6 +172,7 @@ def final_statement(record: dict, folder: Path) -> dict:
     statement = overall_statement(record, verify_record(folder, record))
     return {
         "overall": statement.overall,
+        "banner": banner(statement),
         "overall_line": f"Overall: {statement.overall}"
                         + (f" ({statement.reason})" if statement.reason else ""),
         "lines": [
@@ -134,14 +182,19 @@ def final_statement(record: dict, folder: Path) -> dict:
             ["2. Model validation (vs the paper)", statement.model_text],
             ["3. Bench self-check", statement.self_check
              + (f" ({'; '.join(statement.failed_checks)})" if statement.failed_checks else "")],
-            ["4. Run status and integrity", f"{statement.run}; {statement.integrity}"],
+            ["4. Run status and integrity",
+             ("stopped from the station (Stop): the drive was made safe"
+              if stopped_by_operator(record) else statement.run)
+             + f"; {statement.integrity}"],
         ],
     }
 
 
 def unit_of(record: dict) -> str | None:
-    """The unit serial number the run recorded (``--hil-unit-serial``)."""
-    return (record.get("unit") or {}).get("serial_number")
+    """The unit serial number the run recorded (its ``dut`` section, ``hil.dut``; an older
+    record's ``unit`` section)."""
+    return (record.get("dut") or {}).get("serial") or \
+        (record.get("unit") or {}).get("serial_number")
 
 
 def drive_identity(record: dict) -> str | None:

@@ -29,6 +29,14 @@ def postgres_server():
         server.close()
 
 
+@pytest.fixture(scope="session")
+def real_records(tmp_path_factory):
+    """The records of a full default ``hil run`` and of a station run (``real_runs.py``)."""
+    from real_runs import make_real_records
+
+    return make_real_records(tmp_path_factory.mktemp("real-records"))
+
+
 @pytest.fixture
 def pg_url(postgres_server):
     """A fresh, empty database on the session's server."""

@@ -1,10 +1,12 @@
 """Against a real PostgreSQL (and the SQLite default): several stations writing at once, a
-server killed mid-ingest, a migration from the first schema."""
+server killed mid-ingest, a migration from the first schema — each with the records of a full
+default ``hil run`` and of a station run among its synthetic ones (``real_runs.py``)."""
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -13,14 +15,17 @@ from pathlib import Path
 import pytest
 from sqlalchemy import create_engine, func, select, text
 
-from hil.record import verify_record
+from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
+from hil.record import load_record, verify_record
 from hil.results import index_after_run
-from hil.results.db import engine_for, normalise_url, upgrade
+from hil.results.db import engine_for, head_revision, normalise_url, upgrade
 from hil.results.ingest import sealed_records, sync
+from hil.results.queries import history
 from hil.results.schema import point_orders, points, runs
 from hil.results.synthetic import point_entry, synthetic_record
 
 from conftest import wait_for
+from real_runs import FULL_DUT, STATION_UNIT
 
 STATION = textwrap.dedent("""
     import json, random, sys
@@ -38,6 +43,41 @@ def _records(root: Path, count: int, tests: int = 3) -> list[Path]:
     return [synthetic_record(root, [point_entry(i, 0.03 + 0.001 * n, 0.0007)
                                     for i in range(tests)], dut_serial=f"SN-{n:04d}")
             for n in range(count)]
+
+
+def _tests_of(folders: list[Path]) -> dict[str, dict[str, str]]:
+    """record id → {test id: outcome} as each record itself lists them."""
+    records = [json.loads((f / "record.json").read_text()) for f in folders]
+    return {r["record_id"]: {t["test_id"]: t["outcome"] for t in r["tests"]} for r in records}
+
+
+def _expected(folders: list[Path]) -> tuple[int, int, int, int]:
+    """The counts of ``_counts`` once every folder is indexed, read off the records."""
+    records = [json.loads((f / "record.json").read_text()) for f in folders]
+    n_points = sum(len(r["tests"]) for r in records)
+    n_orders = sum(len((t.get("measured") or {}).get("top_orders") or [])
+                   for r in records for t in r["tests"])
+    return len(records), len(records), n_points, n_orders
+
+
+def _indexed_tests(url: str) -> dict[str, dict[str, str]]:
+    engine = create_engine(normalise_url(url))
+    with engine.connect() as connection:
+        rows = connection.execute(select(points.c.record_id, points.c.test_id,
+                                         points.c.outcome)).all()
+    engine.dispose()
+    out: dict[str, dict[str, str]] = {}
+    for row in rows:
+        out.setdefault(row.record_id, {})[row.test_id] = row.outcome
+    return out
+
+
+def _runs(url: str, record_id: str) -> list[dict]:
+    engine = create_engine(normalise_url(url))
+    with engine.connect() as connection:
+        rows = connection.execute(select(runs).where(runs.c.record_id == record_id)).all()
+    engine.dispose()
+    return [row._asdict() for row in rows]
 
 
 def _counts(url: str) -> tuple[int, int, int, int]:
@@ -67,24 +107,52 @@ def _stations(url: str, folders: list[Path], n_processes: int) -> list[list[str]
 
 
 @pytest.mark.parametrize("backend", ["postgresql", "sqlite"])
-def test_n_stations_times_m_runs_nothing_lost_nothing_duplicated(backend, tmp_path, request):
+def test_n_stations_times_m_runs_nothing_lost_nothing_duplicated(backend, tmp_path, request,
+                                                                 real_records):
     url = (request.getfixturevalue("pg_url") if backend == "postgresql"
            else request.getfixturevalue("sqlite_url"))
-    n_processes, m_runs = 3, 5
-    folders = _records(tmp_path, m_runs)
+    n_processes = 3
+    folders = _records(tmp_path, 3) + real_records.both
+    m_runs = len(folders)
     outs = _stations(url, folders, n_processes)
     # every record indexed by exactly one station; the others found it present
     assert sum(o.count("indexed") for o in outs) == m_runs
     assert all(len(o) == m_runs and set(o) <= {"indexed", "present"} for o in outs)
-    assert _counts(url) == (m_runs, m_runs, 3 * m_runs, 2 * 3 * m_runs)
+    assert _counts(url) == _expected(folders)
+    assert _indexed_tests(url) == _tests_of(folders)
+
+
+@pytest.mark.parametrize("backend", ["postgresql", "sqlite"])
+def test_real_runs_are_indexed_whole(backend, request, real_records):
+    """Every test of a full default run and of a station run, with the outcome its record
+    states: "measured, no verdict" (20 characters) and "not determinable" included."""
+    url = (request.getfixturevalue("pg_url") if backend == "postgresql"
+           else request.getfixturevalue("sqlite_url"))
+    result = sync(engine_for(url), real_records.both)
+    assert result.failed == [] and len(result.indexed) == 2
+    indexed = _indexed_tests(url)
+    assert indexed == _tests_of(real_records.both)
+    full = indexed[load_record(real_records.full)["record_id"]]
+    assert MEASURED in full.values()
+    assert len(full) >= 60 and set(full.values()) <= {"passed", "failed", MEASURED,
+                                                      NOT_DETERMINABLE}
+    # the station's scanned unit and the run's --dut-serial are the DUT column (issue 32.2)
+    station_id = load_record(real_records.station)["record_id"]
+    assert [r["record_id"] for r in history(engine_for(url), dut=STATION_UNIT)] == [station_id]
+    assert [r["dut_stated_by"] for r in _runs(url, station_id)] == ["station scan"]
+    assert len(history(engine_for(url), dut=FULL_DUT)) == 1
 
 
 #: records the killed sync works through
 KILL_RECORDS = 150
 
 
-def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_url):
+def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_url,
+                                                  real_records):
     folders = _records(tmp_path / "records", 20, tests=6)
+    for real in real_records.both:        # among them, two that hil run wrote
+        shutil.copytree(real, tmp_path / "records" / real.name)
+        folders.append(tmp_path / "records" / real.name)
     engine_for(pg_url)                      # schema created before the kill
     env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
     code = ("import sys; from pathlib import Path\n"
@@ -101,26 +169,28 @@ def test_a_server_killed_mid_ingest_loses_nothing(tmp_path, postgres_server, pg_
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 0, err[-2000:]       # the sync process survived the kill
     indexed, failed = map(int, out.split())
-    assert indexed >= 3 and failed >= 1 and indexed + failed == 20
+    assert indexed >= 3 and failed >= 1 and indexed + failed == 22
     # a run that ends while the server is down: its record is sealed, indexing gives up
     late = synthetic_record(tmp_path / "records", [point_entry(i, 0.05, 0.0007)
                                                    for i in range(6)])
     assert index_after_run(late, pg_url, timeout_s=5.0) is False
     folders.append(late)
     postgres_server.start()
-    n_runs, _, n_points, _ = _counts(pg_url)
-    assert n_points == 6 * n_runs                # no half-indexed record
+    n_runs = _counts(pg_url)[0]
+    tests = _tests_of(folders)
+    assert all(tests[rid] == got for rid, got in _indexed_tests(pg_url).items())  # none half
     assert all(verify_record(f) == [] for f in folders)   # every record intact
     from hil.results.db import dispose_all
 
     dispose_all()
     result = sync(engine_for(pg_url), sealed_records(tmp_path / "records"))
-    assert not result.failed and len(result.indexed) == 21 - n_runs
-    assert _counts(pg_url) == (21, 21, 6 * 21, 2 * 6 * 21)
+    assert not result.failed and len(result.indexed) == 23 - n_runs
+    assert _counts(pg_url) == _expected(folders)
+    assert _indexed_tests(pg_url) == _tests_of(folders)
 
 
 @pytest.mark.parametrize("backend", ["postgresql", "sqlite"])
-def test_migration_from_the_first_schema(backend, tmp_path, request):
+def test_migration_from_the_first_schema(backend, tmp_path, request, real_records):
     url = (request.getfixturevalue("pg_url") if backend == "postgresql"
            else request.getfixturevalue("sqlite_url"))
     engine = create_engine(normalise_url(url))
@@ -140,8 +210,10 @@ def test_migration_from_the_first_schema(backend, tmp_path, request):
     migrated = engine_for(url)               # opening migrates to head
     with migrated.connect() as connection:
         assert connection.execute(text("SELECT version_num FROM alembic_version")).scalar() \
-            == "0002"
+            == head_revision()
         assert connection.execute(select(points.c.pk_pk_pu)).scalars().all() == [0.03]
     folder = synthetic_record(tmp_path / "r", [point_entry(0, 0.04, 0.001)])
-    assert sync(migrated, [folder]).indexed == [str(folder)]
-    assert _counts(url) == (2, 2, 2, 2)
+    assert sync(migrated, [folder, *real_records.both]).indexed == [
+        str(f) for f in (folder, *real_records.both)]
+    n_runs, distinct, n_points, n_orders = _expected([folder, *real_records.both])
+    assert _counts(url) == (n_runs + 1, distinct + 1, n_points + 1, n_orders)

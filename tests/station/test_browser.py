@@ -184,6 +184,11 @@ def test_live_plot_second_browser_close_and_stop_mid_sweep(station):
         wait_until(second, lambda d: page_state(d)["run"]["phase"] == "finished",
                    "the run stopped")
         run = page_state(second)["run"]
+        # the refusal held while that run went on; it does not outlive it (issue 32)
+        wait_until(second, lambda d: d.find_element(By.ID, "message").text == "",
+                   "the stale refusal cleared")
+        alerts = [e.text for e in second.find_elements(By.CSS_SELECTOR, "#alerts .alert")]
+        assert any("press Start again" in text for text in alerts), alerts
     finally:
         for driver in (first, second):
             if driver is not None:
@@ -227,6 +232,7 @@ def test_finished_unit_verdict_pdf_and_history(station):
                    and page_state(d)["run"]["links"]["pdf"], "the finished unit with its PDF")
         run = page_state(driver)["run"]
         overall = driver.find_element(By.ID, "overall").text
+        statements = driver.find_element(By.ID, "statements").text
         history = [row.text for row in
                    driver.find_elements(By.CSS_SELECTOR, "#history tbody tr")]
         screenshot(driver, "station-finished.png")
@@ -234,7 +240,9 @@ def test_finished_unit_verdict_pdf_and_history(station):
     finally:
         driver.quit()
     folder = station["records"] / run["record"]
-    assert overall == expected_statement(folder)
+    # the banner is conformity to requirements: none given, said plainly, never a green PASS
+    assert overall.startswith("No requirements were given") and "NOT stated" in overall
+    assert expected_statement(folder) in statements          # page 1's overall line, below
     assert pdf.startswith(b"%PDF")
     record = load_record(folder)
     assert record["status"] == "complete" and record["unit"]["serial_number"] == "SN-OK-2"

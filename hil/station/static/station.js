@@ -34,7 +34,14 @@ async function post(path, body) {
                                                 "X-HIL-CSRF": token ? token.content : ""}});
   const answer = await response.json().catch(() => ({}));
   $("message").textContent = response.ok ? "" : (answer.refused || ("refused: HTTP " + response.status));
+  // a refusal holds for the bench as it was then: the next change of run clears it (issue 32)
+  window.refusedFor = response.ok ? null : runKey(window.stationState);
   return response.ok;
+}
+
+function runKey(state) {
+  const run = state && state.run;
+  return run ? [run.phase, run.record, run.unit].join("|") : "";
 }
 
 function renderPlans(state) {
@@ -95,9 +102,12 @@ function renderRun(run, totals) {
   }
   $("final").hidden = !run.final;
   if (run.final) {
-    $("overall").textContent = run.final.overall_line;
-    $("overall").className = run.final.overall;
+    // the banner is conformity to the requirements; page 1's overall line is in the table
+    const banner = run.final.banner || {text: run.final.overall_line, tone: run.final.overall};
+    $("overall").textContent = banner.text;
+    $("overall").className = banner.tone;
     const table = $("statements"); table.replaceChildren();
+    table.appendChild(row(["Overall (page 1)", run.final.overall_line]));
     for (const [key, value] of run.final.lines) table.appendChild(row([key, value]));
   }
   const links = $("links"); links.replaceChildren();
@@ -140,6 +150,9 @@ function renderHistory(rows) {
 }
 
 function render(state) {
+  if (window.refusedFor != null && runKey(state) !== window.refusedFor) {
+    $("message").textContent = ""; window.refusedFor = null;
+  }
   window.stationState = state;
   $("bench").textContent = state.bench;
   $("station-error").hidden = !state.station_error;
