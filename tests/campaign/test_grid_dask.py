@@ -18,8 +18,8 @@ from hil.record import verify_record
 GRID = """
 bench = "sim-bench"
 plans = [["baseline"]]
-[axes.host]        # a loaded CI host: the simulated drive's SDO answers may take > 0.5 s
-patient = {"drive.sdo_timeout_s" = 3.0}
+[axes.host]        # a loaded host: the simulated instruments' answers may take > 0.5 s
+patient = {"drive.sdo_timeout_s" = 3.0, "drive.heartbeat_timeout_s" = 5.0, "daq.timeout_s" = 5.0}
 [axes.point]
 forward = {"operating_point.speed_rpm" = 500.0}
 slower = {"operating_point.speed_rpm" = 400.0}
