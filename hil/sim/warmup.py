@@ -47,7 +47,7 @@ def engine_cached() -> bool | None:
 
 
 #: The progress line of a first start that has to compile (stderr).
-COMPILING = ("ripple-hil: compiling the simulation engine (once after install: about 30 s on "
+COMPILING = ("ripple-hil: compiling the simulation engine (once after install: about 45 s on "
              "an idle machine; `python -m hil.sim.warmup` does it ahead) ...")
 
 
