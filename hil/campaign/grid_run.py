@@ -60,7 +60,9 @@ def execute_run(run: GridRun) -> dict:
             status, output = done.returncode, done.stdout + done.stderr
         except subprocess.TimeoutExpired as exc:
             status = None
-            output = f"timed out after {run.timeout_s:g} s\n{exc.stdout or ''}{exc.stderr or ''}"
+            output = f"timed out after {run.timeout_s:g} s\n" + "".join(
+                part.decode(errors="replace") if isinstance(part, bytes) else part or ""
+                for part in (exc.stdout, exc.stderr))
         found = sorted(p for p in records.iterdir() if p.is_dir()) if records.exists() else []
         archive = None
         if found:
