@@ -12,7 +12,9 @@ execute_run`) and returns the record. The client writes each record as it arrive
 ``<key>`` is the run's identity (:func:`hil.campaign.grid_spec.run_key`); the folder is written
 under a temporary name and renamed, so a run is either done or absent. A rerun skips every done
 key — after Ctrl-C, a crash of this process or a killed worker (Dask runs a lost task again
-elsewhere; its record is written once, when its one result arrives). Each record is indexed in
+elsewhere; its record is written once, when its one result arrives). A run whose record ended
+other than ``complete`` (e.g. ``aborted``: the bench was lost) is done and says so in the
+summary; deleting its ``runs/<key>`` folder makes the next rerun measure it again. Each record is indexed in
 the results database as it is written, and all done ones again at the end (idempotent: a
 record already indexed is left as it is).
 """
@@ -219,7 +221,7 @@ def grid_row(folder: Path, run: GridRun) -> dict:
         meta = json.loads((target / RUN_FILE).read_text())
         record = load_record(target / "record")
         row |= {"state": "done", "exit_status": meta["exit_status"], "seconds": meta["seconds"],
-                "record": str(target / "record"),
+                "record": str(target / "record"), "record_status": record.get("status"),
                 "outcomes": dict(Counter(t.get("outcome") for t in record.get("tests", []))),
                 "overall": overall_statement(record, None).overall}
     elif failed.exists():
@@ -238,7 +240,9 @@ def summary_table(rows: list[dict]) -> str:
     for row in rows:
         counts = row.get("outcomes", {})
         total.update(counts)
-        lines.append("| " + " | ".join([row["name"], row["state"], row.get("overall", ""),
+        state = row["state"] + (f" ({row['record_status']})" if row.get("record_status")
+                                not in (None, "complete") else "")
+        lines.append("| " + " | ".join([row["name"], state, row.get("overall", ""),
                                          *(str(counts.get(o, 0)) for o in outcomes),
                                          str(row.get("exit_status", "")),
                                          f"{row['seconds']:.0f}" if "seconds" in row else ""])
