@@ -11,7 +11,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
-	$(BIN)/python -m hil.sim.warmup
+	$(BIN)/python -m hil.warmup
 	touch $(STAMP)
 
 run: $(STAMP)

@@ -25,12 +25,33 @@ DESCRIPTION = ("ripple-hil: hardware-in-the-loop bench tests of the torque rippl
 EPILOG = ("Run 'hil COMMAND --help' for a command's options. Bad input exits 2 with one line on "
           "stderr, a failed run exits 1; with --json an error is also a JSON object on stdout.")
 
-#: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
-COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "verify", "predict", "budget",
-                              "yield_cmd", "diagnose", "export", "db", "history", "compare", "trend",
-                              "station"]
-#: Command names whose module name differs (the others are their module's name).
-COMMAND_NAMES = {"sim_bench": "sim-bench", "yield_cmd": "yield"}
+#: The sub-commands, in the order ``hil --help`` lists them: command name → (module under
+#: ``hil.commands``, one-line help). Only the named command's module is imported (its heavy
+#: imports — pytest, scipy, SALib, dask, SQLAlchemy — never slow another command, ``--help`` or
+#: ``--version`` down); ``tests/cli/test_quick_start.py`` checks each help line against the one
+#: the module registers. A new command is one line here plus its module's ``register``.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "run": ("run", "run the test plans, record the run, write the report"),
+    "sim-bench": ("sim_bench", "start the simulated instruments; print a bench file for them"),
+    "analyze": ("analyze", "torque-ripple metrics of a capture file"),
+    "report": ("report", "PDF test report of a run record"),
+    "verify": ("verify", "check a run record's hashes and signature (record.json and every "
+                         "capture)"),
+    "predict": ("predict", "closed-form ripple prediction of one source"),
+    "budget": ("budget", "invert a ripple limit into controller limits"),
+    "yield": ("yield_cmd", "Monte Carlo yield of a ripple limit over tolerances"),
+    "diagnose": ("diagnose", "attribute the measured ripple to its sources (offsets, gains, dead "
+                             "time, encoder, motor) and suggest the calibration"),
+    "export": ("export", "export a record's captures as ASAM MDF4 files (with units and "
+                         "provenance)"),
+    "db": ("db", "results database: sync, import, export, verify"),
+    "history": ("history", "runs in the results database"),
+    "compare": ("compare", "two runs side by side, differences with U"),
+    "trend": ("trend", "control chart, Cp/Cpk and measured yield over runs"),
+    "station": ("station", "the operator's page in the browser"),
+    "campaign": ("campaign", "a regression grid of plan runs on Dask (bench variations x plan "
+                             "selections)"),
+}
 
 
 class UsageError(Exception):
@@ -54,9 +75,10 @@ def one_line_error_parser() -> type:
 
 
 def build_parser(argv: list[str] | None = None):
-    """The parser (an ``argparse.ArgumentParser``); with ``argv`` naming a command, only that
-    command's module is imported (a command's heavy imports — SALib, scipy.stats, dask — never
-    slow another command down)."""
+    """The parser (an ``argparse.ArgumentParser``); with ``argv`` naming a command, that
+    command's module is imported and registers its full parser; every other command gets a
+    placeholder parser carrying only its help line (so ``hil --help`` and ``hil --version``
+    import no command module)."""
     import importlib
 
     from hil import __version__
@@ -67,23 +89,19 @@ def build_parser(argv: list[str] | None = None):
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND",
                                        parser_class=parser_class)
     subparsers.required = True
-    for name in _modules_for(argv):
-        importlib.import_module(f"hil.commands.{name}").register(subparsers)
-    return parser
-
-
-def _modules_for(argv: list[str] | None) -> list[str]:
-    """The command module ``argv``'s first word names, else every module (help, errors)."""
     named = _command_named(argv)
-    return [name for name in COMMAND_MODULES if COMMAND_NAMES.get(name, name) == named] \
-        or COMMAND_MODULES
+    for name, (module, help_line) in COMMANDS.items():
+        if name == named:
+            importlib.import_module(f"hil.commands.{module}").register(subparsers)
+        else:
+            subparsers.add_parser(name, help=help_line)
+    return parser
 
 
 def _command_named(argv: list[str] | None) -> str | None:
     """The command name ``argv``'s first word gives, if it is one (None otherwise)."""
     first = next((word for word in argv or () if not word.startswith("-")), None)
-    names = {COMMAND_NAMES.get(name, name) for name in COMMAND_MODULES}
-    return first if first in names else None
+    return first if first in COMMANDS else None
 
 
 def report_error(command: str, kind: str, message: str, status: int, as_json: bool) -> int:

@@ -16,6 +16,10 @@ drive. Each test of the record is then one of:
 
 Run: ``.venv/bin/python studies/validity.py [--reduced] [--motor NAME] [--out DIR]`` (the full
 grid: 3 motors × 12 points, ≈ 15-30 s per point on one core; ``--reduced``: 2 runs for CI).
+``--dask`` runs the points as a regression grid (``hil campaign``'s engine, hil/campaign/grid.py)
+on an embedded LocalCluster (``--workers N``) or an existing cluster (``--scheduler ADDRESS``):
+resumable in ``OUT/grid`` (a rerun skips the points done), every record sealed and indexed in
+``OUT/grid/results.sqlite``; the table is the same.
 Writes ``DIR/validity.json`` and ``DIR/validity.md`` and prints the table (``--from-json FILE``
 prints it again); exit 1 on a wrong rejection.
 """
@@ -92,14 +96,19 @@ def _base_bench() -> dict:
     return tomllib.loads(example_bench_path("sim-bench").read_text())
 
 
-def bench_copy(name: str, speed_rpm: float, current_a: float, folder: Path) -> Path:
-    """A copy of the shipped simulated bench with this motor and operating point."""
+def bench_table(name: str, speed_rpm: float, current_a: float) -> dict:
+    """The shipped simulated bench with this motor and operating point (a TOML table)."""
     table = _base_bench()
     table["motor"] = table["motor"] | MOTORS[name]
     table["operating_point"] = {"speed_rpm": speed_rpm, "current_a": current_a,
                                 "current_angle_deg": 0.0}
+    return table
+
+
+def bench_copy(name: str, speed_rpm: float, current_a: float, folder: Path) -> Path:
+    """A copy of the shipped simulated bench with this motor and operating point."""
     path = folder / f"bench-{name}-{speed_rpm:g}rpm-{current_a:g}A.toml"
-    path.write_text(tomli_w.dumps(table))
+    path.write_text(tomli_w.dumps(bench_table(name, speed_rpm, current_a)))
     return path
 
 
@@ -125,8 +134,6 @@ def classify(test: dict) -> tuple[str, str | None]:
 def run_point(name: str, speed_rpm: float, current_a: float, folder: Path,
               sources=()) -> dict:
     """One ``hil run`` on the correct simulated drive; the classified tests of its record."""
-    from hil.record import load_record
-
     folder.mkdir(parents=True, exist_ok=True)
     bench = bench_copy(name, speed_rpm, current_a, folder)
     records = folder / "records"
@@ -145,11 +152,47 @@ def run_point(name: str, speed_rpm: float, current_a: float, folder: Path,
     if not found:
         row["run_error"] = (done.stdout[-1500:] + done.stderr[-1500:]).strip()
         return row
-    for test in load_record(found[-1])["tests"]:
-        category, reason = classify(test)
-        row["tests"].append({"test_id": test.get("test_id"), "source": test.get("source"),
-                             "category": category, "reason": reason})
+    row["tests"] = classified_tests(found[-1])
     return row
+
+
+def classified_tests(record: Path) -> list[dict]:
+    from hil.record import load_record
+
+    tests = []
+    for test in load_record(record)["tests"]:
+        category, reason = classify(test)
+        tests.append({"test_id": test.get("test_id"), "source": test.get("source"),
+                      "category": category, "reason": reason})
+    return tests
+
+
+def run_on_dask(plan, sources, folder: Path, scheduler: str | None,
+                workers: int | None) -> list[dict]:
+    """The same runs as a regression grid (``hil campaign``'s engine: resumable in ``folder``,
+    each record sealed and indexed in ``folder/results.sqlite``); the same rows."""
+    from hil.campaign.grid import run_grid
+    from hil.campaign.grid_spec import GridRun
+
+    runs = [GridRun({"motor": name, "point": f"{speed:g}rpm_{current:g}A"},
+                    bench_table(name, speed, current), tuple(sources), 0, RUN_TIMEOUT_S)
+            for name, (speed, current) in plan]
+    result = run_grid(runs, folder, scheduler=scheduler, n_workers=workers,
+                      results_db=f"sqlite:///{(folder / 'results.sqlite').resolve()}",
+                      progress=sys.stderr.isatty())
+    print(f"grid: {len(result.computed)} run(s) computed on {result.workers} worker(s), "
+          f"{len(result.skipped)} resumed, wall {result.wall_s:.0f} s", file=sys.stderr)
+    rows = []
+    for (name, (speed, current)), grid in zip(plan, result.rows):
+        row = {"motor": name, "speed_rpm": speed, "current_a": current,
+               "exit_status": grid.get("exit_status"), "seconds": grid.get("seconds"),
+               "tests": []}
+        if grid["state"] == "done":
+            row["tests"] = classified_tests(Path(grid["record"]))
+        else:
+            row["run_error"] = grid.get("output") or grid["state"]
+        rows.append(row)
+    return rows
 
 
 def counts(row: dict) -> Counter:
@@ -245,6 +288,12 @@ def main(argv=None) -> int:
     parser.add_argument("--base-json", type=Path,
                         help="with --source: a full study's validity.json whose rows keep their "
                              "other plans' tests; only the re-run plans' tests are replaced")
+    parser.add_argument("--dask", action="store_true",
+                        help="run the points as a regression grid on Dask (an embedded "
+                             "LocalCluster; resumable in OUT/grid)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="with --dask: tcp://HOST:8786 of an existing Dask cluster")
+    parser.add_argument("--workers", type=int, help="with --dask: LocalCluster workers")
     parser.add_argument("--from-json", type=Path,
                         help="only write the table again from a study's validity.json")
     args = parser.parse_args(argv)
@@ -258,6 +307,23 @@ def main(argv=None) -> int:
         plan = [(name, point) for name in (args.motor or MOTORS) for point in grid(name)]
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
+    if args.dask or args.scheduler:
+        rows = run_on_dask(plan, args.source, args.out / "grid", args.scheduler, args.workers)
+        if args.base_json:
+            rows = [with_base(row, args.base_json, set(args.source)) for row in rows]
+        (args.out / "validity.json").write_text(json.dumps({"motors": MOTORS, "rows": rows},
+                                                           indent=1))
+    else:
+        rows = _run_in_turn(plan, args)
+    table = markdown(rows)
+    (args.out / "validity.md").write_text(table + "\n")
+    print(table)
+    return 1 if any(counts(row)[WRONG] for row in rows) else 0
+
+
+def _run_in_turn(plan, args) -> list[dict]:
+    """The points one after another in this process's children (no Dask)."""
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for index, (name, (speed, current)) in enumerate(plan):
             row = run_point(name, speed, current, Path(tmp) / f"p{index}",
@@ -270,10 +336,7 @@ def main(argv=None) -> int:
                   file=sys.stderr, flush=True)
             (args.out / "validity.json").write_text(json.dumps(
                 {"motors": MOTORS, "rows": rows}, indent=1))
-    table = markdown(rows)
-    (args.out / "validity.md").write_text(table + "\n")
-    print(table)
-    return 1 if any(counts(row)[WRONG] for row in rows) else 0
+    return rows
 
 
 if __name__ == "__main__":

@@ -87,9 +87,9 @@ from types import SimpleNamespace
 from typing import Callable, Iterable
 
 import numpy as np
-from scipy import stats
 
 from hil.capture import Capture
+from hil.diagnosis.quantiles import chi2_ppf, norm_ppf
 from hil.diagnosis import parameters as P
 from hil.diagnosis import signatures as sig
 from hil.diagnosis.orders import OrderSpectrum, spectrum_from_capture
@@ -441,7 +441,7 @@ def _linearity(point: _Point, kind: AdditionKind, m: int, tolerance_pu: float) -
     h_small, h_large, diff = complex(*hs), complex(*hl), complex(*d)
     tol_cov = linearity_tolerance_cov(kind, (h_small + h_large) / 2.0)
     chi2, dof = _chi2(np.array([diff.real, diff.imag]), cov + tol_cov)
-    limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, max(dof, 1)))
+    limit = float(chi2_ppf(CONTRADICTION_QUANTILE, max(dof, 1)))
     u_diff = math.sqrt(max(np.trace(cov) / 2.0, 0.0))
     rel_tol, phase_tol_rad = LINEARITY_TOLERANCE.get(kind.key, (0.0, 0.0))
     unit = f"N·m/{kind.unit}"
@@ -721,7 +721,7 @@ def _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup, 
                      f"order {m} fitted beside ({len(classes)} complex term(s), through the "
                      f"transducer's response) from {'; '.join(labels)}")
     if dof > 0:
-        limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, dof))
+        limit = float(chi2_ppf(CONTRADICTION_QUANTILE, dof))
         if chi2 / dof > 1.0:
             # the fit's convention (hil.diagnosis.fit): covariance × the Birge ratio χ²/ν
             c_theta = c_theta * (chi2 / dof)
@@ -822,7 +822,7 @@ def compare_transfers_with_models(result: AdditionsDiagnosis, setup: sig.DriveSe
     plan's region, :mod:`hil.validity`; None: inside): such a transfer is recorded
     "not compared: <reason>" (``compared`` False, ``agrees`` None), never passed or failed."""
     params = {param.name: param for param in P.controller_parameters(transducer_class_pct)}
-    limit = float(stats.chi2.ppf(CONTRADICTION_QUANTILE, 2))
+    limit = float(chi2_ppf(CONTRADICTION_QUANTILE, 2))
     out = []
     for t in result.transfers:
         name, factor = MODEL_PARAMETER[t["addition"]]
@@ -882,7 +882,7 @@ def compare_with_fit(result: AdditionsDiagnosis, diagnosis) -> list[dict]:
     both = {name: (result.value(name), diagnosis.value(name)) for name in names}
     n_compared = sum(1 for mine, theirs in both.values()
                      if mine is not None and theirs is not None)
-    z_limit = float(stats.norm.ppf(
+    z_limit = float(norm_ppf(
         1.0 - (1.0 - CONTRADICTION_QUANTILE) / 2.0 / max(n_compared, 1)))
     out = []
     for name in names:

@@ -20,9 +20,9 @@ import math
 from typing import Iterable
 
 import numpy as np
-from scipy import stats
 
 from hil.capture import Capture
+from hil.diagnosis.quantiles import chi2_ppf
 from hil.diagnosis import dwell
 from hil.diagnosis import encoder as enc
 from hil.diagnosis import parameters as P
@@ -447,7 +447,7 @@ def _unexplained(problem, result, spectra, fit_orders, p) -> list[dict]:
         s = result.sigma_total[mask]
         chi2 = float(np.sum((r.real / s) ** 2 + (r.imag / s) ** 2))
         dof = 2 * int(mask.sum())
-        limit = float(stats.chi2.ppf(UNEXPLAINED_QUANTILE, dof))
+        limit = float(chi2_ppf(UNEXPLAINED_QUANTILE, dof))
         if chi2 > limit:
             worst = int(np.argmax(np.abs(r)))
             at = spectra[int(rows[mask][worst, 0])]

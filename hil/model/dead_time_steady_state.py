@@ -40,6 +40,7 @@ periods there). The per-period leg error is V_dc·f_pwm·(T_d − t_low,rise −
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -169,11 +170,24 @@ def _run(r, l, emf, w_e, amp, phi, eps, kp, ki, dt, delay_steps, settle_steps, r
     return theta_out, torque_out
 
 
-def steady_state_torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: float,
-                               elec_speed_rad_s: float, current_a: float, current_angle_rad: float,
-                               leg_error_v: float, loop_bandwidth_rad_s: float, delay_s: float,
-                               max_order: int, dc_bus_v: float = 0.0,
-                               pwm_frequency_hz: float = 0.0) -> np.ndarray:
+def steady_state_torque_orders(**inputs) -> np.ndarray:
+    """:func:`torque_orders` (its arguments, by keyword); a run's pre-flight and its measurement
+    ask for the same point's prediction, so the last results are kept (a copy is returned)."""
+    return _kept_torque_orders(**inputs).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _kept_torque_orders(**inputs) -> np.ndarray:
+    coefficients = torque_orders(**inputs)
+    coefficients.flags.writeable = False
+    return coefficients
+
+
+def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: float,
+                  elec_speed_rad_s: float, current_a: float, current_angle_rad: float,
+                  leg_error_v: float, loop_bandwidth_rad_s: float, delay_s: float,
+                  max_order: int, dc_bus_v: float = 0.0,
+                  pwm_frequency_hz: float = 0.0) -> np.ndarray:
     """Complex order coefficients c_k (k = 0..max_order) of the torque per unit of the ideal,
     torque(θ) = Re Σ c_k·e^{jkθ} (c_0 real: the mean per unit), θ the electrical angle.
 

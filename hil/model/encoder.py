@@ -16,7 +16,6 @@ import cmath
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from hil.errors import InputError
 from hil.model.core import OperatingPoint, Prediction, angle_grid, check_range
@@ -134,6 +133,8 @@ def current_angle_for_ripple(resolution_rad: float, target_pu: float) -> float:
     high = min(high * (1 - 1e-12), math.pi / 2)
     if lagging_ripple_pu(resolution_rad, high) < target:
         raise InputError(f"target {100 * target:.4g} % is not reached below φ = 90°")
+    from scipy.optimize import brentq  # loaded when asked: hil predict --target-pct
+
     return brentq(lambda phi: lagging_ripple_pu(resolution_rad, phi) - target, 0.0, high,
                   xtol=1e-13)
 

@@ -8,6 +8,14 @@ trend), ``capability`` (Cp/Cpk and yield intervals), ``fleet_yield`` (tolerances
 units).
 """
 
-from hil.results.ingest import index_after_run, verify_row
-
 __all__ = ["index_after_run", "verify_row"]
+
+
+def __getattr__(name: str):
+    """``index_after_run`` and ``verify_row`` load :mod:`hil.results.ingest` (SQLAlchemy) on
+    first use, so that a command's ``--help`` naming a database option imports no database."""
+    if name in __all__:
+        from hil.results import ingest
+
+        return getattr(ingest, name)
+    raise AttributeError(f"module 'hil.results' has no attribute {name!r}")

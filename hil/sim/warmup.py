@@ -2,7 +2,9 @@
 
 A cold start otherwise compiles ``kernel.run_drive`` (and, for ``simulate_batch``, the parallel
 ``kernel.run_batch``) inside the first run that needs them; with the cache built here a run only
-loads them. Run: ``python -m hil.sim.warmup`` (prints what it compiled or loaded and how long).
+loads them. Run: ``python -m hil.sim.warmup`` — as a command it warms the whole package
+(:mod:`hil.warmup`: the engine here, plus the analysis and model kernels a run uses) and prints
+what it compiled or loaded and how long; :func:`warm_up` below is the engine's part.
 After ``pip install`` (no ``make``), run it once; otherwise the first simulated bench compiles
 ``run_drive`` when it starts (:func:`prepare_twin_engine`, with a progress line on stderr),
 before any instrument is served: a compile inside the first capture held the interpreter long
@@ -45,7 +47,7 @@ def engine_cached() -> bool | None:
 
 
 #: The progress line of a first start that has to compile (stderr).
-COMPILING = ("ripple-hil: compiling the simulation engine (once after install: about 30 s on "
+COMPILING = ("ripple-hil: compiling the simulation engine (once after install: about 45 s on "
              "an idle machine; `python -m hil.sim.warmup` does it ahead) ...")
 
 
@@ -69,5 +71,7 @@ def prepare_twin_engine(stream=None) -> float:
 
 
 if __name__ == "__main__":
-    for name, wall_s in warm_up().items():
-        print(f"hil.sim engine {name}: compiled or loaded in {wall_s:.1f} s")
+    # the command warms every kernel a run uses; hil.sim itself never imports hil.model
+    from hil.warmup import main
+
+    main()

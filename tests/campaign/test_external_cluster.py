@@ -93,3 +93,32 @@ def test_yield_on_an_external_cluster_equals_inline(tmp_path, external_cluster, 
     assert cluster["drives"] == drives
     # the same drives, the same ripple, the same statistics: bit for bit (JSON floats round-trip)
     assert _results(cluster) == json.loads(json.dumps(_results(inline)))
+
+
+GRID = """
+bench = "sim-bench"
+plans = [["baseline"]]
+[axes.host]        # a loaded host: the simulated instruments' answers may take > 0.5 s
+patient = {"drive.sdo_timeout_s" = 3.0, "drive.heartbeat_timeout_s" = 5.0, "daq.timeout_s" = 5.0}
+[axes.point]
+forward = {"operating_point.speed_rpm" = 500.0}
+reverse = {"operating_point.speed_rpm" = -500.0}
+"""
+
+
+def test_grid_on_an_external_cluster(tmp_path, external_cluster):
+    """``hil campaign GRID.toml --scheduler ADDRESS``: a tiny grid (2 runs, one plan each) on
+    the separately started scheduler and its 2 workers; both runs' records come back sealed
+    and are indexed, the summary lists them."""
+    grid = tmp_path / "grid.toml"
+    grid.write_text(GRID)
+    done = subprocess.run(
+        [sys.executable, "-m", "hil", "campaign", str(grid), "--scheduler", external_cluster,
+         "--out", str(tmp_path / "out"), "--results-db", f"sqlite:///{tmp_path / 'r.sqlite'}",
+         "--json"], capture_output=True, text=True, timeout=400)
+    assert done.returncode == 0, done.stderr + done.stdout
+    summary = json.loads(done.stdout)
+    assert summary["workers"] == 2 and summary["computed"] == 2 and summary["indexed"] == 2
+    assert [row["state"] for row in summary["runs"]] == ["done", "done"]
+    assert all(row["outcomes"].get("passed", 0) > 0 for row in summary["runs"])
+    assert all(Path(row["record"], "record.sha256").exists() for row in summary["runs"])

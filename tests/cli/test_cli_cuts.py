@@ -154,9 +154,9 @@ def test_json_errors_are_one_json_object(capsys, argv, kind):
 def test_no_command_help_is_cut_mid_sentence():
     """Each command's --help description is a whole paragraph: it ends a sentence (issue 32,
     "Why" 6: compare, trend and history stopped at the end of a docstring line)."""
-    from hil.cli import COMMAND_MODULES, COMMAND_NAMES, build_parser
+    from hil.cli import COMMANDS, build_parser
 
-    for command in (COMMAND_NAMES.get(module, module) for module in COMMAND_MODULES):
+    for command in COMMANDS:
         parser = build_parser([command])
         sub = next(action for action in parser._actions
                    if getattr(action, "choices", None) and command in action.choices)

@@ -1,7 +1,11 @@
 """The reduced validity study (studies/validity.py --reduced): the correct simulated drive, run
 as a user runs it (``hil run --bench COPY``) on Table I in reverse rotation and on an 8-pole 48 V
 motor, every plan: no wrong rejection (a failed verdict on a correct drive), no error, and every
-refusal carries its reason. ``pytest -m validity_study`` selects it."""
+refusal carries its reason. It runs as a regression grid (``studies/validity.py --reduced
+--dask``) on a 1-worker LocalCluster: two whole runs side by side on CI's 2 cores, with the
+bench's own timeouts, are what the simulated instruments' timing must not depend on; the
+2-worker grid is tests/campaign/test_grid_dask.py's and the study's
+(studies/results/validity_grid.md). ``pytest -m validity_study`` selects it."""
 
 from __future__ import annotations
 
@@ -24,9 +28,9 @@ def load_study():
 @pytest.mark.slow
 def test_reduced_validity_study_has_no_wrong_rejection(tmp_path):
     study = load_study()
-    rows = [study.run_point(name, speed, current, tmp_path / f"p{i}")
-            for i, (name, (speed, current)) in enumerate(study.REDUCED)]
+    rows = study.run_on_dask(study.REDUCED, [], tmp_path / "grid", None, 1)
     table = study.markdown(rows)
+    assert [(r["motor"], (r["speed_rpm"], r["current_a"])) for r in rows] == study.REDUCED
     assert all("run_error" not in row for row in rows), table
     tests = [t for row in rows for t in row["tests"]]
     assert len(tests) > 40, table                      # every plan ran (not an empty record)
