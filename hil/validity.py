@@ -31,6 +31,9 @@ What a region checks, in the order a refusal names it:
    and the measurement's own error. This refuses what the bench cannot resolve: an encoder 2.5°
    point at 10 A (0.0042 N·m predicted against a 0.001 N·m floor) or word length 12 bit at
    250 rpm / 10 A, which failed a correct drive when judged at the bench's own floor (issue 21).
+6. **Whole orders.** The order a rule judges must be a whole order over the analysed period
+   (:func:`period_problems`, issue 30): an encoder count order that is not a whole number per
+   electrical revolution is analysed over the staircase's common period, or refused.
 """
 
 from __future__ import annotations
@@ -158,6 +161,7 @@ def problems(plan, config: BenchConfig) -> list[str]:
                      f"vs {low:g}..{high:g} rpm")
     found += voltage_problems(plan, config)
     found += capture_problems(plan, config)
+    found += period_problems(plan, config)
     if region.floor_fraction is not None and plan.rule is not None:
         found += floor_problems(plan, config, region.floor_fraction)
     return found
@@ -215,6 +219,36 @@ def capture_problems(plan, config: BenchConfig) -> list[str]:
         found.append(f"max_order {plan.max_order} is above what {rate:g} Hz can resolve at "
                      f"{plan.speed_rpm:g} rpm (order {nyquist_orders:.0f})")
     return found
+
+
+def period_problems(plan, config: BenchConfig) -> list[str]:
+    """The predicted order must be a whole order over the analysed period (docstring 6): a
+    count order of 57.6 per electrical revolution (7200 counts, 10 poles, decimation 25) judged
+    over one revolution is a smeared line; the plan analyses over the common period
+    (``PointPlan.period_revolutions``, ``hil.model.encoder.count_period``) or, where that
+    period's order lies beyond its analysed band, the point is not determinable here."""
+    if plan.rule is None or plan.source == "baseline":
+        return []
+    from hil.measurement import analysed_order
+    from hil.measurement import _predict as predict_plan
+    from hil.model import OperatingPoint
+
+    try:
+        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                            current_angle_rad=plan.current_angle_rad, motor=config.motor,
+                            allow_beyond_voltage_limit=True)
+        prediction = predict_plan(plan, op)
+        analysed_order(prediction.order, plan)
+    except InputError as exc:
+        if "not a whole order" not in str(exc):
+            return []               # another limit's reason (the floor check names it)
+        period = (prediction.extras or {}).get("count_period")
+        beyond = ("" if not period else
+                  f"; its common period of {period[0]} electrical revolutions puts it at order "
+                  f"{period[1]}, beyond the analysed band (max_order {plan.max_order})")
+        return [f"order not whole over the analysed period: {prediction.order:.6g} per "
+                f"electrical revolution over {plan.period_revolutions}{beyond}"]
+    return []
 
 
 def bench_floor_nm(config: BenchConfig) -> float:
