@@ -260,6 +260,49 @@ def bench_floor_nm(config: BenchConfig) -> float:
     return inputs["transducer_accuracy_class_pct"] / 100.0 * inputs["transducer_full_scale_nm"]
 
 
+#: Fourier terms of the dithered quantiser's residual error summed (the series converges fast).
+DITHER_TERMS = 8
+
+
+def dithered_quantiser_error_nm(lsb_nm: float, noise_rms_nm: float) -> float:
+    """Largest error of the *mean* of many readings of a quantiser of step q with Gaussian
+    noise σ ahead of it: (q/π)·Σ_k exp(−2π²k²σ²/q²)/k (the sawtooth's Fourier series, each term
+    damped by the noise's characteristic function), at most q/2 (no noise: the reading's own
+    ±½ count, a pattern fixed in θ that no averaging removes)."""
+    if noise_rms_nm <= 0:
+        return lsb_nm / 2.0
+    ratio = (noise_rms_nm / lsb_nm) ** 2
+    series = sum(math.exp(-2.0 * math.pi ** 2 * k * k * ratio) / k
+                 for k in range(1, DITHER_TERMS + 1))
+    return min(lsb_nm / 2.0, lsb_nm / math.pi * series)
+
+
+def resolvable_floor_nm(plan, config: BenchConfig) -> float:
+    """The pk-pk (or named order's 2·A) the bench's reading lends a ripple-free point, N·m
+    (docstring 5), from the stated resolution q and noise σ (``[torque] noise_rms_nm``) and the
+    point's own capture: 2 × the dithered quantiser's residual error
+    (:func:`dithered_quantiser_error_nm`) + the noise left in the figure — for a pk-pk the
+    extremes of B independent points of the synchronous average (B = 2·max_order + 1 Fourier
+    terms, ×8 bins for the ``bins`` method), each with σ_b = √(σ² + q²/12)/√(M/B) over the M
+    samples captured, lifting it by 2·√(2·ln B)·σ_b; for a named order's 2·A the Fourier sum's
+    2·2·√(σ² + q²/12)·√(2/M) (k = 2). Without a stated noise the fixed two counts stay."""
+    inputs = config.uncertainty_inputs()
+    lsb = inputs["daq_lsb_nm"]
+    noise = getattr(config.torque, "noise_rms_nm", None)
+    if not lsb or noise is None or plan.analysis != "torque":
+        return bench_floor_nm(config)
+    pole_pairs = config.motor.pole_pairs
+    samples = plan.capture_rate_hz(pole_pairs) * plan.revolutions / plan.period_frequency_hz(
+        pole_pairs)
+    spread = math.sqrt(noise ** 2 + lsb ** 2 / 12.0)
+    quantiser = 2.0 * dithered_quantiser_error_nm(lsb, noise)
+    if plan.rule is not None and plan.rule.quantity == "named_order_pk_pk":
+        return quantiser + 2.0 * 2.0 * spread * math.sqrt(2.0 / samples)
+    points = (2 * plan.max_order + 1) * (8 if plan.pk_pk_method == "bins" else 1)
+    per_point = spread / math.sqrt(max(1.0, samples / points))
+    return quantiser + 2.0 * math.sqrt(2.0 * math.log(points)) * per_point
+
+
 def acceptance_half_width_pu(rule, predicted_pu: float,
                              expected_range_pu: tuple[float, float] | None) -> float:
     """How far above the prediction a measured pk-pk may read and still be accepted, per unit of
@@ -294,7 +337,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
         expected = (None if prediction.expected_range_pu is None else
                     tuple(v * scale for v in prediction.expected_range_pu))
     half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)
-    floor_pu = bench_floor_nm(config) / nameplate_nm
+    floor_pu = resolvable_floor_nm(plan, config) / nameplate_nm
     what = "the bench's resolvable floor"
     if floor_pu <= fraction * half_width_pu:
         return []
