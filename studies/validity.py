@@ -190,7 +190,8 @@ def model_points(rows: list[dict]) -> Counter:
                 "pwm_switching", "dead_time"}
     return Counter(t["category"] for row in rows for t in row["tests"]
                    if t["source"] in injected and "sensitivity" not in (t["test_id"] or "")
-                   and "noise" not in (t["test_id"] or ""))
+                   and "noise" not in (t["test_id"] or "")
+                   and "_scale" not in (t["test_id"] or ""))
 
 
 def markdown(rows: list[dict]) -> str:
