@@ -235,13 +235,11 @@ class DriveDefects:
             raise InputError(f"simulation.defects.current_loop_bandwidth_scale = "
                              f"{self.current_loop_bandwidth_scale!r} is out of range; allowed "
                              f"0.05..2")
-        if not 0.0 <= self.daq_sample_jitter_samples <= 0.5:
-            raise InputError(f"simulation.defects.daq_sample_jitter_samples = "
-                             f"{self.daq_sample_jitter_samples!r} is out of range; allowed "
-                             f"0..0.5 sample periods")
-        if not 0.9 <= self.daq_clock_scale <= 1.1:
-            raise InputError(f"simulation.defects.daq_clock_scale = {self.daq_clock_scale!r} is "
-                             f"out of range; allowed 0.9..1.1")
+        for name, low, high, unit in (("daq_sample_jitter_samples", 0.0, 0.5, " sample periods"),
+                                      ("daq_clock_scale", 0.9, 1.1, "")):
+            if not low <= getattr(self, name) <= high:
+                raise InputError(f"simulation.defects.{name} = {getattr(self, name)!r} is out "
+                                 f"of range; allowed {low:g}..{high:g}{unit}")
         for name in ("sensor_injection_swapped", "gain_applied_inverse"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"simulation.defects.{name} = {getattr(self, name)!r} must be "
