@@ -48,7 +48,7 @@ SETS = {
     "calibration": {"motors": ["table_i"], "seeds": [0, 1],
                     "points": [(500.0, 20.0), (-500.0, 20.0), (250.0, 10.0), (1000.0, 5.0)]},
     "holdout": {"motors": ["p8_48v", "p2_24v", "p10_48v", "p12_48v", "p14_48v"], "seeds": [5],
-                "points": [(800.0, 15.0), (-600.0, 12.0), (300.0, 5.0)]},
+                "points": [(800.0, 15.0), (-600.0, 12.0), (300.0, 5.0), (-400.0, 12.0)]},
 }
 DEFECTS = {"correct": {}, "clock 0.5 % slow": {"daq_clock_scale": 0.995},
            "jitter ±3/8 sample": {"daq_sample_jitter_samples": 0.375}}
