@@ -214,7 +214,8 @@ def capture_problems(plan, config: BenchConfig) -> list[str]:
     if samples > int(device["buffer_capacity_samples"]):
         found.append(f"capture of {samples} samples exceeds the DAQ's "
                      f"buffer_capacity_samples = {device['buffer_capacity_samples']}")
-    nyquist_orders = rate / 2.0 / plan.electrical_frequency_hz(pole_pairs)
+    # orders are numbered over the analysed period (PointPlan.period_revolutions)
+    nyquist_orders = rate / 2.0 / plan.period_frequency_hz(pole_pairs)
     if plan.analysis == "torque" and plan.max_order > nyquist_orders:
         found.append(f"max_order {plan.max_order} is above what {rate:g} Hz can resolve at "
                      f"{plan.speed_rpm:g} rpm (order {nyquist_orders:.0f})")

@@ -98,6 +98,10 @@ def test_the_encoder_plan_analyses_a_10_pole_motor_over_its_period_and_refuses_w
         assert plan.period_revolutions == period
         assert plan.revolutions * plan.period_revolutions >= test_encoder.REVOLUTIONS
         assert not problems(plan, config), problems(plan, config)
+    # 14 poles: 288 over 7 revolutions, and the Nyquist order counted over that period
+    fourteen = bench_with(tmp_path, TEN_POLE | {"pole_count": 14})
+    plan = test_encoder.plan(fourteen, {"encoder_decimation": 25})
+    assert plan.period_revolutions == 7 and not problems(plan, fourteen), problems(plan, fourteen)
     # the same point over one revolution is refused with the reason, never judged smeared
     one_rev = dataclasses.replace(test_encoder.plan(config, {"encoder_decimation": 25}),
                                   period_revolutions=1, revolutions=4)
