@@ -166,22 +166,22 @@ def _cluster_centre(freqs, power, guess: float, half_width: float, elec_hz: floa
 
 
 def pwm_line_checks(capture: Capture, pwm_frequency_hz: float, pole_pairs: int,
-                    rate_hz: float, *, clock_tolerance_pu: float,
-                    min_line_share: float) -> list[dict]:
-    """The DAQ clock and the coherence of its sample instants from the PWM line (two checks)."""
+                    rate_hz: float, *, clock_tolerance_pu: float) -> list[dict]:
+    """The DAQ clock from the PWM line (one check; none where the line cannot be judged). The
+    line's share of the non-synchronous power is recorded in the check (``line_share``), not
+    judged: a correct Table I drive at −500 rpm / 30 A read 0.33 against 0.67–0.81 on the
+    calibration set (more of the cluster lies outside the window at high current), so no band
+    from that set holds; jittered sample instants are judged by the encoder check."""
     line = pwm_line(capture, pwm_frequency_hz, pole_pairs, rate_hz)
     if math.isnan(line.line_share):
         return []          # the line's alias sits among the low orders at this speed: no check
-    where = (f"2·f_pwm = {2 * pwm_frequency_hz:g} Hz aliased to {line.expected_alias_hz:.1f} Hz "
-             f"at the stated {rate_hz:g} Hz; found at {line.measured_alias_hz:.2f} Hz")
-    return [
-        check("DAQ clock (PWM line)", line.clock_scale, 1.0, "1", clock_tolerance_pu,
-              f"real / stated sample rate from the drive's PWM line in the currents ({where})"),
-        check("DAQ sample instants (PWM line)", line.line_share, 1.0, "1",
-              1.0 - min_line_share,
-              f"share of the currents' non-synchronous power in the PWM line (≥ "
-              f"{min_line_share:g}: a coherent line; jittered sample instants smear it)"),
-    ]
+    out = check("DAQ clock (PWM line)", line.clock_scale, 1.0, "1", clock_tolerance_pu,
+                f"real / stated sample rate from the drive's PWM line in the currents (2·f_pwm "
+                f"= {2 * pwm_frequency_hz:g} Hz aliased to {line.expected_alias_hz:.1f} Hz at "
+                f"the stated {rate_hz:g} Hz; found at {line.measured_alias_hz:.2f} Hz; line "
+                f"share {line.line_share:.3f})")
+    out["line_share"] = line.line_share
+    return [out]
 
 
 def encoder_second_difference_rms(capture: Capture, counts_per_rev: int) -> tuple[float, float]:

@@ -131,9 +131,6 @@ SELF_CHECK_SAMPLE_RATE_HZ = 7919.0
 #: real / stated sample rate within this (the calibration set's estimator spread ×2 + 100 ppm
 #: of PWM-crystal and DAQ-clock allowance); the speed check's 0.5 % could not see a 0.5 % clock
 SELF_CHECK_CLOCK_TOL_PU = 1.05e-4
-#: the PWM line's share of the currents' non-synchronous power must be at least this (½ × the
-#: calibration set's smallest): jittered sample instants smear the line
-SELF_CHECK_MIN_LINE_SHARE = 0.33
 #: RMS second difference of the angle channel, counts: a quantised ramp's is at most 1
 SELF_CHECK_MAX_ENCODER_RMS_COUNTS = 1.0
 
@@ -158,8 +155,7 @@ def self_check_point(op):
                                    plan.capture_rate_hz(pole_pairs)),
                 *daq_timebase.pwm_line_checks(
                     capture, DEFAULT_PWM_FREQUENCY_HZ, pole_pairs,
-                    plan.capture_rate_hz(pole_pairs), clock_tolerance_pu=SELF_CHECK_CLOCK_TOL_PU,
-                    min_line_share=SELF_CHECK_MIN_LINE_SHARE),
+                    plan.capture_rate_hz(pole_pairs), clock_tolerance_pu=SELF_CHECK_CLOCK_TOL_PU),
                 daq_timebase.encoder_sample_instants(
                     capture, int(capture.meta.get("encoder_counts_per_rev", 7200)),
                     max_rms_counts=SELF_CHECK_MAX_ENCODER_RMS_COUNTS)]
