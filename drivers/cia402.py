@@ -649,6 +649,11 @@ class Cia402Drive:
         """(low, high, default) of every knob in SI units, from the EDS."""
         return {k: (o.low_si, o.high_si, o.default_si) for k, o in self._knobs.items()}
 
+    def read_injections(self) -> dict[str, tuple]:
+        """Every knob as the drive reads it back now: {knob: (value SI, default SI)}."""
+        return {knob: (obj.to_si(self.sdo_read(obj.index, action=f"read injection {knob}")),
+                       obj.default_si) for knob, obj in self._knobs.items()}
+
     def set_injection(self, **knobs) -> None:
         """Write fault-injection knobs (SI units); all are range-checked before any is sent.
 

@@ -216,6 +216,10 @@ class TorqueConfig:
     #: The transducer's -3 dB bandwidth (first-order response) from its data sheet; the ripple
     #: diagnosis corrects the order coefficients' phase and amplitude with it. None: not stated.
     bandwidth_hz: float | None = _key(None, "float", lo=1.0, hi=1e6)
+    #: RMS noise of the torque reading, N·m (data sheet, or measured at rest); the validity
+    #: floor derives the bench's resolvable ripple from it and the resolution (hil.validity).
+    #: None: not stated (the floor stays two counts of the resolution).
+    noise_rms_nm: float | None = _key(None, "float", lo=0.0, hi=1000.0)
     timeout_s: float = _key(1.0, "float", lo=0.01, hi=30.0)
     #: Magtrol DSP7000 only: the channel read (1 or 2: ``OD1``/``OD2``); None: a single-channel
     #: unit (DSP6001/6400: ``OD``).

@@ -73,6 +73,10 @@ class PointPlan:
     drive_enabled: bool = True
     #: DAQ channels captured besides those the analysis reads (e.g. ``vab_v``)
     extra_channels: tuple[str, ...] = ()
+    #: electrical revolutions of one analysed period (``hil.analysis.analyze_capture``): > 1 for
+    #: a ripple that repeats only over several (an encoder count order that is not a whole
+    #: number per electrical revolution); ``revolutions`` and ``max_order`` are then per period
+    period_revolutions: int = 1
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -84,6 +88,10 @@ class PointPlan:
         if "current_angle_rad" in self.injection:
             raise InputError("injection current_angle_rad: give the current angle as "
                              "PointPlan.current_angle_rad, not in the injection")
+        if isinstance(self.period_revolutions, bool) or not isinstance(
+                self.period_revolutions, int) or self.period_revolutions < 1:
+            raise InputError(f"period_revolutions={self.period_revolutions!r} must be an "
+                             "integer >= 1")
         if self.speed_rpm == 0:
             raise InputError("speed_rpm=0: the angle never advances; use a slow speed (e.g. 3 rpm)"
                              " for the paper's near-standstill encoder measurement")
@@ -91,15 +99,19 @@ class PointPlan:
     def electrical_frequency_hz(self, pole_pairs: int) -> float:
         return abs(self.speed_rpm) / 60.0 * pole_pairs
 
+    def period_frequency_hz(self, pole_pairs: int) -> float:
+        """How often the analysed period (``period_revolutions`` electrical revolutions) passes."""
+        return self.electrical_frequency_hz(pole_pairs) / self.period_revolutions
+
     def capture_duration_s(self, pole_pairs: int) -> float:
-        """Whole electrical revolutions plus a quarter, so that jitter never loses the last one."""
-        return (self.revolutions + 0.25) / self.electrical_frequency_hz(pole_pairs)
+        """Whole analysed periods plus a quarter, so that jitter never loses the last one."""
+        return (self.revolutions + 0.25) / self.period_frequency_hz(pole_pairs)
 
     def capture_rate_hz(self, pole_pairs: int) -> float:
         """Sample rate: the plan's, or enough points per period of ``max_order`` (≥ 1 kHz)."""
         if self.sample_rate_hz:
             return float(self.sample_rate_hz)
-        needed = self.electrical_frequency_hz(pole_pairs) * self.max_order * POINTS_PER_PERIOD
+        needed = self.period_frequency_hz(pole_pairs) * self.max_order * POINTS_PER_PERIOD
         return float(min(20_000.0, max(1_000.0, math.ceil(needed / 500.0) * 500.0)))
 
     def capture_channels(self) -> tuple[str, ...]:
@@ -201,7 +213,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
             nameplate_nm = op.mean_torque_nm
             predicted_pu = judged_prediction_pu(prediction, plan.rule) * (
                 prediction.base_nm / nameplate_nm)
-            order = int(round(prediction.order)) if prediction.order is not None else None
+            order = analysed_order(prediction.order, plan, test_id)
             if order is not None and order > plan.max_order:
                 raise InputError(f"{test_id}: predicted order {order} is above max_order "
                                  f"{plan.max_order}; raise the plan's max_order")
@@ -266,8 +278,10 @@ def analysis_settings(plan: PointPlan, bench: Bench) -> dict:
     named = plan.named_order
     if named is None and plan.rule is not None:
         named = _order_of(plan, bench)
-    return settings | {"named_order": named,
-                       "pk_pk_method": plan.pk_pk_method}
+    settings = settings | {"named_order": named, "pk_pk_method": plan.pk_pk_method}
+    if plan.period_revolutions != 1:
+        settings["period_revolutions"] = plan.period_revolutions
+    return settings
 
 
 #: The drive's PWM frequency when a plan does not inject one (the EDS default), Hz.
@@ -334,12 +348,34 @@ def judged_prediction_pu(prediction: Prediction, rule: DecisionRule) -> float:
     return prediction.pk_pk_pu
 
 
+#: How far from a whole number an order over the analysed period may be (float rounding only).
+ORDER_INTEGER_TOLERANCE = 1e-6
+
+
+def analysed_order(order: float | None, plan: PointPlan, what: str = "point") -> int | None:
+    """The predicted order (per electrical revolution) as the analysis numbers it: × the plan's
+    ``period_revolutions``. It must then be a whole number: an order of 57.6 judged at 58 is a
+    smeared line (its power split over 57 and 58 and scattered between revolutions), never the
+    predicted one — InputError names the period it needs (``hil.validity`` refuses such a point
+    before the bench is touched)."""
+    if order is None:
+        return None
+    over_period = order * plan.period_revolutions
+    whole = round(over_period)
+    if abs(over_period - whole) > ORDER_INTEGER_TOLERANCE * max(1.0, abs(over_period)):
+        raise InputError(f"{what}: predicted order {order:.6g} per electrical revolution is not "
+                         f"a whole order over the analysed period of {plan.period_revolutions} "
+                         f"electrical revolution(s) ({over_period:.6g}); analyse over a common "
+                         "period (PointPlan.period_revolutions)")
+    return int(whole)
+
+
 def predicted_order(plan: PointPlan, motor) -> int | None:
-    """The electrical order the plan's closed form predicts (None: no single order)."""
+    """The order the plan's closed form predicts, numbered over the analysed period (None: no
+    single order); InputError where it is not whole (:func:`analysed_order`)."""
     op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                         current_angle_rad=plan.current_angle_rad, motor=motor)
-    order = _predict(plan, op).order
-    return None if order is None else int(round(order))
+    return analysed_order(_predict(plan, op).order, plan)
 
 
 def _order_of(plan: PointPlan, bench: Bench) -> int | None:

@@ -135,8 +135,8 @@ def _order_problems(plan, config: BenchConfig) -> list[str]:
         return []
     from hil import validity
 
-    if validity.voltage_problems(plan, config):
-        return []                # beyond the voltage limit: not driven (not determinable)
+    if validity.voltage_problems(plan, config) or validity.period_problems(plan, config):
+        return []                # not determinable here (voltage limit, order not whole)
     from hil.measurement import predicted_order
 
     try:

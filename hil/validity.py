@@ -31,6 +31,9 @@ What a region checks, in the order a refusal names it:
    and the measurement's own error. This refuses what the bench cannot resolve: an encoder 2.5°
    point at 10 A (0.0042 N·m predicted against a 0.001 N·m floor) or word length 12 bit at
    250 rpm / 10 A, which failed a correct drive when judged at the bench's own floor (issue 21).
+6. **Whole orders.** The order a rule judges must be a whole order over the analysed period
+   (:func:`period_problems`, issue 30): an encoder count order that is not a whole number per
+   electrical revolution is analysed over the staircase's common period, or refused.
 """
 
 from __future__ import annotations
@@ -158,6 +161,7 @@ def problems(plan, config: BenchConfig) -> list[str]:
                      f"vs {low:g}..{high:g} rpm")
     found += voltage_problems(plan, config)
     found += capture_problems(plan, config)
+    found += period_problems(plan, config)
     if region.floor_fraction is not None and plan.rule is not None:
         found += floor_problems(plan, config, region.floor_fraction)
     return found
@@ -211,11 +215,42 @@ def capture_problems(plan, config: BenchConfig) -> list[str]:
     if samples > int(device["buffer_capacity_samples"]):
         found.append(f"capture of {samples} samples exceeds the DAQ's "
                      f"buffer_capacity_samples = {device['buffer_capacity_samples']}")
-    nyquist_orders = rate / 2.0 / plan.electrical_frequency_hz(pole_pairs)
+    # orders are numbered over the analysed period (PointPlan.period_revolutions)
+    nyquist_orders = rate / 2.0 / plan.period_frequency_hz(pole_pairs)
     if plan.analysis == "torque" and plan.max_order > nyquist_orders:
         found.append(f"max_order {plan.max_order} is above what {rate:g} Hz can resolve at "
                      f"{plan.speed_rpm:g} rpm (order {nyquist_orders:.0f})")
     return found
+
+
+def period_problems(plan, config: BenchConfig) -> list[str]:
+    """The predicted order must be a whole order over the analysed period (docstring 6): a
+    count order of 57.6 per electrical revolution (7200 counts, 10 poles, decimation 25) judged
+    over one revolution is a smeared line; the plan analyses over the common period
+    (``PointPlan.period_revolutions``, ``hil.model.encoder.count_period``) or, where that
+    period's order lies beyond its analysed band, the point is not determinable here."""
+    if plan.rule is None or plan.source == "baseline":
+        return []
+    from hil.measurement import analysed_order
+    from hil.measurement import _predict as predict_plan
+    from hil.model import OperatingPoint
+
+    try:
+        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
+                            current_angle_rad=plan.current_angle_rad, motor=config.motor,
+                            allow_beyond_voltage_limit=True)
+        prediction = predict_plan(plan, op)
+        analysed_order(prediction.order, plan)
+    except InputError as exc:
+        if "not a whole order" not in str(exc):
+            return []               # another limit's reason (the floor check names it)
+        period = (prediction.extras or {}).get("count_period")
+        beyond = ("" if not period else
+                  f"; its common period of {period[0]} electrical revolutions puts it at order "
+                  f"{period[1]}, beyond the analysed band (max_order {plan.max_order})")
+        return [f"order not whole over the analysed period: {prediction.order:.6g} per "
+                f"electrical revolution over {plan.period_revolutions}{beyond}"]
+    return []
 
 
 def bench_floor_nm(config: BenchConfig) -> float:
@@ -225,6 +260,49 @@ def bench_floor_nm(config: BenchConfig) -> float:
     if inputs["daq_lsb_nm"]:
         return FLOOR_COUNTS * float(inputs["daq_lsb_nm"])
     return inputs["transducer_accuracy_class_pct"] / 100.0 * inputs["transducer_full_scale_nm"]
+
+
+#: Fourier terms of the dithered quantiser's residual error summed (the series converges fast).
+DITHER_TERMS = 8
+
+
+def dithered_quantiser_error_nm(lsb_nm: float, noise_rms_nm: float) -> float:
+    """Largest error of the *mean* of many readings of a quantiser of step q with Gaussian
+    noise σ ahead of it: (q/π)·Σ_k exp(−2π²k²σ²/q²)/k (the sawtooth's Fourier series, each term
+    damped by the noise's characteristic function), at most q/2 (no noise: the reading's own
+    ±½ count, a pattern fixed in θ that no averaging removes)."""
+    if noise_rms_nm <= 0:
+        return lsb_nm / 2.0
+    ratio = (noise_rms_nm / lsb_nm) ** 2
+    series = sum(math.exp(-2.0 * math.pi ** 2 * k * k * ratio) / k
+                 for k in range(1, DITHER_TERMS + 1))
+    return min(lsb_nm / 2.0, lsb_nm / math.pi * series)
+
+
+def resolvable_floor_nm(plan, config: BenchConfig) -> float:
+    """The pk-pk (or named order's 2·A) the bench's reading lends a ripple-free point, N·m
+    (docstring 5), from the stated resolution q and noise σ (``[torque] noise_rms_nm``) and the
+    point's own capture: 2 × the dithered quantiser's residual error
+    (:func:`dithered_quantiser_error_nm`) + the noise left in the figure — for a pk-pk the
+    extremes of B independent points of the synchronous average (B = 2·max_order + 1 Fourier
+    terms, ×8 bins for the ``bins`` method), each with σ_b = √(σ² + q²/12)/√(M/B) over the M
+    samples captured, lifting it by 2·√(2·ln B)·σ_b; for a named order's 2·A the Fourier sum's
+    2·2·√(σ² + q²/12)·√(2/M) (k = 2). Without a stated noise the fixed two counts stay."""
+    inputs = config.uncertainty_inputs()
+    lsb = inputs["daq_lsb_nm"]
+    noise = getattr(config.torque, "noise_rms_nm", None)
+    if not lsb or noise is None or plan.analysis != "torque":
+        return bench_floor_nm(config)
+    pole_pairs = config.motor.pole_pairs
+    samples = plan.capture_rate_hz(pole_pairs) * plan.revolutions / plan.period_frequency_hz(
+        pole_pairs)
+    spread = math.sqrt(noise ** 2 + lsb ** 2 / 12.0)
+    quantiser = 2.0 * dithered_quantiser_error_nm(lsb, noise)
+    if plan.rule is not None and plan.rule.quantity == "named_order_pk_pk":
+        return quantiser + 2.0 * 2.0 * spread * math.sqrt(2.0 / samples)
+    points = (2 * plan.max_order + 1) * (8 if plan.pk_pk_method == "bins" else 1)
+    per_point = spread / math.sqrt(max(1.0, samples / points))
+    return quantiser + 2.0 * math.sqrt(2.0 * math.log(points)) * per_point
 
 
 def acceptance_half_width_pu(rule, predicted_pu: float,
@@ -261,7 +339,7 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
         expected = (None if prediction.expected_range_pu is None else
                     tuple(v * scale for v in prediction.expected_range_pu))
     half_width_pu = acceptance_half_width_pu(plan.rule, predicted_pu, expected)
-    floor_pu = bench_floor_nm(config) / nameplate_nm
+    floor_pu = resolvable_floor_nm(plan, config) / nameplate_nm
     what = "the bench's resolvable floor"
     if floor_pu <= fraction * half_width_pu:
         return []

@@ -42,6 +42,12 @@ DEFECTS = [
     # issue 23 item 0: the angle channel 30° electrical off phase a's back EMF (the bench file
     # states 0): the self-check's angle-reference measurement
     ({"encoder_commutation_offset_elec_deg": 30.0}, {"self_check"}),
+    # issue 30: the DAQ's sample instants jitter by ±3/8 sample (tick count nominal); its clock
+    # runs 0.5 % slow (time base stamped at the stated rate); the PWM-resolution model 2× too
+    # large (a model mutation: ``model_scale``, tests/mutations/model_mutation.py)
+    ({"daq_sample_jitter_samples": 0.375}, {"self_check"}),
+    ({"daq_clock_scale": 0.995}, {"self_check"}),
+    ({"model_scale": {"pwm_resolution": 2.0}}, {"pwm_resolution"}),
 ]
 
 
@@ -54,9 +60,13 @@ def main(argv: list[str]) -> int:
         print(f"control (no defect): failed {sorted(failed_sources(control)) or 'none'}")
         for index, (defects, must_fail) in enumerate(chosen):
             started = time.perf_counter()
-            run = run_plans(PLANS, defects, Path(tmp) / f"d{index}")
+            drive = {k: v for k, v in defects.items() if k != "model_scale"}
+            run = run_plans(PLANS, drive, Path(tmp) / f"d{index}",
+                            model_scale=defects.get("model_scale"))
             failed = failed_sources(run)
-            label = ", ".join(f"{k}={v}" for k, v in defects.items())
+            label = ", ".join(
+                ", ".join(f"{s} model x{f:g}" for s, f in v.items()) if k == "model_scale"
+                else f"{k}={v}" for k, v in defects.items())
             rows.append((label, sorted(failed), sorted(must_fail - failed)))
             print(f"{label}: {time.perf_counter() - started:.0f} s", file=sys.stderr)
     print("\n| defect | plans that failed | should have failed but passed |")

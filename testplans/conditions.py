@@ -126,11 +126,19 @@ SELF_CHECK_SPEED_TOL_PU = 0.005
 #: of the ±0.4 A limit, issue 22); at 7919 Hz the reading is within ±0.004 A at any phase
 #: (tests/sim/test_daq_clock.py).
 SELF_CHECK_SAMPLE_RATE_HZ = 7919.0
+#: The DAQ's time base against the drive's PWM line and the encoder (hil.daq_timebase, issue
+#: 30; provenance: hil/model/README.md "DAQ time base", studies/daq_timebase_calibration.py):
+#: real / stated sample rate within this (the calibration set's estimator spread ×2 + 100 ppm
+#: of PWM-crystal and DAQ-clock allowance); the speed check's 0.5 % could not see a 0.5 % clock
+SELF_CHECK_CLOCK_TOL_PU = 1.05e-4
+#: RMS second difference of the angle channel, counts: a quantised ramp's is at most 1
+SELF_CHECK_MAX_ENCODER_RMS_COUNTS = 1.0
 
 
 def self_check_point(op):
     """The self-check point: the bench's operating point, nothing injected, checks attached."""
-    from hil import selfcheck
+    from hil import daq_timebase, selfcheck
+    from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
 
     def checks(capture, result, plan, bench):
         from hil.model import OperatingPoint
@@ -144,7 +152,13 @@ def self_check_point(op):
                                             SELF_CHECK_CURRENT_TOL_PU),
                 selfcheck.speed(capture, plan.speed_rpm, SELF_CHECK_SPEED_TOL_PU),
                 selfcheck.sampling(capture, plan.capture_duration_s(pole_pairs),
-                                   plan.capture_rate_hz(pole_pairs))]
+                                   plan.capture_rate_hz(pole_pairs)),
+                *daq_timebase.pwm_line_checks(
+                    capture, DEFAULT_PWM_FREQUENCY_HZ, pole_pairs,
+                    plan.capture_rate_hz(pole_pairs), clock_tolerance_pu=SELF_CHECK_CLOCK_TOL_PU),
+                daq_timebase.encoder_sample_instants(
+                    capture, int(capture.meta.get("encoder_counts_per_rev", 7200)),
+                    max_rms_counts=SELF_CHECK_MAX_ENCODER_RMS_COUNTS)]
 
     return point(op, "self_check", {}, None, kind="self_check", checks=checks,
                  sample_rate_hz=SELF_CHECK_SAMPLE_RATE_HZ)

@@ -16,8 +16,11 @@ bandwidth and does not reach either figure.
 """
 
 import dataclasses
+import math
 
 import pytest
+
+from hil.model.encoder import count_period
 
 from ripple_hil_testplans import conditions as c
 from ripple_hil_testplans.sensitivity import check_sensitivity
@@ -29,13 +32,26 @@ pytestmark = pytest.mark.ripple_source("encoder")
 RULE = dataclasses.replace(c.CLOSED_FORM_RULE, quantity="named_order_pk_pk")
 
 
+#: The analysed band (orders over the analysed period) and the revolutions a point captures.
+MAX_ORDER = 360
+REVOLUTIONS = 4
+
+
 def plan(config, injection):
     # The ripple is a staircase: its recorded pk-pk is taken from the angle bins ("bins"), on a
     # grid fine enough for the 2.5° steps (order 144) to hold several bins per step; the count
     # order (up to 288: 2.5° on a 2-pole motor) lies inside max_order.
+    # Where the count order is not a whole number per electrical revolution (7200 counts on 10
+    # poles at decimation 25: 57.6) the staircase repeats over m electrical revolutions
+    # (hil.model.encoder.count_period: 288 over 5) and is analysed over that period, ≥ 2 periods
+    # and ≥ REVOLUTIONS electrical revolutions; a period whose order lies beyond MAX_ORDER stays
+    # at one revolution and the pre-flight refuses it, with that reason (hil.validity 6).
+    period = count_period(pole_pairs=config.motor.pole_pairs, **injection)
+    m = period[0] if period is not None and period[1] <= MAX_ORDER else 1
     return c.point(config.operating_point, "encoder", injection, RULE,
                    speed_rpm=c.ENCODER_SPEED_RPM, current_angle_rad=c.ENCODER_CURRENT_ANGLE_RAD,
-                   max_order=360, pk_pk_method="bins", revolutions=4)
+                   max_order=MAX_ORDER, pk_pk_method="bins",
+                   revolutions=max(2, math.ceil(REVOLUTIONS / m)), period_revolutions=m)
 
 
 @pytest.mark.parametrize("injection", c.ENCODER_SWEEP, ids=c.sweep_id)

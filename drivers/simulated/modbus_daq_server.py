@@ -59,6 +59,7 @@ import threading
 import time
 import tty
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from pymodbus.constants import ExcCodes
@@ -414,7 +415,11 @@ class DaqDevice:
                 if self.pwm_synchronous and hasattr(self.twin, "advance_to_carrier_valley"):
                     self.twin.advance_to_carrier_valley()
                 slots = int(ticks[-1]) + 1
-                data = self.twin.advance(slots / rate, rate, channels=asked)
+                timing = sample_timing(self.twin, ticks)
+                extra = 1 if timing.oversample > 1 else 0     # room for a late last sample
+                data = self.twin.advance((slots + extra) / (rate * timing.clock),
+                                         rate * timing.clock * timing.oversample,
+                                         channels=asked)
                 with self._lock:
                     try:
                         self._apply_speed_setpoint()    # written while this capture ran
@@ -425,7 +430,7 @@ class DaqDevice:
             columns, first_values = [], {}
             for channel in channels:
                 values = ticks if counter is not None and channel.name == counter.name \
-                    else np.asarray(data[channel.name])[ticks]
+                    else np.asarray(data[channel.name])[timing.index]
                 raw, clipped = channel.to_raw(values)
                 if clipped:
                     flags |= 1 << self.map.status_flags["clipped"]
@@ -476,6 +481,37 @@ def _daq_view(twin, data, asked: list[str]) -> dict:
             shift = int(round(offset_deg / 360.0 / pole_pairs * counts))
             view["encoder_counts"] = np.asarray(data["encoder_counts"]) + shift
     return view
+
+
+class SampleTiming(NamedTuple):
+    """Where the DAQ really samples: the twin runs at ``clock`` × the stated rate ×
+    ``oversample``, and stored sample i is the twin's sample ``index[i]``."""
+
+    clock: float
+    oversample: int
+    index: np.ndarray
+
+
+#: Steps per sample period in which the jitter defect moves a sample instant.
+JITTER_STEPS = 8
+
+
+def sample_timing(twin, ticks: np.ndarray) -> SampleTiming:
+    """The sample instants of a capture whose stored ticks are ``ticks``: the tick itself on a
+    healthy DAQ; with the test-only ``daq_clock_scale`` defect the twin is sampled at that × the
+    stated rate (the time base stays the stated one); with ``daq_sample_jitter_samples`` = j
+    each instant moves by a uniform whole number of 1/8 sample periods within ±j (the tick count
+    stays nominal: only the instants are off)."""
+    defects = getattr(twin, "defects", None)
+    clock = float(getattr(defects, "daq_clock_scale", 1.0) or 1.0)
+    jitter = float(getattr(defects, "daq_sample_jitter_samples", 0.0) or 0.0)
+    steps = int(math.floor(jitter * JITTER_STEPS + 1e-9))
+    if not steps:
+        return SampleTiming(clock, 1, np.asarray(ticks))
+    rng = np.random.default_rng(len(ticks))
+    offsets = rng.integers(-steps, steps + 1, size=len(ticks))
+    index = np.clip(np.asarray(ticks) * JITTER_STEPS + offsets, 0, None)
+    return SampleTiming(clock, JITTER_STEPS, index)
 
 
 def drop_every_nth(twin) -> int:

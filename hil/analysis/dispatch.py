@@ -6,7 +6,8 @@ test that judged it.
 
 Settings: ``analysis`` = ``"torque"`` (transducer torque against rotor angle,
 :func:`analyze_capture`: ``max_order``, ``named_order``, ``pole_pairs``, ``pk_pk_method``,
-``rated_torque_nm``) or ``"switching"`` (within-PWM-period ripple from the phase currents,
+``rated_torque_nm``, ``period_revolutions``: orders then per period of that many electrical
+revolutions) or ``"switching"`` (within-PWM-period ripple from the phase currents,
 :func:`hil.analysis.switching.analyze_switching`: ``pwm_frequency_hz``, ``max_order`` and the
 motor nameplate ``motor`` as a dict of :class:`hil.motor.MotorParameters` fields).
 """
@@ -19,7 +20,8 @@ from hil.errors import InputError
 from hil.motor import MotorParameters
 
 ANALYSES = ("torque", "switching")
-_TORQUE_KEYS = ("max_order", "named_order", "pole_pairs", "pk_pk_method", "rated_torque_nm")
+_TORQUE_KEYS = ("max_order", "named_order", "pole_pairs", "pk_pk_method", "rated_torque_nm",
+                "period_revolutions")
 
 
 def run_analysis(capture: Capture, settings: dict, *, instruments=None) -> RippleResult:

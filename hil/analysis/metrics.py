@@ -216,15 +216,22 @@ def analyze_capture(capture: Capture, *, max_order: int = DEFAULT_MAX_ORDER,
                     named_order: int | None = None, rated_torque_nm: float | None = None,
                     instruments: InstrumentUncertainty | None = None,
                     pole_pairs: int | None = None,
-                    pk_pk_method: str = "band-limited") -> RippleResult:
+                    pk_pk_method: str = "band-limited",
+                    period_revolutions: int = 1) -> RippleResult:
     """Analyse a :class:`~hil.capture.Capture` (channels ``time_s``, ``torque_nm`` and an angle).
 
     The mechanical angle comes from ``rotor_angle_mech_rad`` (wrapped or unwrapped), else from
     ``encoder_counts`` with meta ``encoder_counts_per_rev``, else by integrating ``speed_rpm``
     (then phases refer to the first sample, not to the rotor's electrical zero). Electrical angle
     = ``pole_pairs`` (argument, else meta ``pole_pairs``) × mechanical angle.
+
+    ``period_revolutions`` m > 1 analyses over a period of m electrical revolutions: the
+    "revolutions" are periods and order k is k/m of the electrical frequency (a ripple that
+    repeats only every m electrical revolutions, e.g. an encoder count order of 57.6 per
+    electrical revolution: 288 over 5, ``hil.model.encoder.count_period``).
     """
     pole_pairs = _pole_pairs(capture, pole_pairs)
+    period = _check_order("period_revolutions", period_revolutions, 10_000)
     time_s = check_time(capture["time_s"])
     if "rotor_angle_mech_rad" in capture:
         mech = check_finite("rotor_angle_mech_rad", capture["rotor_angle_mech_rad"])
@@ -240,7 +247,8 @@ def analyze_capture(capture: Capture, *, max_order: int = DEFAULT_MAX_ORDER,
     else:
         raise InputError("capture has no rotor angle: it needs channel 'rotor_angle_mech_rad', "
                          f"'encoder_counts' or 'speed_rpm'; it has {sorted(capture.channels)}")
-    return analyze_torque(time_s, capture["torque_nm"], pole_pairs * mech, max_order=max_order,
+    return analyze_torque(time_s, capture["torque_nm"], pole_pairs * mech / period,
+                          max_order=max_order,
                           named_order=named_order, rated_torque_nm=rated_torque_nm,
                           instruments=instruments, pk_pk_method=pk_pk_method)
 

@@ -62,6 +62,40 @@ def encoder_resolution_elec_rad(*, pole_pairs: int, resolution_elec_rad: float |
     return 2.0 * math.pi * pole_pairs * decimation / counts
 
 
+#: The longest common period (electrical revolutions) a resolution given as an angle is
+#: searched for: 2π/θ_res is taken as rational only with a denominator up to this.
+MAX_PERIOD_ELEC_REVOLUTIONS = 1000
+
+
+def count_period(*, pole_pairs: int, resolution_elec_rad: float | None = None,
+                 encoder_counts_per_rev: int | None = None, encoder_decimation: int | None = None,
+                 hall_mode: bool = False) -> tuple[int, int] | None:
+    """(m, K): the staircase repeats every m electrical revolutions, and its count order is K
+    over that period (K/m per electrical revolution, eq 8's period θ_res = 2π·m/K).
+
+    The firmware truncates the accumulated encoder count to a multiple of the decimation
+    (``hil.sim.firmware``: the steps are uniform, decimation × 2π/counts mechanical, whether or
+    not the decimation divides the counts), so per electrical revolution there are
+    counts/(pole_pairs·decimation) steps, a fraction m/K in lowest terms: 7200 counts on 10 poles
+    at decimation 25 give 288/5 (57.6 per electrical revolution, 288 per mechanical one). An
+    analysis over one electrical revolution smears such a line over its neighbours; over m it is
+    a whole order. A resolution stated as an angle is rational only within 1e-9 of a fraction
+    whose denominator is at most ``MAX_PERIOD_ELEC_REVOLUTIONS`` (None: no common period)."""
+    from fractions import Fraction
+
+    if hall_mode:
+        return 1, 6
+    if resolution_elec_rad is not None:
+        order = 2.0 * math.pi / resolution_elec_rad
+        ratio = Fraction(order).limit_denominator(MAX_PERIOD_ELEC_REVOLUTIONS)
+        if abs(float(ratio) - order) > 1e-9 * order:
+            return None
+    else:
+        counts = DRIVE_COUNTS_PER_REV if encoder_counts_per_rev is None else encoder_counts_per_rev
+        ratio = Fraction(int(counts), int(pole_pairs) * int(encoder_decimation or 1))
+    return ratio.denominator, ratio.numerator
+
+
 def torque_pu(gamma_rad: np.ndarray, current_angle_rad: float) -> np.ndarray:
     """Eq 7: torque per unit of (3/2)·E·I/ω_m at position error γ within a count."""
     return np.cos(gamma_rad + current_angle_rad)
@@ -177,4 +211,10 @@ def predict_encoder(op: OperatingPoint, *, resolution_elec_rad: float | None = N
                 # what a rule with quantity "named_order_pk_pk" judges (hil.analysis.decision)
                 "order_pk_pk_pu": 2.0 * count_order_amplitude_pu(res, phi) / abs(mean_pu),
                 "mean_torque_sign": 1.0 if mean_pu > 0 else -1.0,
-                "count_frequency_order": 2.0 * math.pi / res})
+                "count_frequency_order": 2.0 * math.pi / res,
+                # the staircase's common period (electrical revolutions) and its count order
+                # over it (count_period); None: no common period
+                "count_period": count_period(
+                    pole_pairs=op.motor.pole_pairs, resolution_elec_rad=resolution_elec_rad,
+                    encoder_counts_per_rev=encoder_counts_per_rev,
+                    encoder_decimation=encoder_decimation, hall_mode=bool(hall_mode))})

@@ -7,9 +7,11 @@ shorter or longer than commanded; the torque transducer (and the DAQ's torque ch
 scaled; the DAQ drops samples; (issue 21 item 8) the sensor injections land on the other phase,
 a gain injection is applied as 1/(1 + g), the drive's encoder index is offset from the rotor's
 electrical zero, the firmware compensates the dead time, the transducer lags more than the bench
-file states, the current loop is slower than the bench file states. ``DriveTwin(defects=...)``
+file states, the current loop is slower than the bench file states; (issue 30) the DAQ's sample instants
+jitter or its clock runs off the rate it states. ``DriveTwin(defects=...)``
 applies them (see :meth:`applied` and :meth:`applied_config`), the
-simulated DAQ server reads ``daq_drop_every_nth``; the bench file states them in
+simulated DAQ server reads ``daq_drop_every_nth``, ``daq_sample_jitter_samples`` and
+``daq_clock_scale``; the bench file states them in
 ``[simulation.defects]`` (allowed only with ``simulated = true``).
 """
 
@@ -68,6 +70,12 @@ class DriveDefects:
     transducer_extra_lag_s: float = 0.0
     #: the current loop's bandwidth is this × what the bench file states (< 1: slower)
     current_loop_bandwidth_scale: float = 1.0
+    #: (issue 30) the simulated DAQ takes each sample up to this many sample periods early or
+    #: late (uniform, in steps of 1/8 sample), while its time base and tick count stay nominal
+    daq_sample_jitter_samples: float = 0.0
+    #: (issue 30) the simulated DAQ's real sample rate is this × the rate it states and stamps
+    #: (0.995: its clock runs 0.5 % slow)
+    daq_clock_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if isinstance(self.ignore_injection, (list, str)):
@@ -95,7 +103,8 @@ class DriveDefects:
         for name in ("injection_scale", "hidden_ia_offset_a", "hidden_ib_offset_a",
                      "transducer_scale", "encoder_index_offset_rad", "dead_time_compensation_pu",
                      "transducer_extra_lag_s", "current_loop_bandwidth_scale",
-                     "encoder_commutation_offset_elec_deg"):
+                     "encoder_commutation_offset_elec_deg", "daq_sample_jitter_samples",
+                     "daq_clock_scale"):
             if name in values:
                 values[name] = _number(name, values[name])
         for name in ("word_length_offset_bits", "daq_drop_every_nth"):
@@ -226,6 +235,11 @@ class DriveDefects:
             raise InputError(f"simulation.defects.current_loop_bandwidth_scale = "
                              f"{self.current_loop_bandwidth_scale!r} is out of range; allowed "
                              f"0.05..2")
+        for name, low, high, unit in (("daq_sample_jitter_samples", 0.0, 0.5, " sample periods"),
+                                      ("daq_clock_scale", 0.9, 1.1, "")):
+            if not low <= getattr(self, name) <= high:
+                raise InputError(f"simulation.defects.{name} = {getattr(self, name)!r} is out "
+                                 f"of range; allowed {low:g}..{high:g}{unit}")
         for name in ("sensor_injection_swapped", "gain_applied_inverse"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"simulation.defects.{name} = {getattr(self, name)!r} must be "

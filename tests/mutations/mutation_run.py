@@ -7,6 +7,7 @@ process over the real stacks (CANopen, Modbus TCP, serial pty), exactly as ``hil
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from collections import Counter, defaultdict
@@ -20,11 +21,13 @@ FAILED = ("failed", "error")
 
 
 def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0,
-              select: str | None = None, bench: Path | None = None) -> dict:
+              select: str | None = None, bench: Path | None = None,
+              model_scale: dict | None = None) -> dict:
     """Run the plans of ``sources`` with ``defects``; per source, a Counter of test outcomes.
 
     ``select``: a pytest ``-k`` expression (a few points of each plan, to keep a case fast);
-    ``bench``: a bench file other than the default simulated bench."""
+    ``bench``: a bench file other than the default simulated bench; ``model_scale``:
+    {source: factor}, a closed-form model made that many times too large (``model_mutation``)."""
     folder.mkdir(parents=True, exist_ok=True)
     args = [sys.executable, "-m", "pytest", *[str(PLANS / f"test_{s}.py") for s in sources],
             "-q", "-p", "no:cacheprovider", "--hil-record", str(folder / "records")]
@@ -32,10 +35,15 @@ def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0,
         args += ["-k", select]
     if bench is not None:
         args += ["--hil-bench", str(bench)]
+    for source, factor in (model_scale or {}).items():
+        args += ["-p", "model_mutation", "--mutate-model", f"{source}={factor}"]
     for key, value in defects.items():
         text = str(value).lower() if isinstance(value, bool) else value   # a TOML value
         args += ["--hil-sim-defect", f"{key}={text}"]
-    done = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s, cwd=folder)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(Path(__file__).parent), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    done = subprocess.run(args, capture_output=True, text=True, timeout=timeout_s, cwd=folder,
+                          env=env)
     # record folders only (the results database may sit beside them)
     records = sorted(p for p in (folder / "records").iterdir() if p.is_dir()) \
         if (folder / "records").exists() else []
