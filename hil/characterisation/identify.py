@@ -17,8 +17,8 @@ V = Z·I + E with Z = R + j·ωe·L (ωe signed), whatever the direction of rota
 
 Type-B terms: the voltage channel's quantisation (its LSB/√12 per sample, averaged over the
 revolution), the uncertainty of the EMF propagated into Z, and the time skew between the voltage
-and current channels (bounded by ``skew_bound_s``, rectangular): a skew δt turns V by ωe·δt,
-δZ = j·ωe·δt·V/I — it moves mostly ωe·L (δL ≈ δt·(R + E/I)).
+and current channels (bounded by ``skew_bound_s``, rectangular): a skew δt turns the voltage
+measured in both captures by ωe·δt, so δZ = j·ωe·δt·Z — it moves mostly ωe·L (δL ≈ δt·R).
 """
 
 from __future__ import annotations
@@ -142,12 +142,12 @@ def winding(capture: Capture, emf: BackEmf, pole_pairs: int, *, skew_bound_s: fl
     values = (volts - e_an) / amps
     z, u_re, u_im = _mean_and_u(values)
     i_mean = complex(amps.mean())
-    v_mean = complex(volts.mean())
     # EMF: δZ = −δE/I, δE = ω_m·δψ along E's direction
     dz_emf = abs(omega_m) * emf.psi.u / abs(i_mean)
     e_dir = e_an / abs(e_an) / (i_mean / abs(i_mean))
-    # skew: δZ = j·ωe·δt·V/I, δt rectangular in ±skew_bound_s
-    dz_skew = abs(omega_e) * skew_bound_s / math.sqrt(3.0) * v_mean / i_mean * 1j
+    # skew: the channel's δt turns V and the EMF measured through it alike, so V − E by ωe·δt:
+    # δZ = j·ωe·δt·Z (δL ≈ δt·R), δt rectangular in ±skew_bound_s
+    dz_skew = abs(omega_e) * skew_bound_s / math.sqrt(3.0) * z * 1j
     u_q = math.hypot(_lsb_u(capture, "vab_v") / math.sqrt(3.0),
                      _lsb_u(capture, "ia_a") * abs(z)) / abs(i_mean)
     u_r = math.sqrt(u_re ** 2 + (dz_emf * e_dir.real) ** 2 + dz_skew.real ** 2 + u_q ** 2)
