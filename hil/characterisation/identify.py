@@ -66,8 +66,9 @@ def speed_rad_s(capture: Capture) -> float:
     return float(np.polyfit(np.asarray(capture["time_s"], dtype=float), theta, 1)[0])
 
 
-def phasors_per_revolution(signal: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """X per whole electrical revolution (x ≈ Re(X·e^{jθ}) + c), complex array."""
+def phasors_per_revolution(signal: np.ndarray, theta: np.ndarray, order: int = 1
+                           ) -> np.ndarray:
+    """X per whole electrical revolution of θ (x ≈ Re(X·e^{j·order·θ}) + c), complex array."""
     direction = 1.0 if theta[-1] >= theta[0] else -1.0
     turns = np.floor((theta - theta[0]) * direction / (2.0 * math.pi))
     out = []
@@ -75,7 +76,8 @@ def phasors_per_revolution(signal: np.ndarray, theta: np.ndarray) -> np.ndarray:
         pick = turns == turn
         if pick.sum() < 16:
             continue
-        basis = np.column_stack([np.cos(theta[pick]), np.sin(theta[pick]), np.ones(pick.sum())])
+        angle = order * theta[pick]
+        basis = np.column_stack([np.cos(angle), np.sin(angle), np.ones(pick.sum())])
         (a, b, _), *_ = np.linalg.lstsq(basis, np.asarray(signal, dtype=float)[pick], rcond=None)
         out.append(complex(a, -b))
     if len(out) < 2:

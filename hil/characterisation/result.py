@@ -34,11 +34,29 @@ class Characterisation:
 
     def measured_config(self, stated):
         """``stated`` (a ``hil.config.BenchConfig``) with :meth:`used`'s motor parameters in
-        ``[motor]``: the bench as measured, which every plan's prediction, band and validity
-        region then read (the record keeps the stated file)."""
+        ``[motor]`` and the measured loop bandwidth in ``[drive]`` (where it disagrees beyond
+        U): the bench as measured, which every plan's prediction, band and validity region then
+        read (the record keeps the stated file)."""
         changes = {name: value for name, value in self.used(stated).items()
                    if value != getattr(stated.motor, name)}
-        return replace(stated, motor=replace(stated.motor, **changes)) if changes else stated
+        measured = replace(stated, motor=replace(stated.motor, **changes)) if changes else stated
+        loop = self.loop_row(stated)
+        if loop is not None and loop["disagrees"]:
+            measured = replace(measured, drive=replace(
+                measured.drive, current_loop_bandwidth_hz=loop["measured"]))
+        return measured
+
+    def loop_row(self, stated) -> dict | None:
+        """The current loop's bandwidth: documented, measured (g × documented), U, or None."""
+        gain = self.get("current_loop_gain_pu")
+        documented = stated.drive.current_loop_bandwidth_hz
+        if gain is None or documented is None:
+            return None
+        return {"name": "current_loop_bandwidth_hz", "stated": documented,
+                "measured": gain.value * documented, "U_k2": gain.expanded * documented,
+                "unit": "Hz", "disagrees": abs(gain.value - 1.0) > gain.expanded,
+                "predictions_use": "measured" if abs(gain.value - 1.0) > gain.expanded
+                else "stated (the measurement confirms it within U)"}
 
     def stated_vs_measured(self, stated) -> list[dict]:
         """Per identified parameter: stated, measured, U (k = 2), and whether they disagree
@@ -59,7 +77,8 @@ class Characterisation:
         out = {"identified": [item.to_dict() for item in self.identified],
                "not_identified": dict(self.not_identified)}
         if stated is not None:
-            out["stated_vs_measured"] = self.stated_vs_measured(stated)
+            loop = self.loop_row(stated)
+            out["stated_vs_measured"] = self.stated_vs_measured(stated) + ([loop] if loop else [])
         return out
 
 

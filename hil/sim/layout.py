@@ -49,7 +49,9 @@ P_ANGLE_ADVANCE = 56     # inverse-Park angle advanced by ωe × this, s (0: no 
 P_L_SAT = 57             # saturation current i_sat of L(i) = L/(1 + (|i|/i_sat)²), A (0: linear)
 P_WARM_TAU = 58          # winding thermal time constant, s (0: the winding does not warm)
 P_WARM_RISE = 59         # steady-state rise of R per unit of R, per A² of the current vector |i|²
-N_PARAMS = 60
+P_TEST_AMP_PU = 60       # loop test signal amplitude on the q reference, per unit of I_base (0: off)
+P_TEST_ORDER = 61        # its electrical order k
+N_PARAMS = 62
 
 # ---- state vector (float64), at a PWM period boundary ----
 S_TIME = 0               # s, start of the next period

@@ -59,6 +59,8 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     p[L.P_ENC_DECIM] = injection.encoder_decimation
     p[L.P_HALL] = 1.0 if injection.hall_mode else 0.0
 
+    p[L.P_TEST_AMP_PU] = injection.loop_test_amplitude_a / current_base_a
+    p[L.P_TEST_ORDER] = injection.loop_test_order
     p[L.P_IQ_CMD] = config.current_command_a * math.cos(injection.current_angle_rad)
     p[L.P_ID_CMD] = -config.current_command_a * math.sin(injection.current_angle_rad)
     p[L.P_ENABLED] = 1.0 if config.enabled else 0.0
