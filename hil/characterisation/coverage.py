@@ -42,7 +42,8 @@ def draw_drive(rng) -> dict:
     else:
         actual["phase_inductance_h"] = inductance
     truth = {"phase_resistance_ohm": actual["phase_resistance_ohm"],
-             "phase_inductance_h": inductance, "ke_v_s_per_rad": actual["ke_v_s_per_rad"]}
+             "phase_inductance_h": inductance, "ke_v_s_per_rad": actual["ke_v_s_per_rad"],
+             "current_loop_gain_pu": scale["current_loop_bandwidth_hz"]}
     return {"actual": actual, "truth": truth,
             "operating_point": {"speed_rpm": speed_rpm, "current_a": current_a}}
 
@@ -72,6 +73,11 @@ def coverage(count: int, seed: int = 0) -> list[dict]:
         result = characterise_drive(drive, seed=seed + index)
         for name, truth in drive["truth"].items():
             item = result.get(name)
+            if item is None:
+                rows.append({"drive": index, "name": name, "truth": truth, "value": None,
+                             "U": None, "ratio": float("inf"), **drive["operating_point"],
+                             "not_identified": result.not_identified.get(name)})
+                continue
             rows.append({"drive": index, "name": name, "truth": truth, "value": item.value,
                          "U": item.expanded, "ratio": abs(item.value - truth) / item.expanded,
                          **drive["operating_point"]})
@@ -79,12 +85,14 @@ def coverage(count: int, seed: int = 0) -> list[dict]:
 
 
 def summary(rows: list[dict]) -> dict:
-    """Per parameter: cases, share within U, worst |error|/U, median U relative to the value."""
+    """Per parameter: cases, share within U and 3U, worst |error|/U, median U/value."""
     out = {}
     for name in sorted({row["name"] for row in rows}):
         mine = [row for row in rows if row["name"] == name]
         ratios = np.array([row["ratio"] for row in mine])
         out[name] = {"cases": len(mine), "within_U": float(np.mean(ratios <= 1.0)),
                      "worst_ratio": float(ratios.max()),
-                     "median_rel_U": float(np.median([row["U"] / row["value"] for row in mine]))}
+                     "within_3U": float(np.mean(ratios <= 3.0)),
+                     "median_rel_U": float(np.median([row["U"] / row["value"] for row in mine
+                                                      if row["value"]] or [np.nan]))}
     return out
