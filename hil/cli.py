@@ -28,7 +28,7 @@ EPILOG = ("Run 'hil COMMAND --help' for a command's options. Bad input exits 2 w
 #: Command modules under ``hil.commands``, in the order ``hil --help`` lists them.
 COMMAND_MODULES: list[str] = ["run", "sim_bench", "analyze", "report", "verify", "predict", "budget",
                               "yield_cmd", "diagnose", "db", "history", "compare", "trend",
-                              "station"]
+                              "station", "characterize"]
 #: Command names whose module name differs (the others are their module's name).
 COMMAND_NAMES = {"sim_bench": "sim-bench", "yield_cmd": "yield"}
 

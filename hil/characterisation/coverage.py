@@ -48,14 +48,26 @@ def draw_drive(rng) -> dict:
             "operating_point": {"speed_rpm": speed_rpm, "current_a": current_a}}
 
 
+#: Attempts to open a simulated bench (a connect timeout under load is retried, nothing else).
+OPEN_ATTEMPTS = 3
+
+
 def characterise_drive(drive: dict, seed: int = 0):
     """Characterise one drawn drive on a simulated bench; its ``Characterisation``."""
     from hil.bench import Bench
     from hil.record import RunRecord
 
+    from hil.bench import BenchOpenError
+
     config = default_sim_bench().with_overrides({"simulation": {"actual": drive["actual"]},
                                                  "operating_point": drive["operating_point"]})
-    bench = Bench.open(config, seed=seed)
+    for attempt in range(OPEN_ATTEMPTS):      # a loaded machine can miss the 0.5 s SDO answer
+        try:
+            bench = Bench.open(config, seed=seed)
+            break
+        except BenchOpenError:
+            if attempt == OPEN_ATTEMPTS - 1:
+                raise
     try:
         with tempfile.TemporaryDirectory() as folder:
             record = RunRecord.create(folder, config, bench.identities())
