@@ -34,6 +34,7 @@ def test_the_plans_read_the_bench_as_measured_and_the_record_keeps_both(tmp_path
             item = bench.characterisation.get(name)
             assert abs(item.value - truth) <= item.expanded
             assert getattr(bench.config.motor, name) == item.value     # what the plans read
+        _twin_file_states_what_was_measured(bench)
         rows = record.data["characterisation"]["stated_vs_measured"]
         motor_rows = [row for row in rows if row["name"] in WARM]
         assert {row["name"] for row in motor_rows if row["disagrees"]} == set(WARM)
@@ -41,6 +42,22 @@ def test_the_plans_read_the_bench_as_measured_and_the_record_keeps_both(tmp_path
     finally:
         record.finish("complete")
         bench.close()
+
+
+def _twin_file_states_what_was_measured(bench):
+    """``hil characterize --write-twin``'s file: a valid simulated bench whose [motor] is what
+    was measured, with no hidden physics of its own."""
+    import tomllib
+
+    from hil.commands.characterize import twin_text
+    from hil.config import BenchConfig
+
+    text = twin_text(bench.stated_config, bench.characterisation)
+    twin = BenchConfig.from_dict(tomllib.loads(text))
+    assert twin.simulated and not twin.sim_actual and not twin.sim_defects
+    for name in WARM:
+        assert getattr(twin.motor, name) == bench.characterisation.get(name).value
+    assert "± " in text and "(stated " in text
 
 
 def test_a_bench_as_stated_keeps_its_nameplate(tmp_path):
