@@ -53,27 +53,28 @@ OPEN_ATTEMPTS = 3
 
 
 def characterise_drive(drive: dict, seed: int = 0):
-    """Characterise one drawn drive on a simulated bench; its ``Characterisation``."""
-    from hil.bench import Bench
-    from hil.record import RunRecord
+    """Characterise one drawn drive on a simulated bench; its ``Characterisation``. A bench that
+    does not open or an instrument that times out (a loaded machine) is retried afresh, up to
+    ``OPEN_ATTEMPTS`` times; nothing else is."""
+    from ripple_hil_drivers.errors import InstrumentTimeout
 
-    from hil.bench import BenchOpenError
+    from hil.bench import Bench, BenchOpenError
+    from hil.record import RunRecord
 
     config = default_sim_bench().with_overrides({"simulation": {"actual": drive["actual"]},
                                                  "operating_point": drive["operating_point"]})
-    for attempt in range(OPEN_ATTEMPTS):      # a loaded machine can miss the 0.5 s SDO answer
+    for attempt in range(OPEN_ATTEMPTS):
         try:
             bench = Bench.open(config, seed=seed)
-            break
-        except BenchOpenError:
+            try:
+                with tempfile.TemporaryDirectory() as folder:
+                    record = RunRecord.create(folder, config, bench.identities())
+                    return characterise(bench, record)
+            finally:
+                bench.close()
+        except (BenchOpenError, InstrumentTimeout):
             if attempt == OPEN_ATTEMPTS - 1:
                 raise
-    try:
-        with tempfile.TemporaryDirectory() as folder:
-            record = RunRecord.create(folder, config, bench.identities())
-            return characterise(bench, record)
-    finally:
-        bench.close()
 
 
 def coverage(count: int, seed: int = 0) -> list[dict]:

@@ -72,13 +72,20 @@ def model_response(omega, omega_e, gain, delay_periods, bandwidth_rad_s, tuned, 
     return 0.5 * (closed(omega) + np.conj(closed(-omega)))
 
 
+#: Relative standard uncertainty of the sampled-loop model's |H| (type B): the largest mismatch
+#: between ``model_response`` and the simulated firmware at its own design point (Table I, 1.6 kHz,
+#: 500 rpm, orders 24/48/96 at 100 kHz sampling: 0.8 %, 1.1 %, 0.05 %), held out: the coverage
+#: study's random drives (studies/results/characterisation_coverage.md).
+MODEL_U_PU = 0.011
+
+
 def fit_loop(points, omega_e, bandwidth_hz, delay_guess_s, tuned, plant, u_inductance,
              pwm_hz):
     """The gain g (Identified) from the magnitudes |H_k| of ``points`` [(order, H, u)], the delay
     held at the documented ``delay_guess_s`` = (computation delay + ½)/f_pwm."""
     omegas = np.array([order * omega_e for order, _, _ in points], dtype=float)
     measured = np.array([h for _, h, _ in points])
-    weights = np.array([max(u, 1e-4) for _, _, u in points])
+    weights = np.array([math.hypot(u, MODEL_U_PU * abs(h)) for _, h, u in points])
     bandwidth = 2 * math.pi * bandwidth_hz
 
     delay_periods = max(delay_guess_s * pwm_hz - 0.5, 0.0)
