@@ -58,7 +58,7 @@ def characterise_drive(drive: dict, seed: int = 0):
     ``OPEN_ATTEMPTS`` times; nothing else is."""
     from ripple_hil_drivers.errors import InstrumentTimeout
 
-    from hil.bench import Bench, BenchOpenError
+    from hil.bench import Bench, BenchOpenError, SafeStateError
     from hil.record import RunRecord
 
     config = default_sim_bench().with_overrides({"simulation": {"actual": drive["actual"]},
@@ -72,7 +72,7 @@ def characterise_drive(drive: dict, seed: int = 0):
                     return characterise(bench, record)
             finally:
                 bench.close()
-        except (BenchOpenError, InstrumentTimeout):
+        except (BenchOpenError, InstrumentTimeout, SafeStateError):
             if attempt == OPEN_ATTEMPTS - 1:
                 raise
 
