@@ -12,11 +12,12 @@ the two equal). Units of the names, i.e. the fixed-point encoding of the integer
 ========  ====================  =============================================
 unit      SI value per count    knobs
 ========  ====================  =============================================
-mA        1e-3 A                ia_offset_a, ib_offset_a, current_command_a
+mA        1e-3 A                ia_offset_a, ib_offset_a, current_command_a, loop_test_amplitude_a
 ppm       1e-6 per unit         ia_gain_error_pu, ib_gain_error_pu (per unit of the nominal gain)
 ns        1e-9 s                dead_time_s
 urad      1e-6 rad              current_angle_rad
 counts    1                     encoder_decimation, pwm_period_counts
+order     1                     loop_test_order (electrical order of the loop's test signal)
 bits      1                     word_length_bits
 Hz        1                     pwm_frequency_hz
 bool      0 / 1                 hall_mode
@@ -45,7 +46,7 @@ CURRENT_COMMAND_INDEX = 0x2100
 INJECTION_INDEX_RANGE = range(0x2001, 0x2100)
 
 COUNTS_PER_SI_UNIT = {"mA": 1000, "ppm": 1_000_000, "ns": 1_000_000_000, "urad": 1_000_000,
-                      "counts": 1, "bits": 1, "Hz": 1, "bool": 1}
+                      "counts": 1, "bits": 1, "Hz": 1, "bool": 1, "order": 1}
 
 _NAME_PATTERN = re.compile(r"^(?P<knob>[a-z0-9_]+) \[(?P<unit>[A-Za-z]+)\]$")
 

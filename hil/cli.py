@@ -49,6 +49,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "compare": ("compare", "two runs side by side, differences with U"),
     "trend": ("trend", "control chart, Cp/Cpk and measured yield over runs"),
     "station": ("station", "the operator's page in the browser"),
+    "characterize": ("characterize", "measure the motor and current loop on the bench (stated vs "
+                                     "measured, with U); write its twin"),
     "campaign": ("campaign", "a regression grid of plan runs on Dask (bench variations x plan "
                              "selections)"),
 }

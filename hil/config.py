@@ -393,6 +393,9 @@ class BenchConfig:
     #: ``[simulation.drive_identity]``: the CiA 301 identity (0x1018 ``vendor``, ``product``,
     #: ``revision``, ``serial``) the simulated drive reports; empty: its defaults
     sim_drive_identity: dict = field(default_factory=dict)
+    #: ``[simulation.actual]``: the simulated bench's physics where it differs from the file
+    #: (``hil.actual``: key -> value, validated); empty on a real bench and by default
+    sim_actual: dict = field(default_factory=dict)
 
     @classmethod
     def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,
@@ -416,9 +419,11 @@ class BenchConfig:
         instruments = _parse_instruments(d.get("instrument", []), ctx)
         sim_defects = _parse_simulation(d.get("simulation", {}), ctx)
         sim_identity = _parse_sim_identity(d.get("simulation", {}), ctx)
+        from hil.actual import parse_actual
+        sim_actual = parse_actual(d.get("simulation", {}).get("actual"), ctx)
         bench = cls(simulated=simulated, motor=motor, motor_identity=motor_identity,
                     instruments=instruments, source=source, raw=_plain(d),
-                    sim_defects=sim_defects, sim_drive_identity=sim_identity,
+                    sim_defects=sim_defects, sim_drive_identity=sim_identity, sim_actual=sim_actual,
                     sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
                     base_dir=ctx.base_dir, **sections)
         bench._check(ctx)
@@ -497,6 +502,8 @@ class BenchConfig:
             out["simulation"] = {"defects": dict(self.sim_defects)}
         if self.sim_drive_identity:
             out.setdefault("simulation", {})["drive_identity"] = dict(self.sim_drive_identity)
+        if self.sim_actual:
+            out.setdefault("simulation", {})["actual"] = dict(self.sim_actual)
         return out
 
     def with_overrides(self, changes: dict) -> "BenchConfig":
@@ -684,10 +691,11 @@ def _parse_instruments(entries: Any, ctx: _Context) -> tuple[InstrumentEntry, ..
 
 
 def _parse_simulation(table: Any, ctx: _Context) -> dict:
-    """``[simulation]``: only ``defects`` (test-only, ``hil.sim.defects``), only when simulated."""
+    """``[simulation]``: ``defects`` (test-only, ``hil.sim.defects``) and ``actual``
+    (``hil.actual``, parsed there), only when simulated."""
     if not isinstance(table, dict):
         ctx.fail(f"simulation must be a table ([simulation]), got {type(table).__name__}")
-    _reject_unknown(table.keys(), ("defects", "drive_identity"), "simulation", ctx)
+    _reject_unknown(table.keys(), ("defects", "drive_identity", "actual"), "simulation", ctx)
     defects = table.get("defects", {})
     if not isinstance(defects, dict):
         ctx.fail(f"simulation.defects must be a table ([simulation.defects]), "

@@ -208,7 +208,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
         if plan.rule is not None:
             op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                                current_angle_rad=plan.current_angle_rad, motor=bench.config.motor)
+                                current_angle_rad=plan.current_angle_rad, motor=bench.config.motor,
+                                loop_tuning=_loop_tuning(bench))
             prediction = _predict(plan, op)
             nameplate_nm = op.mean_torque_nm
             predicted_pu = judged_prediction_pu(prediction, plan.rule) * (
@@ -257,6 +258,16 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     record.add_test(entry)
     return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry, judged,
                         checks or [], phase_verdict)
+
+
+def _loop_tuning(bench: Bench):
+    """The R and L the drive's loop was designed with when the bench's motor was measured to
+    differ (``hil.characterisation``): the stated ``[motor]`` the drive was configured from;
+    None otherwise (the models' pole-zero cancellation)."""
+    stated = getattr(bench, "stated_config", None)
+    if stated is None or stated.motor == bench.config.motor:
+        return None
+    return stated.motor
 
 
 def _torque_accuracy_nm(bench: Bench) -> float | None:

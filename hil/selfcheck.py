@@ -39,12 +39,15 @@ def check(name: str, measured: float, expected: float, unit: str, tolerance: flo
             "unit": unit, "tolerance": float(tolerance), "passed": ok, "detail": detail}
 
 
-def torque_scale(capture: Capture, nameplate_nm: float, tolerance_pu: float) -> dict:
-    """Mean of the transducer's torque over the capture vs the nameplate mean torque (N·m)."""
+def torque_scale(capture: Capture, nameplate_nm: float, tolerance_pu: float, *,
+                 basis: str | None = None) -> dict:
+    """Mean of the transducer's torque over the capture vs the expected mean torque K_t·I·cos φ
+    (N·m); ``basis`` says where K_t and the tolerance come from (default: the nameplate)."""
     measured = float(np.mean(capture["torque_nm"]))
     return check("torque scale", measured, nameplate_nm, "N*m", tolerance_pu * abs(nameplate_nm),
                  f"mean torque vs K_t·I·cos φ = {nameplate_nm:.4g} N·m "
-                 f"(tolerance {tolerance_pu:.1%}: transducer class + nameplate K_t)")
+                 f"(tolerance {tolerance_pu:.2%}: "
+                 + (basis or "transducer class + nameplate K_t") + ")")
 
 
 def electrical_angle(capture: Capture, pole_pairs: int) -> np.ndarray:

@@ -28,6 +28,11 @@ def twin_config(bench: BenchConfig):
     ``current_loop_bandwidth_hz`` is the bandwidth at the twin's default 20 kHz PWM; a stated
     ``current_loop_delay_s`` must equal the twin's (``current_loop_delay_periods`` + 0.5) PWM
     periods, since the plans predict with it: InputError naming both keys otherwise.
+
+    ``[simulation.actual]`` (``hil.actual``) replaces what the file states by the physics the
+    twin runs: the motor's R, L (with saturation), Ke and warming winding, the loop's bandwidth
+    and delay (its gains still set from the ``[motor]`` nameplate, as a drive configured from
+    it) and the transducer's bandwidth.
     """
     from hil.sim import DriveConfig, FirmwareModel, MotorModel, TransducerModel
 
@@ -56,8 +61,13 @@ def twin_config(bench: BenchConfig):
     transducer = TransducerModel()
     if bench.torque.bandwidth_hz is not None:
         transducer = TransducerModel(bandwidth_hz=bench.torque.bandwidth_hz)
-    return DriveConfig(motor=MotorModel(parameters=bench.motor), firmware=firmware,
-                       transducer=transducer)
+    config = DriveConfig(motor=MotorModel(parameters=bench.motor), firmware=firmware,
+                         transducer=transducer)
+    if bench.sim_actual:
+        from hil.actual import ActualPlant, actual_twin
+
+        config = actual_twin(config, ActualPlant.from_dict(bench.sim_actual), bench.motor)
+    return config
 
 
 #: the addresses a simulated DAQ may be told to serve on (every server here binds loopback)

@@ -109,7 +109,9 @@ def sweep_id(injection: dict) -> str:
 
 
 # ---------------------------------------------------------------------------- bench self-check
-#: Torque scale: measured mean torque vs nameplate K_t·I·cos φ. 3 %: the transducer's class
+#: Torque scale when the bench measured no K_t (no characterisation; with one, the tolerance is
+#: derived from ψ's U and the transducer's class: hil.characterisation.result.
+#: torque_scale_tolerance_pu): measured mean torque vs nameplate K_t·I·cos φ. 3 %: the transducer's class
 #: (0.1 % FS of 5 N·m ≈ 0.5 % of the ≈ 1 N·m mean) plus a nameplate K_t tolerance of ±2 % (a
 #: typical EMF-constant tolerance of a production PMSM). A 5 % transducer scale error fails it.
 SELF_CHECK_TORQUE_TOL_PU = 0.03
@@ -139,6 +141,7 @@ def self_check_point(op):
     """The self-check point: the bench's operating point, nothing injected, checks attached."""
     from hil import daq_timebase, selfcheck
     from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
+    from hil.characterisation.result import torque_scale_tolerance_pu
 
     def checks(capture, result, plan, bench):
         from hil.model import OperatingPoint
@@ -147,7 +150,9 @@ def self_check_point(op):
                                    current_angle_rad=plan.current_angle_rad,
                                    motor=bench.config.motor).mean_torque_nm
         pole_pairs = bench.config.motor.pole_pairs
-        return [selfcheck.torque_scale(capture, nameplate, SELF_CHECK_TORQUE_TOL_PU),
+        measured = torque_scale_tolerance_pu(bench, nameplate)    # K_t from the bench's ψ
+        tolerance, basis = measured or (SELF_CHECK_TORQUE_TOL_PU, None)
+        return [selfcheck.torque_scale(capture, nameplate, tolerance, basis=basis),
                 *selfcheck.current_channels(capture, plan.current_a, pole_pairs,
                                             SELF_CHECK_CURRENT_TOL_PU),
                 selfcheck.speed(capture, plan.speed_rpm, SELF_CHECK_SPEED_TOL_PU),

@@ -65,6 +65,15 @@ class OperatingPoint:
     motor: MotorParameters = TABLE_I
     dc_bus_v: float | None = None
     allow_beyond_voltage_limit: bool = False
+    #: The R and L the drive's PI current loop was designed with (Kp = L·ωc, Ki = R·ωc), when
+    #: they are not the motor's (a drive configured from a nameplate, on a motor measured to
+    #: differ: issue 29); None: the motor's own, the pole-zero cancellation the models assume.
+    loop_tuning: MotorParameters | None = None
+
+    @property
+    def loop_motor(self) -> MotorParameters:
+        """The motor the PI's gains were designed for (``loop_tuning`` or the motor)."""
+        return self.loop_tuning if self.loop_tuning is not None else self.motor
 
     def __post_init__(self) -> None:
         check_range("speed_rpm", self.speed_rpm, *SPEED_RANGE_RPM, unit=" rpm")

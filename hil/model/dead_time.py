@@ -107,8 +107,9 @@ def loop_rejection(rotor_frequency_rad_s, op: OperatingPoint,
                    + motor.phase_inductance_h * (s + 1j * op.elec_speed_rad_s))
     if bandwidth_rad_s:
         safe_s = np.where(s == 0.0, 1j, s)
-        controller = bandwidth_rad_s * (motor.phase_resistance_ohm
-                                        + motor.phase_inductance_h * safe_s) / safe_s
+        tuned = op.loop_motor                # the gains' R and L (the plant's by default)
+        controller = bandwidth_rad_s * (tuned.phase_resistance_ohm
+                                        + tuned.phase_inductance_h * safe_s) / safe_s
         controller = controller * np.exp(-(safe_s + 1j * op.elec_speed_rad_s) * delay_s)
         # the integrator rejects a constant disturbance completely
         plant = np.where(s == 0.0, 0j, plant / (1.0 + controller * plant))
@@ -234,7 +235,9 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
         current_a=op.current_a, current_angle_rad=op.current_angle_rad, leg_error_v=eps,
         loop_bandwidth_rad_s=2 * math.pi * bandwidth_hz if bandwidth_hz else 0.0,
         delay_s=delay_s, max_order=CLAMPING_MAX_ORDER,
-        dc_bus_v=op.dc_bus_v, pwm_frequency_hz=f_sw)
+        dc_bus_v=op.dc_bus_v, pwm_frequency_hz=f_sw,
+        loop_resistance_ohm=op.loop_motor.phase_resistance_ohm,
+        loop_inductance_h=op.loop_motor.phase_inductance_h)
     orders = np.arange(coefficients.size)
     elec_hz = op.elec_speed_rad_s / (2 * math.pi)
     coefficients = coefficients * transducer_response(orders * elec_hz, transducer_bandwidth_hz)

@@ -187,7 +187,9 @@ def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: flo
                   elec_speed_rad_s: float, current_a: float, current_angle_rad: float,
                   leg_error_v: float, loop_bandwidth_rad_s: float, delay_s: float,
                   max_order: int, dc_bus_v: float = 0.0,
-                  pwm_frequency_hz: float = 0.0) -> np.ndarray:
+                  pwm_frequency_hz: float = 0.0,
+                  loop_resistance_ohm: float | None = None,
+                  loop_inductance_h: float | None = None) -> np.ndarray:
     """Complex order coefficients c_k (k = 0..max_order) of the torque per unit of the ideal,
     torque(θ) = Re Σ c_k·e^{jkθ} (c_0 real: the mean per unit), θ the electrical angle.
 
@@ -195,7 +197,9 @@ def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: flo
     is ε = T_d·f_sw·V_dc (V). A loop bandwidth of 0 runs voltage-fed (no loop). With
     ``dc_bus_v`` (V) and ``pwm_frequency_hz`` (Hz) both > 0 the leg error comes from the current at
     the leg's edges with the PWM ripple and the clamping in the dead intervals (module
-    docstring); with either 0 it is the plain −ε·sign(i).
+    docstring); with either 0 it is the plain −ε·sign(i). ``loop_resistance_ohm`` and
+    ``loop_inductance_h``: the R and L the PI was designed with (Kp = L·ωc, Ki = R·ωc); None: the
+    motor's (``resistance_ohm``, ``inductance_h``).
     """
     w = elec_speed_rad_s
     period = 2.0 * math.pi / abs(w)
@@ -212,8 +216,9 @@ def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: flo
     slow = inductance_h / resistance_ohm + (1.0 / loop_bandwidth_rad_s if loop_bandwidth_rad_s
                                             else 0.0)
     settle_steps = int(math.ceil(max(period, 20.0 * slow) / dt))
-    kp = loop_bandwidth_rad_s * inductance_h
-    ki = loop_bandwidth_rad_s * resistance_ohm
+    kp = loop_bandwidth_rad_s * (inductance_h if loop_inductance_h is None else loop_inductance_h)
+    ki = loop_bandwidth_rad_s * (resistance_ohm if loop_resistance_ohm is None
+                                 else loop_resistance_ohm)
     theta, torque = _run(resistance_ohm, inductance_h, emf_peak_v, w, amp, current_angle_rad,
                          leg_error_v, kp, ki, dt, int(round(delay_s / dt)), settle_steps,
                          rev_steps, float(dc_bus_v), float(pwm_frequency_hz),

@@ -140,7 +140,8 @@ def loop_matrices(op: OperatingPoint, pwm_frequency_hz: float, bandwidth_hz: flo
     z = (r + 1j * op.elec_speed_rad_s * ind) / ind          # plant pole (rotor frame), 1/s
     w_t = 2.0 * math.pi * transducer_bandwidth_hz
     omega_c = 2.0 * math.pi * bandwidth_hz
-    kp, ki_t = omega_c * ind, omega_c * r * period
+    tuned = op.loop_motor                  # the gains' R and L (the plant's by default)
+    kp, ki_t = omega_c * tuned.phase_inductance_h, omega_c * tuned.phase_resistance_ohm * period
     # d/dt [i, y, u] = [[-z, 0, 1/L], [w_t, -w_t, 0], [0, 0, 0]]·[i, y, u], u held
     generator = np.array([[-z, 0.0, 1.0 / ind], [w_t, -w_t, 0.0], [0.0, 0.0, 0.0]],
                          dtype=complex)

@@ -23,14 +23,26 @@ class MotorModel:
     ``cogging``: ((mechanical order, amplitude N·m, phase rad), ...), at most 2 entries:
     T_cog = A·sin(k·θm + phase). ``neutral_connected``: neutral tied to the dc-bus midpoint
     (zero-sequence current can flow) instead of isolated (the Table I motor).
+    ``saturation_current_a``: the inductance falls with the current vector's magnitude,
+    L(|i|) = L/(1 + (|i|/i_sat)²) (0: linear; isotropic, evaluated once per PWM period).
+    ``thermal_time_constant_s`` and ``resistance_rise_pu_per_a2``: the winding warms with its
+    copper loss, R = R·(1 + w) with τ·dw/dt = k·|i|² − w (τ = 0: no warming; the rise starts at
+    0 when the twin is built). See ``kernel.plant_rl``.
     """
 
     parameters: MotorParameters = field(default_factory=MotorParameters)
     emf_harmonics: tuple[tuple[int, float, float], ...] = ()
     cogging: tuple[tuple[int, float, float], ...] = ()
     neutral_connected: bool = False
+    saturation_current_a: float = 0.0
+    thermal_time_constant_s: float = 0.0
+    resistance_rise_pu_per_a2: float = 0.0
 
     def __post_init__(self) -> None:
+        for name in ("saturation_current_a", "thermal_time_constant_s",
+                     "resistance_rise_pu_per_a2"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"MotorModel.{name} must be >= 0, got {getattr(self, name)!r}")
         if len(self.emf_harmonics) > 4:
             raise ValueError("MotorModel.emf_harmonics takes at most 4 (order, pu, phase) entries")
         for order, amplitude, _ in self.emf_harmonics:
@@ -93,6 +105,8 @@ class FirmwareModel:
     ``angle_compensation``: the inverse Park uses the angle advanced by ωe·(delay_periods + 0.5)/
     f_pwm, rounded to the sine table. The speed these use is the dyno's (an ideal estimate).
     ``sine_table_size`` entries of sin over one electrical revolution (index = truncated angle).
+    ``tuning``: the motor the firmware's gains, decoupling and feed-forward were set for (a
+    drive configured from a nameplate); None: the simulated motor itself.
     """
 
     bandwidth_per_pwm: float = 0.08
@@ -102,6 +116,7 @@ class FirmwareModel:
     decoupling: bool = False
     emf_feedforward: bool = False
     angle_compensation: bool = False
+    tuning: MotorParameters | None = None
 
     def __post_init__(self) -> None:
         if not 0.005 <= self.bandwidth_per_pwm <= 0.15:

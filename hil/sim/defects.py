@@ -26,7 +26,8 @@ from hil.sim.injection import Injection
 #: knobs scaled by ``injection_scale`` when set away from their default (word length has its own
 #: defect; hall_mode is a switch, not a magnitude)
 SCALED_KNOBS = tuple(name for name in Injection.FIELDS
-                     if name not in ("hall_mode", "word_length_bits"))
+                     if name not in ("hall_mode", "word_length_bits", "loop_test_amplitude_a",
+                                     "loop_test_order"))    # the loop's test signal: no fault
 _INTEGER_KNOBS = ("encoder_decimation", "pwm_period_counts")
 
 

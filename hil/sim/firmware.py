@@ -32,6 +32,7 @@ from numba import njit
 from hil.sim.layout import (P_ADC_BITS, P_ADC_FS, P_ANGLE_ADVANCE, P_DEAD_TIME, P_DECOUPLE_PU,
                             P_EMF_FF_PU, P_ENC_CPR, P_ENC_DECIM, P_HALL, P_IA_GAIN, P_IA_OFFSET,
                             P_IB_GAIN, P_IB_OFFSET, P_ID_CMD, P_IQ_CMD, P_KI_TS_PU, P_KP_PU,
+                            P_TEST_AMP_PU, P_TEST_ORDER,
                             P_MODULATION, P_POLE_PAIRS, P_PWM_COUNTS, P_PWM_FREQ, P_TABLE_SIZE,
                             P_WORD_BITS, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B)
 
@@ -262,8 +263,8 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, const
     i_c = _qfix(-i_a - i_b, word)                                 # eq (17)
 
     table_size = params[P_TABLE_SIZE]
-    index = _modulo_by(np.floor(firmware_angle_fraction(theta_m, params, constants)
-                                 * table_size), table_size, constants[K_INV_TABLE])
+    fraction = firmware_angle_fraction(theta_m, params, constants)
+    index = _modulo_by(np.floor(fraction * table_size), table_size, constants[K_INV_TABLE])
     s_a, c_a, s_b, s_c, c_b, c_c = angle_values(index, table_size, word, angle_cache)
 
     two_thirds = constants[K_TWO_THIRDS]                          # eq (11)
@@ -273,6 +274,9 @@ def firmware_step(ia_a, ib_a, theta_m, omega_m, params, state, counts_top, const
                               + _qfix(i_c * c_c, word)), word)
 
     i_q_ref = constants[K_IQ_REF]
+    if params[P_TEST_AMP_PU] != 0.0:                              # the loop's test signal
+        i_q_ref = _qfix(i_q_ref + _qfix(params[P_TEST_AMP_PU] * math.sin(
+            TWO_PI * params[P_TEST_ORDER] * fraction), word), word)
     i_d_ref = constants[K_ID_REF]
     limit = constants[K_LIMIT]
     kp = params[P_KP_PU]

@@ -32,9 +32,13 @@ _RANGES: dict[str, KnobRange] = {
     "pwm_frequency_hz": KnobRange(2000.0, 50000.0, 20000.0, "Hz"),
     "dead_time_s": KnobRange(0.0, 10e-6, 0.0, "s"),
     "current_angle_rad": KnobRange(-math.pi / 2, math.pi / 2, 0.0, "rad"),
+    # the loop's test signal (issue 29): a sine of this amplitude at this electrical order added
+    # to the q-current reference, i_q* = I·cos φ + A·sin(k·θe) (θe the firmware's angle)
+    "loop_test_amplitude_a": KnobRange(0.0, 10.0, 0.0, "A"),
+    "loop_test_order": KnobRange(1, 400, 1, "1 (electrical order: cycles per electrical revolution)"),
 }
 
-_INTEGER_KNOBS = ("encoder_decimation", "word_length_bits", "pwm_period_counts")
+_INTEGER_KNOBS = ("encoder_decimation", "word_length_bits", "pwm_period_counts", "loop_test_order")
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,8 @@ class Injection:
 
     ``current_angle_rad`` is φ of eq (4): the current lags the back EMF by φ.
     ``word_length_bits`` is n of eq (14): 0 means floating point, else 6..32.
+    ``loop_test_amplitude_a``, ``loop_test_order``: the current loop's test signal, A·sin(k·θe)
+    on the q-current reference (not a fault: the characterisation measures the loop with it).
     """
 
     ia_offset_a: float = 0.0
@@ -56,6 +62,8 @@ class Injection:
     pwm_frequency_hz: float = 20000.0
     dead_time_s: float = 0.0
     current_angle_rad: float = 0.0
+    loop_test_amplitude_a: float = 0.0
+    loop_test_order: int = 1
 
     FIELDS: ClassVar[tuple[str, ...]] = tuple(_RANGES)
 

@@ -50,12 +50,13 @@ from hil.sim.layout import (C_COUNTS, C_IA, C_IA_SENSED, C_IB, C_IB_SENSED, C_IC
                             C_SPEED_RPM, C_THETA_M, C_TIME, C_TORQUE_EM, C_TORQUE_SHAFT,
                             C_TORQUE_SHAFT_FILTERED, C_VA, C_VB, C_VC, P_ADC_FS,
                             P_COG, P_DEAD_TIME, P_DWELL, P_DYNO_MODE, P_ENABLED, P_ENC_CPR,
-                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_LOOP_DELAY,
+                            P_IA_GAIN, P_IA_OFFSET, P_IB_GAIN, P_IB_OFFSET, P_L, P_L_SAT,
+                            P_LOOP_DELAY, P_WARM_RISE, P_WARM_TAU,
                             P_MERGE_SEGMENTS, P_N_COG, P_NEUTRAL, P_POLE_PAIRS, P_PWM_COUNTS,
                             P_PWM_FREQ, P_R, P_RAMP, P_SPEED_CMD, P_STEP_ANGLE, P_TR_TAU, P_VDC,
                             S_CMP_A, S_CMP_B, S_CMP_C, S_CMP_PENDING, S_HIGH_END, S_IA, S_IB,
                             S_IC, S_INITIALISED, S_INT_D, S_INT_Q, S_ISENSE_A, S_ISENSE_B,
-                            S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y)
+                            S_OMEGA_M, S_THETA_M, S_TIME, S_TR_Y, S_WARM)
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0
@@ -212,6 +213,29 @@ def _filter_decayed(y0, x0, slope, h, tau_f, decay):
     return x0 + slope * h - slope * tau_f + (y0 - x0 + slope * tau_f) * decay
 
 
+@njit(cache=True, error_model="numpy", fastmath=FAST_MATH)
+def plant_rl(params, state, ia, ib, ic, period):
+    """(R, L) of the winding over the coming PWM period, quasi-static (constant within it).
+
+    Saturation: L(|i|) = L/(1 + (|i|/i_sat)²), the inductance the voltage equation
+    L·di/dt + R·i = v − e uses at the current vector's magnitude |i| = √(2/3·Σ i_x²) (the peak
+    phase current of a balanced set) at the period start; isotropic (the same L on d and q).
+    Warming: the resistance rise w (per unit of the cold R, ``state[S_WARM]``) is a first-order
+    thermal state driven by the copper loss, τ·dw/dt = k·|i|² − w (k = ``P_WARM_RISE`` per A²,
+    τ = ``P_WARM_TAU``), stepped exactly over the period for the period-start current; R = R·(1 + w).
+    """
+    magnitude2 = 2.0 / 3.0 * (ia * ia + ib * ib + ic * ic)
+    resistance = params[P_R]
+    inductance = params[P_L]
+    if params[P_WARM_TAU] > 0.0:
+        target = params[P_WARM_RISE] * magnitude2
+        state[S_WARM] += (target - state[S_WARM]) * -math.expm1(-period / params[P_WARM_TAU])
+        resistance *= 1.0 + state[S_WARM]
+    if params[P_L_SAT] > 0.0:
+        inductance /= 1.0 + magnitude2 / (params[P_L_SAT] * params[P_L_SAT])
+    return resistance, inductance
+
+
 @njit(cache=True, error_model="numpy", fastmath=FAST_MATH, nogil=True)
 def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end_s):
     """Advance ``state`` over whole PWM periods until ``end_s``; record samples into ``out``.
@@ -251,6 +275,10 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
     t_filtered = sa = sb = sc = t_em = t_shaft = i_q = i_d = 0.0
     resistance = params[P_R]
     inductance = params[P_L]
+    # the plant's R and L change from period to period (saturation, warming): a private copy
+    # of the parameters carries them to the forced response (``impedance_angles``)
+    varying = params[P_L_SAT] > 0.0 or params[P_WARM_TAU] > 0.0
+    plant = params.copy()
     vdc = params[P_VDC]
     pole_pairs = params[P_POLE_PAIRS]
     isolated = params[P_NEUTRAL] == 0.0
@@ -327,6 +355,12 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
         for x in range(3):
             compare[x] = state[S_CMP_A + x]
             cur[x] = state[S_IA + x]
+        if varying:
+            resistance, inductance = plant_rl(params, state, cur[0], cur[1], cur[2], period)
+            plant[P_R] = resistance
+            plant[P_L] = inductance
+            decay_step = exp_small(-resistance * sample_dt_s / inductance)
+            lag_speed = math.nan                      # the forced response changes with R, L
 
         # firmware at the valley: its compare values apply from the next period on (delay 1)
         # or from this one (delay 0); with delay 0.5 / 1.5 it runs at the peak instead (below)
@@ -360,7 +394,7 @@ def run_drive(params, state, record_start_s, sample_dt_s, out, rows, latest, end
         if gates_off:
             cur[:] = 0.0
         if omega != lag_speed:
-            impedance_angles(params, omega, orders, amplitudes, count, lag)
+            impedance_angles(plant, omega, orders, amplitudes, count, lag)
             lag_speed = omega
         period_basis(params, theta_e0, orders, amplitudes, phases, count, lag, basis)
         sin_e0 = basis[0, B_ESIN]                     # fundamental EMF angle is θe itself

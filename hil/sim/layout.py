@@ -46,7 +46,12 @@ P_LOOP_DELAY = 53        # current-loop computation delay, PWM periods: 0, 0.5, 
 P_DECOUPLE_PU = 54       # decoupling: ωe·L per unit of V_base/I_base, per mech rad/s (0: off)
 P_EMF_FF_PU = 55         # EMF feed-forward: peak EMF per unit of V_base, per mech rad/s (0: off)
 P_ANGLE_ADVANCE = 56     # inverse-Park angle advanced by ωe × this, s (0: no compensation)
-N_PARAMS = 57
+P_L_SAT = 57             # saturation current i_sat of L(i) = L/(1 + (|i|/i_sat)²), A (0: linear)
+P_WARM_TAU = 58          # winding thermal time constant, s (0: the winding does not warm)
+P_WARM_RISE = 59         # steady-state rise of R per unit of R, per A² of the current vector |i|²
+P_TEST_AMP_PU = 60       # loop test signal amplitude on the q reference, per unit of I_base (0: off)
+P_TEST_ORDER = 61        # its electrical order k
+N_PARAMS = 62
 
 # ---- state vector (float64), at a PWM period boundary ----
 S_TIME = 0               # s, start of the next period
@@ -66,7 +71,8 @@ S_ISENSE_B = 13
 S_INITIALISED = 14
 S_HIGH_END = 15          # 3 flags: leg x ended the last period high (full duty, no edge)
 S_CMP_PENDING = 18       # 3 compare values computed, waiting a period more (1.5-period delay)
-N_STATE = 21
+S_WARM = 21              # winding resistance rise, per unit of the cold R (the thermal state)
+N_STATE = 22
 
 # ---- output channels (rows of the output array) ----
 C_TIME = 0

@@ -35,7 +35,12 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     p[L.P_MODULATION] = 0.0 if config.inverter.modulation == "svpwm" else 1.0
 
     bits = int(injection.word_length_bits)
-    kp_v_per_a, ki_v_per_a_s = config.firmware.gains(motor, injection.pwm_frequency_hz)
+    model = config.motor
+    p[L.P_L_SAT] = model.saturation_current_a
+    p[L.P_WARM_TAU] = model.thermal_time_constant_s
+    p[L.P_WARM_RISE] = model.resistance_rise_pu_per_a2
+    tuned = config.firmware.tuning or motor     # the motor the firmware's gains were set for
+    kp_v_per_a, ki_v_per_a_s = config.firmware.gains(tuned, injection.pwm_frequency_hz)
     current_base_a = config.sensors.adc_full_scale_a
     voltage_base_v = motor.dc_bus_v
     to_pu = current_base_a / voltage_base_v
@@ -54,6 +59,8 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     p[L.P_ENC_DECIM] = injection.encoder_decimation
     p[L.P_HALL] = 1.0 if injection.hall_mode else 0.0
 
+    p[L.P_TEST_AMP_PU] = injection.loop_test_amplitude_a / current_base_a
+    p[L.P_TEST_ORDER] = injection.loop_test_order
     p[L.P_IQ_CMD] = config.current_command_a * math.cos(injection.current_angle_rad)
     p[L.P_ID_CMD] = -config.current_command_a * math.sin(injection.current_angle_rad)
     p[L.P_ENABLED] = 1.0 if config.enabled else 0.0
@@ -67,9 +74,9 @@ def pack_params(config: DriveConfig) -> np.ndarray:
     firmware = config.firmware
     p[L.P_LOOP_DELAY] = firmware.delay_periods
     if firmware.decoupling:                  # ωe·L·I_base/V_base per mechanical rad/s
-        p[L.P_DECOUPLE_PU] = motor.pole_pairs * motor.phase_inductance_h * to_pu
+        p[L.P_DECOUPLE_PU] = tuned.pole_pairs * tuned.phase_inductance_h * to_pu
     if firmware.emf_feedforward:             # peak EMF per V_base, per mechanical rad/s
-        p[L.P_EMF_FF_PU] = motor.emf_peak_v_s_per_rad / voltage_base_v
+        p[L.P_EMF_FF_PU] = tuned.emf_peak_v_s_per_rad / voltage_base_v
     if firmware.angle_compensation:
         p[L.P_ANGLE_ADVANCE] = firmware.total_delay_s(injection.pwm_frequency_hz)
     return p

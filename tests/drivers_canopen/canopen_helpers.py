@@ -11,7 +11,7 @@ NON_DEFAULT = {
     "ia_offset_a": 0.25, "ib_offset_a": -1.5, "ia_gain_error_pu": 0.02, "ib_gain_error_pu": -0.05,
     "encoder_decimation": 100, "hall_mode": True, "word_length_bits": 12,
     "pwm_period_counts": 500, "pwm_frequency_hz": 10000, "dead_time_s": 2.5e-6,
-    "current_angle_rad": 0.5,
+    "current_angle_rad": 0.5, "loop_test_amplitude_a": 2.0, "loop_test_order": 48,
 }
 
 

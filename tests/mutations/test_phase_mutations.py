@@ -36,9 +36,11 @@ PHASE_CASES = [
     ({"transducer_extra_lag_s": 1e-3}, ["self_check"], {"self_check"}),
     # the firmware compensates 70 % of the dead time: the ripple is 0.3x the model's
     ({"dead_time_compensation_pu": 0.7}, ["dead_time"], {"dead_time"}),
-    # the current loop runs at half the bandwidth the bench file states: the loop rejects less
-    # of the dead time's order-6 voltage disturbance than the model (with the stated loop) says
-    ({"current_loop_bandwidth_scale": 0.5}, ["dead_time"], {"dead_time"}),
+    # the current loop runs at half the bandwidth the bench file states: the characterisation
+    # measures it (issue 29) and states it as a finding about the drive; the dead-time plan then
+    # predicts with the measured loop (before the characterisation stage it failed instead)
+    ({"current_loop_bandwidth_scale": 0.5}, ["dead_time", "characterisation"],
+     {"characterisation"}),
 ]
 
 

@@ -15,6 +15,8 @@ CONTRACT = {  # name: (min, max, default), from the COMMON.md table
     "word_length_bits": (0, 32, 0), "pwm_period_counts": (8, 65535, 2000),
     "pwm_frequency_hz": (2000, 50000, 20000), "dead_time_s": (0, 10e-6, 0.0),
     "current_angle_rad": (-math.pi / 2, math.pi / 2, 0.0),
+    # the current loop's test signal (issue 29: characterisation, not a fault)
+    "loop_test_amplitude_a": (0.0, 10.0, 0.0), "loop_test_order": (1, 400, 1),
 }
 
 

@@ -1,0 +1,151 @@
+"""The characterisation stage on a bench: captures, identification, record section, and the
+bench as measured for the plans (design.md §11, §12.5: set-up before the plans).
+
+Two captures at the bench's operating point, each saved raw in the record before analysis:
+the drive disabled with the dyno turning the motor (the back EMF: ψ), then the drive regulating
+the operating point's current (R and L at that current, hence at its saturation). The voltage
+channel ``vab_v`` is the DAQ's; a DAQ without it identifies nothing and the predictions use the
+nameplate, which the record says.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from hil.characterisation.identify import back_emf, winding
+from hil.characterisation.result import Characterisation, ke_from_psi
+
+#: The DAQ's line-to-line terminal voltage channel (drivers/data/daq_registers.toml).
+VOLTAGE_CHANNEL = "vab_v"
+#: A prime sample rate (as the self-check's): no PWM harmonic aliases onto a steady line and the
+#: samples fall at every phase of the PWM period.
+SAMPLE_RATE_HZ = 7919.0
+#: Electrical revolutions per capture (the type-A scatter needs several).
+REVOLUTIONS = 16
+#: The simulated DAQ's voltage channel is the mean over the PWM period a sample falls in: its
+#: time relative to the current samples is within ± half a PWM period (20 kHz).
+VOLTAGE_SKEW_BOUND_S = 0.5 / 20_000.0
+SECTION = "characterisation"
+
+
+def _plan(op, *, enabled: bool):
+    from hil.measurement import PointPlan
+
+    return PointPlan(source="characterisation", injection={}, speed_rpm=op.speed_rpm,
+                     current_a=op.current_a if enabled else 0.0,
+                     current_angle_rad=op.current_angle_rad, kind="self_check", rule=None,
+                     drive_enabled=enabled, extra_channels=(VOLTAGE_CHANNEL,),
+                     sample_rate_hz=SAMPLE_RATE_HZ, revolutions=REVOLUTIONS)
+
+
+def has_voltage_channel(bench) -> bool:
+    register_map = getattr(bench.daq, "map", None)
+    return register_map is None or VOLTAGE_CHANNEL in {ch.name for ch in register_map.channels}
+
+
+def characterise(bench, record, op=None) -> Characterisation:
+    """Identify ψ (as Ke), R and L on ``bench`` at ``op`` (default: the bench file's operating
+    point); captures saved in ``record`` as ``characterisation-emf`` / ``-winding``."""
+    from hil.measurement import _acquire
+
+    config = bench.config
+    op = op or config.operating_point
+    if not has_voltage_channel(bench):
+        reason = (f"the DAQ's register map has no {VOLTAGE_CHANNEL} channel: no terminal "
+                  f"voltage to identify from")
+        return Characterisation(not_identified={key: reason for key in (
+            "ke_v_s_per_rad", "phase_resistance_ohm", "phase_inductance_h")})
+    pole_pairs = config.motor.pole_pairs
+    emf_capture = _acquire(bench, record, "characterisation-emf", _plan(op, enabled=False),
+                           pole_pairs)
+    emf = back_emf(emf_capture, pole_pairs)
+    identified = [ke_from_psi(emf.psi, config.motor.ke_definition)]
+    not_identified = {}
+    if op.current_a > 0:
+        winding_capture = _acquire(bench, record, "characterisation-winding",
+                                   _plan(op, enabled=True), pole_pairs)
+        identified += winding(winding_capture, emf, pole_pairs,
+                              skew_bound_s=VOLTAGE_SKEW_BOUND_S)
+    else:
+        for key in ("phase_resistance_ohm", "phase_inductance_h"):
+            not_identified[key] = "the operating point's current is 0 A"
+    if len(identified) == 3:
+        loop = _loop(bench, record, op, identified, config)
+        if isinstance(loop, str):
+            not_identified["current_loop_bandwidth_hz"] = loop
+        else:
+            identified += loop
+    not_identified.setdefault("bandwidth_hz", "the transducer's response is checked by the "
+                              "self-check against [torque] bandwidth_hz, not identified")
+    return Characterisation(tuple(identified), not_identified)
+
+
+#: The loop test signal: amplitude as a share of the operating current (clear of the ADC's LSB
+#: and of the current limit), at rotor-frame frequencies this share of the documented bandwidth.
+LOOP_TEST_SHARE = 0.1
+LOOP_TEST_FREQUENCIES_PU = (0.25, 0.5, 1.0)
+#: The loop captures' DAQ rate: the PWM ripple's first harmonics (20…200 kHz) fold to ≥ 1.95 kHz
+#: and not synchronously with the carrier; at 7919 Hz the 40 kHz ripple folded onto 405 Hz
+#: (order 24 at 500 rpm) and moved that point by 7 %.
+LOOP_SAMPLE_RATE_HZ = 47_317.0
+LOOP_REVOLUTIONS = 8
+#: The drive's PWM frequency while characterised (the EDS default; nothing injected), Hz.
+PWM_HZ = 20_000.0
+
+
+def _loop(bench, record, op, identified, config):
+    """The loop's gain relative to its documentation and its delay (``loop.fit_loop``), or the
+    reason it was not identified."""
+    from hil.characterisation.loop import fit_loop, response
+    from hil.measurement import _acquire
+    from hil.sim.injection import Injection
+
+    drive = config.drive
+    if drive.current_loop_design != "continuous":
+        return (f"the fit knows the documented 'continuous' PI design only, the bench file "
+                f"states {drive.current_loop_design!r}")
+    if drive.current_loop_bandwidth_hz is None or drive.current_loop_delay_s is None:
+        return "the bench file states no [drive] current_loop_bandwidth_hz/delay to compare with"
+    if "loop_test_amplitude_a" not in bench.drive.injection_limits():
+        return "the drive has no loop test-signal objects (0x200C/0x200D)"
+    pole_pairs = config.motor.pole_pairs
+    f_e = abs(op.speed_rpm) / 60.0 * pole_pairs
+    amplitude = round(min(10.0, max(0.5, LOOP_TEST_SHARE * op.current_a)), 3)
+    high = int(Injection.ranges()["loop_test_order"].max)
+    orders = sorted({min(high, max(2, round(share * drive.current_loop_bandwidth_hz / f_e)))
+                     for share in LOOP_TEST_FREQUENCIES_PU})
+    points = []
+    for order in orders:
+        plan = replace(_plan(op, enabled=True), injection={"loop_test_amplitude_a": amplitude,
+                                                           "loop_test_order": order},
+                       extra_channels=(), sample_rate_hz=LOOP_SAMPLE_RATE_HZ,
+                       revolutions=LOOP_REVOLUTIONS)
+        capture = _acquire(bench, record, f"characterisation-loop-k{order}", plan, pole_pairs)
+        points.append((order, *response(capture, pole_pairs, order, amplitude)))
+    by_name = {item.name: item for item in identified}
+    plant = (by_name["phase_resistance_ohm"].value, by_name["phase_inductance_h"].value)
+    gain = fit_loop(points, math.copysign(2 * math.pi * f_e, op.speed_rpm),
+                           drive.current_loop_bandwidth_hz, drive.current_loop_delay_s,
+                           (config.motor.phase_resistance_ohm, config.motor.phase_inductance_h),
+                           plant, by_name["phase_inductance_h"].u, PWM_HZ)
+    return [gain]
+
+
+def run_stage(bench, record) -> Characterisation:
+    """Characterise, record the section (stated beside measured, what the predictions use) and
+    give the plans the bench as measured (``bench.config``; ``bench.stated_config`` keeps the
+    file). On an error the section says so and the error propagates: the plans do not run as
+    judged plans (design.md §12.5)."""
+    stated = bench.config
+    try:
+        result = characterise(bench, record)
+    except BaseException as exc:
+        record.set_section(SECTION, {"failed": f"{type(exc).__name__}: {exc}",
+                                     "predictions_use": "none: the plans do not run"})
+        raise
+    record.set_section(SECTION, result.to_dict(stated))
+    bench.stated_config = stated
+    bench.characterisation = result
+    bench.config = result.measured_config(stated)
+    return result
