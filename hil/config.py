@@ -350,6 +350,8 @@ class BenchConfig:
     #: ``[simulation.defects]``: test-only defects of the simulated drive (``hil.sim.defects``
     #: field names -> values, validated); empty on a real bench and by default
     sim_defects: dict = field(default_factory=dict)
+    #: ``[simulation] plant``: who computes the simulated instruments' samples (``hil.plants``)
+    sim_plant: str = "ripple-hil"
 
     @classmethod
     def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,
@@ -372,9 +374,10 @@ class BenchConfig:
         motor, motor_identity = _parse_motor(d.get("motor", {}), ctx)
         instruments = _parse_instruments(d.get("instrument", []), ctx)
         sim_defects = _parse_simulation(d.get("simulation", {}), ctx)
+        sim_plant = _parse_plant(d.get("simulation", {}), ctx)
         bench = cls(simulated=simulated, motor=motor, motor_identity=motor_identity,
                     instruments=instruments, source=source, raw=_plain(d),
-                    sim_defects=sim_defects,
+                    sim_defects=sim_defects, sim_plant=sim_plant,
                     sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
                     base_dir=ctx.base_dir, **sections)
         bench._check(ctx)
@@ -450,6 +453,8 @@ class BenchConfig:
         out["instrument"] = [_section_to_dict(entry) for entry in self.instruments]
         if self.sim_defects:
             out["simulation"] = {"defects": dict(self.sim_defects)}
+        if self.sim_plant != "ripple-hil":
+            out.setdefault("simulation", {})["plant"] = self.sim_plant
         return out
 
     def with_overrides(self, changes: dict) -> "BenchConfig":
@@ -640,7 +645,7 @@ def _parse_simulation(table: Any, ctx: _Context) -> dict:
     """``[simulation]``: only ``defects`` (test-only, ``hil.sim.defects``), only when simulated."""
     if not isinstance(table, dict):
         ctx.fail(f"simulation must be a table ([simulation]), got {type(table).__name__}")
-    _reject_unknown(table.keys(), ("defects",), "simulation", ctx)
+    _reject_unknown(table.keys(), ("defects", "plant"), "simulation", ctx)
     defects = table.get("defects", {})
     if not isinstance(defects, dict):
         ctx.fail(f"simulation.defects must be a table ([simulation.defects]), "
@@ -656,6 +661,20 @@ def _parse_simulation(table: Any, ctx: _Context) -> dict:
         return DriveDefects.from_dict(defects).to_dict()
     except InputError as exc:
         ctx.fail(str(exc))
+
+
+def _parse_plant(table: Any, ctx: _Context) -> str:
+    """``[simulation] plant`` (``hil.plants.PLANTS``; default the ripple-hil twin), only when
+    simulated. Called after :func:`_parse_simulation` has checked the table."""
+    from hil.plants import DEFAULT_PLANT, PLANTS
+
+    plant = table.get("plant", DEFAULT_PLANT)
+    if plant not in PLANTS:
+        ctx.fail(f"simulation.plant = {plant!r}; allowed {', '.join(map(repr, PLANTS))}")
+    if plant != DEFAULT_PLANT and not ctx.simulated:
+        ctx.fail(f"simulation.plant = {plant!r} names who computes a simulated bench's samples; "
+                 f"allowed only with simulated = true")
+    return plant
 
 
 # --------------------------------------------------------------------------- helpers

@@ -1,4 +1,5 @@
-"""The simulated bench: the three simulated instruments around one ``hil.sim.DriveTwin``.
+"""The simulated bench: the three simulated instruments around one plant (``hil.plants``: the
+``hil.sim.DriveTwin`` by default, or the plant the bench file's ``[simulation] plant`` names).
 
 Used in-process by the pytest plugin (CAN on a private python-can ``virtual`` channel) and as its
 own process by ``hil sim-bench`` (CAN served over TCP loopback with python-can-remote, so another
@@ -104,14 +105,14 @@ class SimulatedBench:
     def __init__(self, config: BenchConfig, *, seed: int = 0, cross_process: bool = False) -> None:
         if not config.simulated:
             raise ValueError("SimulatedBench needs a bench file with simulated = true")
-        from hil.sim import DriveTwin
-        from hil.sim.defects import DriveDefects
+        from hil.plants import make_plant
 
         check_fixed_addresses(config)
         self.config = config
         self.cross_process = cross_process
-        self.twin = DriveTwin(twin_config(config), seed=seed,
-                              defects=DriveDefects.from_dict(config.sim_defects))
+        #: the plant behind the instruments (``hil.plants.Plant``; named ``twin`` for the
+        #: ripple-hil twin it was first)
+        self.twin = self.plant = make_plant(config, seed=seed)
         self._started: list = []
         self.drive = None
         self.daq = None
@@ -121,9 +122,12 @@ class SimulatedBench:
         from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
         from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
 
-        from hil.sim.warmup import prepare_twin_engine
+        if getattr(self.plant, "prepare", None) is not None:
+            self.plant.prepare()
+        else:
+            from hil.sim.warmup import prepare_twin_engine
 
-        prepare_twin_engine()     # compile (if needed) before any instrument is served
+            prepare_twin_engine()     # compile (if needed) before any instrument is served
         try:
             drive_table = self._start_drive()
             daq_table = self._start_daq(SimulatedDaq)

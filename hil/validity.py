@@ -160,6 +160,9 @@ def problems(plan, config: BenchConfig) -> list[str]:
     found += capture_problems(plan, config)
     if region.floor_fraction is not None and plan.rule is not None:
         found += floor_problems(plan, config, region.floor_fraction)
+    from hil.plants.capabilities import plant_problems   # what the simulated plant cannot do
+
+    found += plant_problems(plan, config)
     return found
 
 
