@@ -149,7 +149,8 @@ class SimulatedBench:
         if self.cross_process:
             from ripple_hil_drivers.simulated.can_remote_server import RemoteSimulatedDrive
 
-            self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate).start()
+            self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate,
+                                              software_version=self.software_version()).start()
             self._started.append(self.drive)
             return self.drive.bench_table()
         from ripple_hil_drivers.canopen_transport import CanBusSettings
@@ -157,9 +158,20 @@ class SimulatedBench:
 
         channel = f"ripple-hil-{os.getpid()}-{uuid.uuid4().hex[:8]}"
         settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
-        self.drive = SimulatedDrive(self.twin, settings, node_id).start()
+        self.drive = SimulatedDrive(self.twin, settings, node_id,
+                                    software_version=self.software_version()).start()
         self._started.append(self.drive)
         return {"interface": "virtual", "channel": channel}
+
+    def software_version(self) -> str | None:
+        """The simulated drive's 0x100A: the EDS default on the ripple-hil twin; with another
+        plant, that default and the plant's identity, so the record's drive identity says
+        which plant computed the samples."""
+        from hil.plants import DEFAULT_PLANT, plant_identity
+
+        if self.config.sim_plant == DEFAULT_PLANT:
+            return None
+        return f"ripple-hil-drive 0.1.0; plant: {plant_identity(self.plant)}"
 
     def _start_daq(self, simulated_daq_class) -> dict:
         daq = self.config.daq

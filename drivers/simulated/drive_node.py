@@ -94,13 +94,16 @@ class SimulatedDrive:
     """CiA 402 drive node on a python-can bus, backed by a ``DriveTwin`` in simulated time."""
 
     def __init__(self, twin, settings: CanBusSettings, node_id: int = 5, *, eds_path=None,
-                 serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None):
+                 serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None,
+                 software_version: str | None = None):
         if not 1 <= node_id <= 127:
             raise ValueError(f"node_id={node_id} is outside 1..127")
         self.twin = twin
         self.settings = settings
         self.node_id = node_id
         self.serial_number = serial_number
+        #: 0x100A as read (None: the EDS default); the simulated bench names its plant here
+        self.software_version = software_version
         self._eds_path = eds_path
         self._kt = torque_constant_nm_per_a or TABLE_I.torque_constant_nm_per_a
         self._knobs = {obj.index: obj for obj in injection_objects(eds_path).values()}
@@ -347,6 +350,8 @@ class SimulatedDrive:
             return knob.to_count(getattr(self.twin.injection, knob.knob))
         if index == RESTORE_DEFAULTS_INDEX:
             return 1  # CiA 301 convention: "restores on command"
+        if index == 0x100A and self.software_version:
+            return self.software_version
         if index == CURRENT_COMMAND_INDEX:
             return self._current_command.to_count(self.twin.current_command_a)
         if index == 0x6071:
