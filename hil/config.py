@@ -642,7 +642,8 @@ def _parse_instruments(entries: Any, ctx: _Context) -> tuple[InstrumentEntry, ..
 
 
 def _parse_simulation(table: Any, ctx: _Context) -> dict:
-    """``[simulation]``: only ``defects`` (test-only, ``hil.sim.defects``), only when simulated."""
+    """``[simulation]``: ``defects`` (test-only, ``hil.sim.defects``), only when simulated; its
+    ``plant`` is read by :func:`_parse_plant`."""
     if not isinstance(table, dict):
         ctx.fail(f"simulation must be a table ([simulation]), got {type(table).__name__}")
     _reject_unknown(table.keys(), ("defects", "plant"), "simulation", ctx)
