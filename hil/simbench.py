@@ -189,12 +189,19 @@ class SimulatedBench:
         return {"host": host, "port": port}
 
     def stop(self) -> None:
-        """Stop every instrument started so far, newest first; never raises for one that fails."""
+        """Stop every instrument started so far, newest first, then the plant (if it has a
+        ``close``); never raises for one that fails."""
         while self._started:
             instrument = self._started.pop()
             try:
                 instrument.stop()
             except Exception:  # noqa: BLE001 - stopping the rest matters more
+                pass
+        close = getattr(self.plant, "close", None)
+        if close is not None:
+            try:
+                close()
+            except Exception:  # noqa: BLE001
                 pass
 
     def __enter__(self) -> BenchConfig:

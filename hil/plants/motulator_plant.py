@@ -35,9 +35,11 @@ floating point and reads an encoder. Nothing of ``hil.sim`` computes a sample he
 injection object (``hil.sim.injection.Injection``) and the test-only defects' mapping from a
 commanded to an applied injection (``hil.sim.defects.DriveDefects.applied``) are data.
 
-Speed: tens of wall seconds per simulated second (carrier comparison at 20 kHz). The simulated
-DAQ runs a capture in its worker thread, so the drive keeps answering (heartbeat, statusword,
-SDO reads from the cached status) while motulator computes.
+Speed: tens of wall seconds per simulated second (carrier comparison at 20 kHz). motulator runs
+in a worker process (``hil.plants.motulator_process``) and the simulated DAQ waits for it in its
+capture thread, so the instruments keep answering (heartbeat, statusword, SDO, Modbus polls)
+while motulator computes. The DAQ's first sample is not aligned to a carrier valley (the plant
+has no ``advance_to_carrier_valley``): a free-running DAQ, as on a real bench.
 """
 
 from __future__ import annotations
@@ -119,8 +121,17 @@ class MotulatorPlant:
                 f"{self.bandwidth_hz:g} Hz)")
 
     def prepare(self) -> None:
-        """Import motulator before the instruments serve (the first capture then starts at once)."""
-        import motulator.drive.model  # noqa: F401
+        """Start motulator's worker process before the instruments serve (the first capture
+        then starts at once)."""
+        with self.lock:
+            self._configured_drive()
+
+    def close(self) -> None:
+        """End motulator's worker process (it also ends with this process)."""
+        with self.lock:
+            if self._drive is not None:
+                self._drive.close()
+                self._drive = None
 
     # ---- commands (the Plant contract) -----------------------------------------------------
     @property
@@ -227,11 +238,11 @@ class MotulatorPlant:
         """motulator's drive with the present commands and the applied injection in place;
         the controller is rebuilt (integrators at zero) when the PWM frequency or the loop
         changes and when the gates are released."""
-        from hil.plants.motulator_drive import MotulatorDrive
+        from hil.plants.motulator_process import DriveProcess
 
         applied = self._applied()
         if self._drive is None:
-            self._drive = MotulatorDrive(self.motor, self.time_s)
+            self._drive = DriveProcess(self.motor, self.time_s)
         loop_hz = self.bandwidth_hz * self.defects.current_loop_bandwidth_scale
         self._drive.configure(applied, enabled=self._enabled,
                               current_a=self._current_command_a, speed_rpm=self._speed_rpm,
