@@ -155,13 +155,9 @@ def run_defect(label: str, out: Path) -> dict:
         folder = Path(tmp)
         bench = bench_copy(motor, speed, current, folder)
         row = hil_run(bench, sources, folder, defects)
-    judged = [t["category"] for t in row["tests"] if t["source"] == plan
-              and t["test"] != ANGLE_REFERENCE]
-    caught = (CAUGHT if WRONG in judged else MISSED if judged and all(c == PASS for c in judged)
-              else (judged[0] if judged else ERROR))
-    return {"part": "defect", "defect": label, "plan": plan, "defects": defects,
-            "motor": motor, "speed_rpm": speed, "current_a": current,
-            "outcome": caught} | row
+    row = {"part": "defect", "defect": label, "plan": plan, "defects": defects,
+           "motor": motor, "speed_rpm": speed, "current_a": current} | row
+    return row | {"outcome": defect_outcome(row)}
 
 
 def run_control(out: Path) -> dict:
@@ -172,6 +168,24 @@ def run_control(out: Path) -> dict:
         bench = bench_copy("table_i", 1000.0, 20.0, folder)
         row = hil_run(bench, {"dc_offset": PLANS["dc_offset"]}, folder)
     return {"part": "control", "motor": "table_i", "speed_rpm": 1000.0, "current_a": 20.0} | row
+
+
+def verdict_of(test: dict) -> str:
+    """The stored category, a failure that is not a verdict (an instrument timeout, a crash: its
+    reason is not an ``AssertionError``) counted as an error, never as a rejection."""
+    if test["category"] == WRONG and not test["reason"].startswith("AssertionError"):
+        return ERROR
+    return test["category"]
+
+
+def defect_outcome(row: dict) -> str:
+    judged = [verdict_of(t) for t in row["tests"] if t["source"] == row["plan"]
+              and t["test"] != ANGLE_REFERENCE]
+    if WRONG in judged:
+        return CAUGHT
+    if judged and all(c == PASS for c in judged):
+        return MISSED
+    return judged[0] if judged else ERROR
 
 
 def table(rows: list[dict]) -> str:
@@ -185,13 +199,14 @@ def table(rows: list[dict]) -> str:
                          f"{row.get('error', '')[-200:]!r} |")
         for t in row["tests"]:
             reason = t["reason"].replace("|", "/").replace("\n", " ")
-            lines.append(f"| {row['motor']} | {point} | {t['test']} | {t['category']} | "
+            category = verdict_of(t)
+            lines.append(f"| {row['motor']} | {point} | {t['test']} | {category} | "
                          f"{reason} |")
             if t["source"] not in ("self_check",):
                 model_points += 1
-                model_judged += t["category"] in (PASS, WRONG)
-            judged += t["category"] in (PASS, WRONG)
-            wrong += t["category"] == WRONG
+                model_judged += category in (PASS, WRONG)
+            judged += category in (PASS, WRONG)
+            wrong += category == WRONG
     lines += ["", f"Judged {judged}, wrong rejections {wrong}; model-validation tests judged "
               f"{model_judged}/{model_points}"
               + (f" ({100 * model_judged / model_points:.0f} %)" if model_points else ""), "",
@@ -201,7 +216,7 @@ def table(rows: list[dict]) -> str:
         reason = next((t["reason"] for t in row["tests"] if t["source"] == row["plan"]),
                       row.get("error", ""))
         reason = (reason or "").replace("|", "/").replace("\n", " ")[:400]
-        lines.append(f"| {row['defect']} | {row['defects']} | {row['plan']} | {row['outcome']} "
+        lines.append(f"| {row['defect']} | {row['defects']} | {row['plan']} | {defect_outcome(row)} "
                      f"| {reason} |")
     controls = [r for r in rows if r["part"] == "control"]
     if controls:
@@ -211,7 +226,7 @@ def table(rows: list[dict]) -> str:
             for t in row["tests"]:
                 reason = t["reason"].replace("|", "/").replace("\n", " ")[:300]
                 lines.append(f"| {row['speed_rpm']:+g} rpm, {row['current_a']:g} A | {t['test']} "
-                             f"| {t['category']} | {reason} |")
+                             f"| {verdict_of(t)} | {reason} |")
     return "\n".join(lines) + "\n"
 
 

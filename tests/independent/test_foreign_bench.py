@@ -189,6 +189,7 @@ def test_foreign_plant_physics():
 def _run_self_check(tmp_path: Path, *defects: str) -> dict:
     table = foreign_table()
     table["operating_point"]["speed_rpm"] = 1500.0
+    tmp_path.mkdir(parents=True, exist_ok=True)
     bench = tmp_path / "foreign-1500.toml"
     bench.write_text(tomli_w.dumps(table))
     records = tmp_path / "records"
@@ -214,4 +215,6 @@ def test_foreign_bench_self_check_runs_as_a_user_would(tmp_path):
     assert outcomes == {"test_bench_self_check": "passed"}, record["tests"]
     high = _run_self_check(tmp_path / "high", "transducer_scale=1.05")
     test = next(t for t in high["tests"] if t["test_id"].endswith("test_bench_self_check"))
-    assert test["outcome"] == "failed" and "torque scale" in (test.get("message") or ""), test
+    assert test["outcome"] == "failed", test
+    checks = {c["name"]: c["passed"] for c in test.get("checks") or []}
+    assert checks.get("torque scale") is False, checks
