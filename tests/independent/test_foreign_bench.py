@@ -58,7 +58,12 @@ def test_twin_satisfies_the_plant_protocol():
     from hil.sim import DriveTwin
     from hil.simbench import SimulatedBench
 
-    assert isinstance(DriveTwin(), Plant)
+    from hil.plants.protocol import DAQ_CHANNELS, STATUS_KEYS
+
+    twin = DriveTwin()
+    assert isinstance(twin, Plant)
+    assert set(STATUS_KEYS) <= set(twin.status())
+    assert set(twin.advance(1e-3, 10_000.0, channels=DAQ_CHANNELS)) == set(DAQ_CHANNELS)
     built = SimulatedBench(default_sim_bench())             # built, not started
     assert isinstance(built.plant, DriveTwin) and built.twin is built.plant
     assert default_sim_bench().sim_plant == "ripple-hil"
@@ -146,6 +151,8 @@ bench = load_bench("hil/examples/foreign.toml")
 out = {}
 plant = make_plant(bench, seed=2)
 out["is_plant"] = isinstance(plant, Plant)
+from hil.plants.protocol import DAQ_CHANNELS, STATUS_KEYS
+out["status_keys"] = sorted(set(STATUS_KEYS) - set(plant.status()))
 plant.speed_rpm = 1500.0
 plant.current_command_a = 20.0
 d = plant.advance(0.004, 20000.0, settle_s=0.002, channels=("va_v", "vb_v", "ia_a"))
@@ -175,7 +182,7 @@ print(json.dumps(out))
 @needs_foreign_venv
 def test_foreign_plant_physics():
     out = _in_foreign_venv(PHYSICS)
-    assert out["is_plant"]
+    assert out["is_plant"] and out["status_keys"] == []
     assert out["disabled_ia_max_a"] < 1e-6                 # gates blocked, EMF below the bus
     assert out["disabled_vab_peak_v"] == pytest.approx(out["emf_line_peak_v"], rel=0.02)
     assert out["mean_torque_nm"] == pytest.approx(out["kt_i_nm"], rel=0.01)
