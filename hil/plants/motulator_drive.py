@@ -84,18 +84,6 @@ class FixedCurrentReference:
         pass
 
 
-class CounterPwmControl(control.VectorControlSystem):
-    """motulator's vector control system whose duty ratios are rounded to the PWM counter's
-    1/``period_counts`` of the carrier period (the compare register's resolution)."""
-
-    period_counts = 2000
-
-    def get_duty_ratios(self, ref):
-        T_s, d_abc = super().get_duty_ratios(ref)
-        n = self.period_counts
-        return T_s, [min(max(round(d * n) / n, 0.0), 1.0) for d in d_abc]
-
-
 @dataclass
 class History:
     """One run's solution in plant time (sorted): currents, torque, angle, voltages."""
@@ -164,7 +152,11 @@ class MotulatorDrive:
         """Put the commands and the applied injection in place before the next run."""
         self.sensors.set((applied.ia_gain_error_pu, applied.ib_gain_error_pu),
                          (applied.ia_offset_a, applied.ib_offset_a))
+        # motulator's carrier comparison (``Model.pwm``, made from the converter's t_d when the
+        # model was built) blanks each leg t_d and rounds the duty to 1/N: both set here
         self.converter.t_d = float(applied.dead_time_s)
+        self.mdl.pwm.t_d = float(applied.dead_time_s)
+        self.mdl.pwm.N = int(applied.pwm_period_counts)
         self.shaft.set_external_rotor_speed(speed_rpm * 2 * math.pi / 60.0)
         self.shaft.counts_per_rev = int(encoder_counts_per_rev)
         self.shaft.decimation = int(applied.encoder_decimation)
@@ -173,7 +165,6 @@ class MotulatorDrive:
         if self.ctrl is None or key != self._key or (enabled and not self._enabled):
             self._build_control(*key)
             self._key = key
-        self.ctrl.period_counts = int(applied.pwm_period_counts)
         self.reference.set(current_a if enabled else 0.0, applied.current_angle_rad)
         self.ctrl.set_enable(bool(enabled))
         self._enabled = bool(enabled)
@@ -185,7 +176,7 @@ class MotulatorDrive:
             T_s=0.5 / pwm_hz, discrete=design == "discrete")
         vector = control.CurrentVectorController(self.par, cfg)
         vector.reference_gen = self.reference
-        self.ctrl = CounterPwmControl(vector)
+        self.ctrl = control.VectorControlSystem(vector)
         self.ctrl.set_torque_ref(0.0)            # unused by the fixed current reference
         self.sim = model.Simulation(self.mdl, self.ctrl, show_progress=False)
         self.pwm_period_s = 1.0 / pwm_hz

@@ -6,9 +6,10 @@ What is motulator's (its published package, driven through its API):
 
 * machine ``SynchronousMachine`` (R, L_d = L_q = the bench file's L, ψ_f from its Ke); the dyno
   ``ExternalRotorSpeed`` (speed held exactly); inverter ``VoltageSourceConverter(u_dc, t_d)``
-  with its carrier comparison (``Drive(pwm=True)``): switching instants and the dead time's
-  blanking intervals resolved, the leg voltage during blanking set by the current's sign;
-  gates blocked (drive disabled) with its diode model;
+  with its carrier comparison (``Drive(pwm=True)``, ``CarrierComparison(N, t_d)``): the duty
+  rounded to its counter's 1/N (N = ``pwm_period_counts``), switching instants and the dead
+  time's blanking intervals resolved, the leg voltage during blanking set by the current's
+  sign; gates blocked (drive disabled) with its diode model;
 * controller ``CurrentVectorController`` (sensored) with its continuous-time 2-DOF
   complex-vector PI (or, ``[drive] current_loop_design = "discrete"``, its direct discrete-time
   design), α_c = 2π·``current_loop_bandwidth_hz``, sampling twice per carrier period with one
@@ -23,8 +24,6 @@ What this module adds, each a thing motulator leaves to its user:
 * two current sensors (a, b) with phase c computed as −a − b (the paper's two-sensor drive);
 * the encoder: the angle the controller reads (``meas_position``) quantised to
   ``encoder_counts_per_rev / encoder_decimation`` counts per mechanical revolution;
-* the PWM counter: the duty ratios motulator's PWM computes rounded to 1/``pwm_period_counts``
-  of the carrier period before its carrier comparison;
 * the bench around the drive: the transducer (first order at ``[torque] bandwidth_hz``, a gain
   error within its accuracy class drawn from the seed, white noise) on motulator's torque, the
   DAQ's encoder counter on motulator's rotor angle, the phase voltages from motulator's

@@ -13,7 +13,9 @@ Without motulator (the project's own Python):
 With ``.venv-motulator`` (``.ci/setup-motulator``; these skip, saying why, without it):
 * ``test_foreign_plant_physics``: motulator's drive behind the plant contract — mean torque
   against K_t·I (1 %), the encoder counter's slope against the dyno speed, an offset injection
-  reaching the torque as an order-1 ripple (fails for a plant that ignores it), the line voltage
+  reaching the torque as an order-1 ripple (fails for a plant that ignores it), a dead time
+  reaching motulator's carrier comparison (it did not, at first: the dead-time plan caught it),
+  the line voltage
   with the gates blocked against the back EMF √3·E, word length refused at the drive object.
 * ``test_foreign_bench_self_check_runs_as_a_user_would``: ``hil run --bench foreign.toml`` (its
   operating point moved to 1500 rpm to keep the capture short) passes the bench self-check on
@@ -169,6 +171,12 @@ out["encoder_rpm"] = float(slope / 7200 * 60)
 plant.set_injection(ia_offset_a=1.0)
 d = plant.advance(0.02, 20000.0, settle_s=0.01, channels=("torque_nm",))
 out["ptp_torque_offset_nm"] = float(np.ptp(d["torque_nm"]))
+plant.set_injection(ia_offset_a=0.0, dead_time_s=2e-6)
+d = plant.advance(0.02, 20000.0, settle_s=0.01, channels=("torque_em_nm",))
+out["ptp_torque_dead_time_nm"] = float(np.ptp(d["torque_em_nm"]))
+plant.set_injection(dead_time_s=0.0)
+d = plant.advance(0.02, 20000.0, settle_s=0.01, channels=("torque_em_nm",))
+out["ptp_torque_em_nm"] = float(np.ptp(d["torque_em_nm"]))
 try:
     plant.set_injection(word_length_bits=12)
     out["word_length"] = "accepted"
@@ -191,6 +199,9 @@ def test_foreign_plant_physics():
     # 1 A on sensor a at 20 A: an order-1 ripple of ≈ 2·(1/20)·(2/√3) ≈ 11 % pk-pk of the mean
     # (paper eq 16-18), far above the drive's own ripple
     assert out["ptp_torque_offset_nm"] > 0.05 * out["kt_i_nm"] > 3 * out["ptp_torque_nm"]
+    # 2 us of dead time reaches motulator's carrier comparison: its order-6 ripple (before the
+    # fix the plant set only the converter's t_d, which motulator reads once, and it had none)
+    assert out["ptp_torque_dead_time_nm"] > 3 * out["ptp_torque_em_nm"], out
     assert "word_length_bits" in out["word_length"] and "floating point" in out["word_length"]
 
 
