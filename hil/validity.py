@@ -31,6 +31,9 @@ What a region checks, in the order a refusal names it:
    and the measurement's own error. This refuses what the bench cannot resolve: an encoder 2.5°
    point at 10 A (0.0042 N·m predicted against a 0.001 N·m floor) or word length 12 bit at
    250 rpm / 10 A, which failed a correct drive when judged at the bench's own floor (issue 21).
+6. **Loop delay** a point's sampled-loop model can represent (PWM resolution:
+   :func:`loop_delay_problems`), and **the simulated plant**: an injection the bench's
+   ``[simulation] plant`` cannot realise (``hil.plants.capabilities``; issue 30).
 """
 
 from __future__ import annotations
