@@ -174,6 +174,17 @@ def run_dead_time_after_fix(out: Path) -> dict:
     return {"part": "correct", "motor": "p8_48v", "speed_rpm": -800.0, "current_a": 15.0} | row
 
 
+def run_encoder_correct(out: Path) -> dict:
+    """The correct drive's encoder point (decimation 50, the plan's own 12 rpm): the reference
+    against which the "encoder decimation ignored" defect means something."""
+    with tempfile.TemporaryDirectory(prefix="foreign-") as tmp:
+        folder = Path(tmp)
+        bench = bench_copy("table_i", 1000.0, 20.0, folder)
+        row = hil_run(bench, {"self_check": ANGLE_REFERENCE,
+                              "encoder": DEFECT_SELECTORS["encoder"]}, folder)
+    return {"part": "correct", "motor": "table_i", "speed_rpm": 1000.0, "current_a": 20.0} | row
+
+
 def run_control(out: Path) -> dict:
     """The correct drive, the offset plan alone (no self-check, the bench file stating no angle
     reference): what the order-1 phase verdict does without an angle reference."""
@@ -249,7 +260,8 @@ def table(rows: list[dict]) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("correct", "defects", "control", "dead-time", "all"),
+    parser.add_argument("--part", choices=("correct", "defects", "control", "dead-time",
+                                           "encoder", "all"),
                         default="all")
     parser.add_argument("--motor", action="append", choices=sorted(POINTS))
     parser.add_argument("--only", action="append", default=[],
@@ -283,10 +295,13 @@ def main(argv=None) -> int:
         jobs = [("control", None, None)]
     if args.part == "dead-time":
         jobs = [("dead-time", None, None)]
+    if args.part == "encoder":
+        jobs = [("encoder", None, None)]
     for kind, what, point in jobs:
         row = (run_correct(what, point, out) if kind == "correct" else
                run_defect(what, out) if kind == "defect" else
-               run_dead_time_after_fix(out) if kind == "dead-time" else run_control(out))
+               run_dead_time_after_fix(out) if kind == "dead-time" else
+               run_encoder_correct(out) if kind == "encoder" else run_control(out))
         rows.append(row)
         store.write_text(json.dumps({"rows": rows}, indent=1))
         print(json.dumps({k: v for k, v in row.items() if k != "tests"}), flush=True)
