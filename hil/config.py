@@ -396,6 +396,8 @@ class BenchConfig:
     #: ``[simulation.actual]``: the simulated bench's physics where it differs from the file
     #: (``hil.actual``: key -> value, validated); empty on a real bench and by default
     sim_actual: dict = field(default_factory=dict)
+    #: ``[simulation] plant``: who computes the simulated instruments' samples (``hil.plants``)
+    sim_plant: str = "ripple-hil"
 
     @classmethod
     def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,
@@ -424,6 +426,7 @@ class BenchConfig:
         bench = cls(simulated=simulated, motor=motor, motor_identity=motor_identity,
                     instruments=instruments, source=source, raw=_plain(d),
                     sim_defects=sim_defects, sim_drive_identity=sim_identity, sim_actual=sim_actual,
+                    sim_plant=_parse_plant(d.get("simulation", {}), ctx),
                     sha256=sha256 or hashlib.sha256(_canonical_json(d)).hexdigest(),
                     base_dir=ctx.base_dir, **sections)
         bench._check(ctx)
@@ -504,6 +507,8 @@ class BenchConfig:
             out.setdefault("simulation", {})["drive_identity"] = dict(self.sim_drive_identity)
         if self.sim_actual:
             out.setdefault("simulation", {})["actual"] = dict(self.sim_actual)
+        if self.sim_plant != "ripple-hil":
+            out.setdefault("simulation", {})["plant"] = self.sim_plant
         return out
 
     def with_overrides(self, changes: dict) -> "BenchConfig":
@@ -692,10 +697,11 @@ def _parse_instruments(entries: Any, ctx: _Context) -> tuple[InstrumentEntry, ..
 
 def _parse_simulation(table: Any, ctx: _Context) -> dict:
     """``[simulation]``: ``defects`` (test-only, ``hil.sim.defects``) and ``actual``
-    (``hil.actual``, parsed there), only when simulated."""
+    (``hil.actual``, parsed there), only when simulated; ``plant`` is read by
+    :func:`_parse_plant`."""
     if not isinstance(table, dict):
         ctx.fail(f"simulation must be a table ([simulation]), got {type(table).__name__}")
-    _reject_unknown(table.keys(), ("defects", "drive_identity", "actual"), "simulation", ctx)
+    _reject_unknown(table.keys(), ("defects", "drive_identity", "actual", "plant"), "simulation", ctx)
     defects = table.get("defects", {})
     if not isinstance(defects, dict):
         ctx.fail(f"simulation.defects must be a table ([simulation.defects]), "
@@ -731,6 +737,20 @@ def _parse_sim_identity(table: dict, ctx: _Context) -> dict:
             ctx.fail(f"simulation.drive_identity.{key} = {value!r} must be an integer in "
                      f"0..4294967295 (CiA 301 0x1018 is UNSIGNED32)")
     return dict(identity)
+
+
+def _parse_plant(table: Any, ctx: _Context) -> str:
+    """``[simulation] plant`` (``hil.plants.PLANTS``; default the ripple-hil twin), only when
+    simulated. Called after :func:`_parse_simulation` has checked the table."""
+    from hil.plants import DEFAULT_PLANT, PLANTS
+
+    plant = table.get("plant", DEFAULT_PLANT)
+    if plant not in PLANTS:
+        ctx.fail(f"simulation.plant = {plant!r}; allowed {', '.join(map(repr, PLANTS))}")
+    if plant != DEFAULT_PLANT and not ctx.simulated:
+        ctx.fail(f"simulation.plant = {plant!r} names who computes a simulated bench's samples; "
+                 f"allowed only with simulated = true")
+    return plant
 
 
 # --------------------------------------------------------------------------- helpers

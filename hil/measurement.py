@@ -21,6 +21,7 @@ from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, predict
 from hil.model.core import MEAN_TORQUE_BASE
 from hil.outcome_kinds import MEASURED
+from hil.plants import capture_timeout_s
 from hil.record import RunRecord, utc_now
 
 #: The source name of a point with nothing injected (the bench's own ripple).
@@ -313,7 +314,8 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
         failure = None
         try:
             capture = bench.acquisition.capture(duration_s, rate_hz, settle_s=plan.settle_s,
-                                                timeout_s=max(30.0, 10 * duration_s),
+                                                timeout_s=capture_timeout_s(
+                                                    bench.config, duration_s, plan.settle_s),
                                                 channels=plan.capture_channels())
         except Exception as exc:
             # a capture that failed its integrity check carries the data as received

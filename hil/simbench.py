@@ -1,4 +1,5 @@
-"""The simulated bench: the three simulated instruments around one ``hil.sim.DriveTwin``.
+"""The simulated bench: the three simulated instruments around one plant (``hil.plants``: the
+``hil.sim.DriveTwin`` by default, or the plant the bench file's ``[simulation] plant`` names).
 
 Used in-process by the pytest plugin (CAN on a private python-can ``virtual`` channel) and as its
 own process by ``hil sim-bench`` (CAN served over TCP loopback with python-can-remote, so another
@@ -114,14 +115,14 @@ class SimulatedBench:
     def __init__(self, config: BenchConfig, *, seed: int = 0, cross_process: bool = False) -> None:
         if not config.simulated:
             raise ValueError("SimulatedBench needs a bench file with simulated = true")
-        from hil.sim import DriveTwin
-        from hil.sim.defects import DriveDefects
+        from hil.plants import make_plant
 
         check_fixed_addresses(config)
         self.config = config
         self.cross_process = cross_process
-        self.twin = DriveTwin(twin_config(config), seed=seed,
-                              defects=DriveDefects.from_dict(config.sim_defects))
+        #: the plant behind the instruments (``hil.plants.Plant``; named ``twin`` for the
+        #: ripple-hil twin it was first)
+        self.twin = self.plant = make_plant(config, seed=seed)
         self._started: list = []
         self.drive = None
         self.daq = None
@@ -131,9 +132,12 @@ class SimulatedBench:
         from ripple_hil_drivers.simulated.modbus_daq_server import SimulatedDaq
         from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
 
-        from hil.sim.warmup import prepare_twin_engine
+        if getattr(self.plant, "prepare", None) is not None:
+            self.plant.prepare()
+        else:
+            from hil.sim.warmup import prepare_twin_engine
 
-        prepare_twin_engine()     # compile (if needed) before any instrument is served
+            prepare_twin_engine()     # compile (if needed) before any instrument is served
         try:
             drive_table = self._start_drive()
             daq_table = self._start_daq(SimulatedDaq)
@@ -171,6 +175,7 @@ class SimulatedBench:
 
             self.drive = RemoteSimulatedDrive(self.twin, node_id, bitrate=bitrate,
                                               identity=self.config.sim_drive_identity,
+                                              software_version=self.software_version(),
                                               **self._drive_dictionary()).start()
             self._started.append(self.drive)
             return self.drive.bench_table()
@@ -181,6 +186,7 @@ class SimulatedBench:
         settings = CanBusSettings(interface="virtual", channel=channel, bitrate=bitrate)
         self.drive = SimulatedDrive(self.twin, settings, node_id,
                                     identity=self.config.sim_drive_identity,
+                                    software_version=self.software_version(),
                                     **self._drive_dictionary()).start()
         self._started.append(self.drive)
         return {"interface": "virtual", "channel": channel}
@@ -188,6 +194,16 @@ class SimulatedBench:
     def _drive_dictionary(self) -> dict:
         """The EDS and drive profile the bench file names: the simulated drive serves them."""
         return {"eds_path": self.config.drive.eds, "profile": self.config.drive.profile}
+
+    def software_version(self) -> str | None:
+        """The simulated drive's 0x100A: the EDS default on the ripple-hil twin; with another
+        plant, that default and the plant's identity, so the record's drive identity says
+        which plant computed the samples."""
+        from hil.plants import DEFAULT_PLANT, plant_identity
+
+        if self.config.sim_plant == DEFAULT_PLANT:
+            return None
+        return f"ripple-hil-drive 0.1.0; plant: {plant_identity(self.plant)}"
 
     def _start_daq(self, simulated_daq_class) -> dict:
         daq = self.config.daq
@@ -206,12 +222,19 @@ class SimulatedBench:
         return {"host": host, "port": port}
 
     def stop(self) -> None:
-        """Stop every instrument started so far, newest first; never raises for one that fails."""
+        """Stop every instrument started so far, newest first, then the plant (if it has a
+        ``close``); never raises for one that fails."""
         while self._started:
             instrument = self._started.pop()
             try:
                 instrument.stop()
             except Exception:  # noqa: BLE001 - stopping the rest matters more
+                pass
+        close = getattr(self.plant, "close", None)
+        if close is not None:
+            try:
+                close()
+            except Exception:  # noqa: BLE001
                 pass
 
     def __enter__(self) -> BenchConfig:

@@ -34,6 +34,9 @@ What a region checks, in the order a refusal names it:
 6. **Whole orders.** The order a rule judges must be a whole order over the analysed period
    (:func:`period_problems`, issue 30): an encoder count order that is not a whole number per
    electrical revolution is analysed over the staircase's common period, or refused.
+7. **Loop delay** a point's sampled-loop model can represent (PWM resolution:
+   :func:`loop_delay_problems`), and **the simulated plant**: an injection the bench's
+   ``[simulation] plant`` cannot realise (``hil.plants.capabilities``; issue 30).
 """
 
 from __future__ import annotations
@@ -164,7 +167,27 @@ def problems(plan, config: BenchConfig) -> list[str]:
     found += period_problems(plan, config)
     if region.floor_fraction is not None and plan.rule is not None:
         found += floor_problems(plan, config, region.floor_fraction)
+    found += loop_delay_problems(plan)
+    from hil.plants.capabilities import plant_problems   # what the simulated plant cannot do
+
+    found += plant_problems(plan, config)
     return found
+
+
+def loop_delay_problems(plan) -> list[str]:
+    """A loop delay the point's sampled-loop model cannot represent (the PWM-resolution noise
+    model: computation delays of 0, ½, 1 or 1½ PWM periods; a drive updating twice per carrier
+    period has 0.75 in all). Until issue 30 this refused the whole run at pre-flight."""
+    delay_s = plan.prediction_params.get("current_loop_delay_s")
+    if plan.source != "pwm_resolution" or delay_s is None:
+        return []
+    from hil.model.pwm_noise import computation_delay_periods
+
+    try:
+        computation_delay_periods(delay_s, plan.injection.get("pwm_frequency_hz", 20_000.0))
+    except InputError as exc:
+        return [f"loop delay outside the pwm_resolution noise model: {exc}"]
+    return []
 
 
 def injected_or_default(plan, config: BenchConfig, knob: str) -> float:

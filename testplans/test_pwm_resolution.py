@@ -43,12 +43,8 @@ def plan(config, injection):
         raise InputError("pwm_resolution: the bench file's [torque] bandwidth_hz (the torque "
                          "output's -3 dB bandwidth, from the transducer's data sheet) is needed "
                          "by the noise check's model")
-    from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
-    from hil.model.pwm_noise import computation_delay_periods
-
-    # a loop delay the noise model cannot represent: refused here, before the sweep runs
-    computation_delay_periods(c.current_loop(config)["current_loop_delay_s"],
-                              injection.get("pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ))
+    # a loop delay the noise model cannot represent (e.g. a double-update drive's 0.75 PWM
+    # periods) makes the point not determinable here: hil.validity.loop_delay_problems
     # the derived form averages over as many revolutions as the point captures
     return c.point(config.operating_point, "pwm_resolution", injection,
                    c.DERIVED_RANGE_SIMPLE_RULE, revolutions=c.PWM_RESOLUTION_REVOLUTIONS,

@@ -99,7 +99,8 @@ class SimulatedDrive:
 
     def __init__(self, twin, settings: CanBusSettings, node_id: int = 5, *, eds_path=None,
                  serial_number: int = 0x00000001, torque_constant_nm_per_a: float | None = None,
-                 profile=None, identity: dict | None = None):
+                 profile=None, identity: dict | None = None,
+                 software_version: str | None = None):
         if not 1 <= node_id <= 127:
             raise ValueError(f"node_id={node_id} is outside 1..127")
         self.twin = twin
@@ -111,6 +112,8 @@ class SimulatedDrive:
         self.identity_values = {4: serial_number} | {subs[k]: int(v)
                                                      for k, v in (identity or {}).items()}
         self.serial_number = self.identity_values[4]
+        #: 0x100A as read (None: the EDS default); the simulated bench names its plant here
+        self.software_version = software_version
         self._eds_path = eds_path
         self._kt = torque_constant_nm_per_a or TABLE_I.torque_constant_nm_per_a
         profile = load_profile(profile, eds_path)
@@ -363,6 +366,8 @@ class SimulatedDrive:
             return knob.to_count(getattr(self.twin.injection, knob.knob))
         if (index, subindex) == self._restore_at:
             return 1  # CiA 301 convention: "restores on command"
+        if index == 0x100A and self.software_version:
+            return self.software_version
         if (index, subindex) == self._command_at:
             return self._current_command.to_count(self.twin.current_command_a)
         if index == 0x6071:

@@ -118,3 +118,36 @@ def test_the_plans_phase_judge_corrects_for_the_stated_transducer_and_needs_it()
     unstated = SimpleNamespace(config=SimpleNamespace(
         torque=SimpleNamespace(bandwidth_hz=None), drive=config.drive, motor=config.motor))
     assert judge(lagging, prediction, plan, unstated) is None
+
+
+def test_the_plans_phase_judge_uses_the_angle_reference():
+    """Issue 30: on motulator's drive the angle channel reads θ₀ = 180° at phase a's back-EMF
+    rising zero. With that reference (measured by the self-check, or stated) the order-1 phase
+    moved by π passes and the unmoved one fails; with no reference at all there is no phase
+    verdict (before, the twin's 0° was assumed and a correct foreign drive failed by π)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from hil.config import default_sim_bench
+    from hil.model import OperatingPoint, predict
+    from ripple_hil_testplans.phase import phase_judge
+
+    config = default_sim_bench()
+    speed_rpm = ELECTRICAL_HZ * 60.0 / config.motor.pole_pairs
+    op = OperatingPoint(speed_rpm=speed_rpm, current_a=20.0, motor=config.motor)
+    prediction = predict("dc_offset", op, ia_offset_a=0.2)
+    lag = math.atan(ELECTRICAL_HZ / config.torque.bandwidth_hz)
+    expected = prediction.extras["order_phase_rad"] - lag
+    plan = SimpleNamespace(speed_rpm=speed_rpm)
+    judge = phase_judge(0.2)
+    moved = result(1.0, {1: (0.02, expected - math.pi)})
+    unmoved = result(1.0, {1: (0.02, expected)})
+    unstated = replace(config, daq=replace(config.daq, emf_a_rising_zero_elec_deg=None))
+    measured = SimpleNamespace(config=unstated, angle_reference_meta={
+        "emf_a_rising_zero_elec_deg": 180.0, "emf_a_rising_zero_u_elec_deg": 0.5})
+    stated = SimpleNamespace(config=replace(config, daq=replace(config.daq,
+                                                                emf_a_rising_zero_elec_deg=180.0)))
+    for bench in (measured, stated):
+        assert judge(moved, prediction, plan, bench).guarded_pass
+        assert not judge(unmoved, prediction, plan, bench).guarded_pass
+    assert judge(moved, prediction, plan, SimpleNamespace(config=unstated)) is None
