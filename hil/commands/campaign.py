@@ -14,10 +14,12 @@ import sys
 from pathlib import Path
 
 
+from hil.commands import description
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser("campaign", help="a regression grid of plan runs on Dask "
                                    "(bench variations x plan selections)",
-                                   description=__doc__.split("\n\n")[0].replace("``", ""),
+                                   description=description(__doc__),
                                    epilog=__doc__.split("\n\n")[1])
     parser.add_argument("grid", metavar="GRID.toml", help="grid file, e.g. hil/examples/grid.toml")
     parser.add_argument("--out", metavar="DIR", type=Path,

@@ -16,10 +16,12 @@ import json
 from pathlib import Path
 
 
+from hil.commands import description
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser("characterize", help="measure the motor and current loop on "
                                    "the bench (stated vs measured, with U); write its twin",
-                                   description=__doc__.splitlines()[0].replace("``", ""))
+                                   description=description(__doc__))
     parser.add_argument("--bench", metavar="FILE", help="bench file (default: simulated bench)")
     parser.add_argument("--record-dir", metavar="DIR", type=Path, default=Path("records"),
                         help="folder in which the characterisation's record is created")

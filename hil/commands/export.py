@@ -11,11 +11,13 @@ import json
 from pathlib import Path
 
 
+from hil.commands import description
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "export", help="export a record's captures as ASAM MDF4 files (with units and "
                        "provenance)",
-        description=__doc__.splitlines()[0].replace("``", ""))
+        description=description(__doc__))
     parser.add_argument("record_dir", metavar="RECORD_DIR", type=Path,
                         help="record folder (or its record.json)")
     parser.add_argument("--mdf4", required=True, metavar="OUT_DIR", type=Path,

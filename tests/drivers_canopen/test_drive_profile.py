@@ -40,7 +40,8 @@ EPS_INJECTION = {"ia_offset_a": 0.3, "ib_offset_a": -1.25, "ia_gain_error_pu": 0
 EPS_COUNTS = {(0x3000, 1): 3000, (0x3000, 2): -12500, (0x3000, 3): 32768 + 655,
               (0x3000, 4): 32768 - 328, (0x3010, 0): 240, (0x3011, 0): 10000,
               (0x3020, 0): round(math.degrees(0.3) * 100)}
-EPS_LACKS = ("encoder_decimation", "hall_mode", "word_length_bits", "pwm_period_counts")
+EPS_LACKS = ("encoder_decimation", "hall_mode", "word_length_bits", "pwm_period_counts",
+             "loop_test_amplitude_a", "loop_test_order")     # no current-loop test signal either
 
 
 def test_the_eps_eds_passes_the_strict_cia306_check_and_eds_utils():
