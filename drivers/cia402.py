@@ -651,7 +651,8 @@ class Cia402Drive:
 
     def read_injections(self) -> dict[str, tuple]:
         """Every knob as the drive reads it back now: {knob: (value SI, default SI)}."""
-        return {knob: (obj.to_si(self.sdo_read(obj.index, action=f"read injection {knob}")),
+        return {knob: (obj.to_si(self.sdo_read(obj.index, obj.subindex,
+                                               action=f"read injection {knob}")),
                        obj.default_si) for knob, obj in self._knobs.items()}
 
     def set_injection(self, **knobs) -> None:

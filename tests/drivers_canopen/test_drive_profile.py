@@ -164,6 +164,17 @@ def test_the_eps_drive_injects_through_its_own_objects(eps_drive, twin):
     assert twin.injection == type(twin.injection)()
 
 
+def test_the_plan_start_state_reads_each_knob_at_its_own_subindex(eps_drive):
+    """The plan start-state check reads every knob back (fixtures/plan_state.py): the EPS trims
+    sit at 0x3000:01..04, whose sub-index 0 is their count (4) — read there, every plan errored
+    'not in a known state' on this drive (found by review after the merge)."""
+    eps_drive.set_injection(ia_offset_a=EPS_INJECTION["ia_offset_a"])
+    read = eps_drive.read_injections()
+    assert read["ia_offset_a"][0] == pytest.approx(EPS_INJECTION["ia_offset_a"], rel=2e-3)
+    eps_drive.restore_injection_defaults()
+    assert all(value == default for value, default in eps_drive.read_injections().values())
+
+
 def test_the_eps_drive_commands_current_as_target_torque(eps_drive, twin):
     eps_drive.set_current_command_a(30.0)
     assert eps_drive.sdo_read(0x6071) == 3000       # per mille of 0x6075 = 10 A
