@@ -117,3 +117,20 @@ def test_a_loop_half_as_fast_as_documented_is_measured_so(tmp_path):
     finally:
         record.finish("complete")
         bench.close()
+
+
+def test_a_loop_the_fit_cannot_pin_down_is_not_identified_never_confirmed(tmp_path):
+    """A drive whose loop delay is 100 µs against the 75 µs documented: the fit of the documented
+    design read 2152 ± 14302 Hz and called the documentation "confirmed within U" (review after
+    the merge). Such a U confirms nothing: the loop is not identified, and the reason says why."""
+    bench, record = _staged(tmp_path, actual=WARM | {"current_loop_delay_s": 100e-6})
+    try:
+        assert bench.characterisation.get("current_loop_gain_pu") is None
+        reason = bench.characterisation.not_identified["current_loop_bandwidth_hz"]
+        assert "cannot confirm nor refute" in reason
+        rows = record.data["characterisation"]["stated_vs_measured"]
+        assert not any("confirms" in str(row.get("predictions_use")) and "loop" in row["name"]
+                       for row in rows)
+    finally:
+        record.finish("complete")
+        bench.close()
