@@ -9,14 +9,16 @@ hypothesis's costs ~1 s of start-up).
 Messages name this command's flags (``--operator``), not the plugin's (``--hil-operator``):
 see :data:`RUN_FLAGS`.
 
-Exit codes: 0 every test passed; 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
+Exit codes: 0 no test failed and at least one was judged (a point not determinable here is
+not a failure: page 1 then reads NOT STATED for its plan); 1 a test failed or errored; 2 interrupted (Ctrl-C) or bad
 input (a usage error, a selection that collects no point, a record folder or report path that
 cannot be written: refused before the bench is touched; SIGTERM is an interruption, recorded as
 such); 6 the bench could not be
 opened (nothing was run); 7 the bench was lost mid-run (the remaining tests are recorded as not
 run); 8 the record could not be written mid-run (full disk, read-only or forbidden folder: the
 drive made safe, the run stopped, the rest recorded as not run if the record can still be
-written); 130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
+written); 9 the run finished but judged nothing (every point measured with no verdict or not
+determinable here, or only the bench self-check ran); 130 Ctrl-C before pytest's session began (while loading: nothing run, no record).
 """
 
 from __future__ import annotations
