@@ -67,4 +67,9 @@ def _time_track(waveforms) -> np.ndarray | None:
     first, size = waveforms[0]
     keys = {(float(c.properties["wf_increment"]),
              float(c.properties.get("wf_start_offset", 0.0)), n) for c, n in waveforms}
-    return np.asarray(first.time_track(), dtype=float) if len(keys) == 1 and size else None
+    if len(keys) != 1 or not size:
+        return None
+    ((increment_s, offset_s, _),) = keys
+    # t = wf_start_offset + n·wf_increment (NI's waveform attributes; an absent offset is 0 —
+    # npTDMS's own time_track() raises KeyError then, a review found it crashing hil analyze)
+    return offset_s + increment_s * np.arange(size, dtype=float)

@@ -60,10 +60,12 @@ def write_mdf4(path, time_s, torque, mech, *, torque_unit="mN·m", groups=1, si=
     return path
 
 
-def write_tdms(path, time_s, torque, mech, *, time_channel=False):
+def write_tdms(path, time_s, torque, mech, *, time_channel=False, start_offset=True):
     """A TDMS file as npTDMS writes it: waveform channels (wf_increment) with LabVIEW's
     ``unit_string``; names the import finds by themselves (torque, theta_m)."""
-    waveform = {"wf_increment": 1.0 / RATE_HZ, "wf_start_offset": 0.0}
+    waveform = {"wf_increment": 1.0 / RATE_HZ}
+    if start_offset:
+        waveform["wf_start_offset"] = 0.0
     channels = [ChannelObject("Messung", "torque", torque, properties={"unit_string": "N·m",
                                                                        **waveform}),
                 ChannelObject("Messung", "theta_m", mech, properties={"unit_string": "rad",
@@ -96,6 +98,12 @@ def test_analyze_mdf4_and_tdms_like_the_csv(tmp_path, capsys):
                     "--pole-pairs", "2", "--order", "2")
     same_figures(mdf, csv)
     same_figures(tdms, csv)
+    # a waveform without wf_start_offset (0 by NI's definition; npTDMS's time_track raised
+    # KeyError and hil analyze crashed with a traceback — review after the merge)
+    bare = cli_json(capsys, "analyze", str(write_tdms(tmp_path / "b.tdms", *data,
+                                                      start_offset=False)),
+                    "--pole-pairs", "2", "--order", "2")
+    same_figures(bare, csv)
     assert csv["mean_torque_nm"] == pytest.approx(1.0, rel=1e-3)      # mN·m read as mN·m
     assert csv["named_amplitude_nm"] == pytest.approx(0.01, rel=1e-2)
 
