@@ -119,9 +119,10 @@ def run_plan(tmp_path: Path, fail_after: int, everything: bool = False, *extra: 
 
 @pytest.mark.parametrize("everything", [False, True], ids=["journal-only", "whole-disk"])
 def test_a_full_disk_mid_run_stops_at_once_with_the_drive_safe(tmp_path, everything):
-    # journal lines of a run: sections and requirements at the start, then per point a capture,
-    # and its test entry; 4 lets the first point finish and fills the disk inside a later one
-    done, folder = run_plan(tmp_path, 4, everything)
+    # journal lines of a run: sections and requirements at the start, the characterisation
+    # stage's captures and section, then per point a capture and its test entry; 10 lets the
+    # first point finish and fills the disk inside a later one
+    done, folder = run_plan(tmp_path, 10, everything)
     output = done.stdout + done.stderr
     assert done.returncode == EXIT_STORAGE, output[-4000:]
     # each place that names the fault once (no 171 lines of tracebacks): the failed test's
