@@ -33,7 +33,6 @@ CASES = [
     ({"hidden_ia_offset_a": 0.3}, ["baseline", "dc_offset"], {"baseline", "dc_offset"}),
     ({"word_length_offset_bits": -2}, ["word_length"], {"word_length"}),
     ({"transducer_scale": 1.05}, ["self_check"], {"self_check"}),
-    ({"daq_drop_every_nth": 10}, ["self_check"], {"self_check"}),
     # the DAQ's encoder 30° electrical from the rotor's zero while the bench file states 0
     ({"encoder_commutation_offset_elec_deg": 30.0}, ["self_check"], {"self_check"}),
     *PHASE_CASES,
@@ -54,6 +53,18 @@ def test_a_defective_drive_fails_the_plans_that_exist_to_catch_it(case, tmp_path
     assert not missed, (f"defect {defects}: plans {sorted(missed)} passed although they exist "
                         f"to catch it; outcomes {run['outcomes']}\n{run['output']}")
     assert run["returncode"] == 1, run["output"]
+
+
+def test_a_daq_dropping_samples_stops_the_run_at_the_characterisation_stage(tmp_path):
+    """A DAQ that drops every 10th sample: its first capture is now the characterisation stage's
+    (before the self-check), whose integrity check refuses it. No plan runs as a judged plan:
+    the record is closed as stopped with the reason, every test "not run", exit 6 — never a
+    pass (it had been caught by the self-check before the stage existed)."""
+    run = run_plans(["self_check"], {"daq_drop_every_nth": 10}, tmp_path)
+    assert run["returncode"] == 6, run["output"]
+    assert "time base not uniform" in run["output"], run["output"]
+    assert run["outcomes"] and set(run["outcomes"]["self_check"]) == {"not run"}, run["outcomes"]
+    assert "passed" not in str(run["outcomes"])
 
 
 def test_the_same_plans_pass_on_the_drive_without_defects(tmp_path):
