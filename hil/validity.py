@@ -132,6 +132,11 @@ REGIONS: dict[str, Region] = {
         braking=True, floor_fraction=None,
         why="the drive as it is, no model verdict: a cell is measured only where the current is "
             "regulated"),
+    "characterisation": Region(
+        braking=True, floor_fraction=None,
+        why="the loop's gain measured by the characterisation stage against its documented "
+            "design; the stage itself says what it could not identify (hil.characterisation), "
+            "and the plan is not determinable then"),
     "diagnosis": Region(
         braking=True, floor_fraction=None,
         why="designed points, no model verdict; fitted with the forward models, which need a "
