@@ -37,3 +37,9 @@ def test_built_package_holds_the_data_files_without_deprecated_fallbacks(tmp_pat
     for name in DATA_FILES:
         assert (lib / name).is_file(), name
     assert (lib / "ripple_hil_drivers" / "simulated" / "modbus_daq_server.py").is_file()
+    installed_as = {"hil": "hil", "drivers": "ripple_hil_drivers", "fixtures": "ripple_hil_fixtures",
+                    "testplans": "ripple_hil_testplans", "reports": "ripple_hil_reports"}
+    missing = [str(path.relative_to(source)) for folder in FOLDERS
+               for path in (source / folder).rglob("*.py")
+               if not (lib / installed_as[folder] / path.relative_to(source / folder)).is_file()]
+    assert not missing, f"modules a non-editable install leaves out: {missing}"
