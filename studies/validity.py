@@ -15,12 +15,17 @@ drive. Each test of the record is then one of:
 - ``error``: the test raised.
 
 Run: ``.venv/bin/python studies/validity.py [--reduced] [--motor NAME] [--point RPM,A]
-[--shuffle SEED] [--out DIR]`` (the full grid: 6 motors × 12 points, ≈ 15-30 s per point on one
+[--shuffle SEED] [--deviation NAME|all] [--out DIR]`` (the full grid: 6 motors × 12 points, ≈ 15-30 s per point on one
 core; ``--reduced``: 2 runs for CI).
 ``--dask`` runs the points as a regression grid (``hil campaign``'s engine, hil/campaign/grid.py)
 on an embedded LocalCluster (``--workers N``) or an existing cluster (``--scheduler ADDRESS``):
 resumable in ``OUT/grid`` (a rerun skips the points done), every record sealed and indexed in
 ``OUT/grid/results.sqlite``; the table is the same.
+``--deviation`` (issue 29) runs each point on a motor, loop and transducer that are *not* what the
+bench file states (``[simulation.actual]``, hil/actual.py, as multiples of each motor's own
+nameplate: ``DEVIATIONS``) at the six ``DEVIATION_POINTS``; the bench file keeps the nameplate,
+so the characterisation stage must find the difference. Still a correct drive: any failure is a
+wrong rejection.
 Writes ``DIR/validity.json`` and ``DIR/validity.md`` and prints the table (``--from-json FILE``
 prints it again); exit 1 on a wrong rejection.
 """
@@ -81,6 +86,25 @@ REDUCED = [("table_i", (-500.0, 20.0)), ("p8_48v", (800.0, 15.0))]
 #: A run's own time limit, s.
 RUN_TIMEOUT_S = 1200.0
 
+#: Actual-vs-nameplate deviation sets (issue 29): multiples of the bench file's [motor] R, L, Ke,
+#: [drive] loop bandwidth and [torque] bandwidth; ``l_sat_at`` puts the saturation current at that
+#: multiple of the point's current (L(|i|) = L/(1 + (|i|/i_sat)²): 2 → L × 0.8 at the point);
+#: ``warming_pu``: the winding's steady rise at the point's current (τ = ``WARMING_TAU_S``).
+DEVIATIONS: dict[str, dict] = {
+    "warm_saturated": {"r": 1.30, "l": 1.00, "l_sat_at": 2.0, "ke": 0.96},
+    "hot_slow": {"r": 1.45, "l": 0.70, "ke": 0.92, "loop": 0.80, "transducer": 0.70},
+    "cold_fast": {"r": 0.85, "l": 1.15, "ke": 1.04, "loop": 1.25, "transducer": 1.40},
+    "warming": {"r": 1.00, "l": 1.00, "l_sat_at": 3.0, "ke": 0.98, "loop": 1.10,
+                "transducer": 0.85, "warming_pu": 0.20},
+}
+#: The winding's thermal time constant of the warming set, s (a run's captures last seconds)
+WARMING_TAU_S = 2.0
+#: Six points per motor for the deviation axis: both directions, low and high current, near
+#: the voltage limit (the last two are ± the near-limit speed, added by ``deviation_grid``).
+DEVIATION_POINTS = [(500.0, 20.0), (-500.0, 20.0), (250.0, 5.0), (1200.0, 10.0)]
+#: The deviation axis's motors: Table I, 8 poles 48 V, 10 poles (count order not whole)
+DEVIATION_MOTORS = ["table_i", "p8_48v", "p10_48v"]
+
 PASS, WRONG, NOT_DET, ERROR = "pass", "wrong rejection", "not determinable", "error"
 
 
@@ -108,23 +132,55 @@ def grid(name: str) -> list[tuple[float, float]]:
     return FIXED_POINTS + [(near, NEAR_LIMIT_CURRENT_A), (-near, NEAR_LIMIT_CURRENT_A)]
 
 
+def deviation_grid(name: str) -> list[tuple[float, float]]:
+    """The deviation axis's points of a motor: ``DEVIATION_POINTS`` and ± the near-limit speed."""
+    near = grid(name)[-2:]
+    return DEVIATION_POINTS + near
+
+
+def actual_table(table: dict, deviation: str, current_a: float) -> dict:
+    """``[simulation.actual]`` of ``DEVIATIONS[deviation]`` on the bench ``table`` (its stated
+    [motor], [drive], [torque]) at a point of ``current_a`` (peak phase A)."""
+    dev = DEVIATIONS[deviation]
+    motor, drive, torque = table["motor"], table["drive"], table["torque"]
+    actual = {"phase_resistance_ohm": motor["phase_resistance_ohm"] * dev["r"],
+              "phase_inductance_h": motor["phase_inductance_h"] * dev["l"],
+              "ke_v_s_per_rad": motor["ke_v_s_per_rad"] * dev["ke"]}
+    if "l_sat_at" in dev:
+        actual["saturation_current_a"] = dev["l_sat_at"] * abs(current_a)
+    if "loop" in dev:
+        actual["current_loop_bandwidth_hz"] = drive["current_loop_bandwidth_hz"] * dev["loop"]
+    if "transducer" in dev:
+        actual["bandwidth_hz"] = torque["bandwidth_hz"] * dev["transducer"]
+    if "warming_pu" in dev:
+        actual["winding_time_constant_s"] = WARMING_TAU_S
+        actual["winding_rise_pu_per_a2"] = dev["warming_pu"] / current_a ** 2
+    return actual
+
+
 def _base_bench() -> dict:
     return tomllib.loads(example_bench_path("sim-bench").read_text())
 
 
-def bench_table(name: str, speed_rpm: float, current_a: float) -> dict:
-    """The shipped simulated bench with this motor and operating point (a TOML table)."""
+def bench_table(name: str, speed_rpm: float, current_a: float,
+                deviation: str | None = None) -> dict:
+    """The shipped simulated bench with this motor and operating point (a TOML table); with
+    ``deviation``, its physics moved away from that nameplate (``actual_table``)."""
     table = _base_bench()
     table["motor"] = table["motor"] | MOTORS[name]
     table["operating_point"] = {"speed_rpm": speed_rpm, "current_a": current_a,
                                 "current_angle_deg": 0.0}
+    if deviation is not None:
+        simulation = table.setdefault("simulation", {})
+        simulation["actual"] = actual_table(table, deviation, current_a)
     return table
 
 
-def bench_copy(name: str, speed_rpm: float, current_a: float, folder: Path) -> Path:
-    """A copy of the shipped simulated bench with this motor and operating point."""
+def bench_copy(name: str, speed_rpm: float, current_a: float, folder: Path,
+               deviation: str | None = None) -> Path:
+    """A copy of the shipped simulated bench with this motor, operating point and deviation."""
     path = folder / f"bench-{name}-{speed_rpm:g}rpm-{current_a:g}A.toml"
-    path.write_text(tomli_w.dumps(bench_table(name, speed_rpm, current_a)))
+    path.write_text(tomli_w.dumps(bench_table(name, speed_rpm, current_a, deviation)))
     return path
 
 
@@ -161,10 +217,10 @@ def plan_order(seed: int, sources=()) -> list[str]:
 
 
 def run_point(name: str, speed_rpm: float, current_a: float, folder: Path,
-              sources=()) -> dict:
+              sources=(), deviation: str | None = None) -> dict:
     """One ``hil run`` on the correct simulated drive; the classified tests of its record."""
     folder.mkdir(parents=True, exist_ok=True)
-    bench = bench_copy(name, speed_rpm, current_a, folder)
+    bench = bench_copy(name, speed_rpm, current_a, folder, deviation)
     records = folder / "records"
     args = [sys.executable, "-m", "hil", "run", "--bench", str(bench), "--no-report",
             "--record-dir", str(records)]
@@ -174,7 +230,7 @@ def run_point(name: str, speed_rpm: float, current_a: float, folder: Path,
     done = subprocess.run(args, capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
                           cwd=folder)
     row = {"motor": name, "speed_rpm": speed_rpm, "current_a": current_a,
-           "exit_status": done.returncode, "seconds": round(time.perf_counter() - started, 1),
+           "deviation": deviation, "exit_status": done.returncode, "seconds": round(time.perf_counter() - started, 1),
            "tests": []}
     # record folders only (the results database's file and lock sit beside them)
     found = sorted(p for p in records.iterdir() if p.is_dir()) if records.exists() else []
@@ -196,6 +252,11 @@ def classified_tests(record: Path) -> list[dict]:
     return tests
 
 
+def _entries(plan):
+    """``plan``'s (motor, (rpm, A), deviation or None) whatever its entries' length."""
+    return [(entry[0], entry[1], entry[2] if len(entry) > 2 else None) for entry in plan]
+
+
 def run_on_dask(plan, sources, folder: Path, scheduler: str | None,
                 workers: int | None) -> list[dict]:
     """The same runs as a regression grid (``hil campaign``'s engine: resumable in ``folder``,
@@ -203,17 +264,19 @@ def run_on_dask(plan, sources, folder: Path, scheduler: str | None,
     from hil.campaign.grid import run_grid
     from hil.campaign.grid_spec import GridRun
 
-    runs = [GridRun({"motor": name, "point": f"{speed:g}rpm_{current:g}A"},
-                    bench_table(name, speed, current), tuple(sources), 0, RUN_TIMEOUT_S)
-            for name, (speed, current) in plan]
+    runs = [GridRun({"motor": name, "point": f"{speed:g}rpm_{current:g}A"}
+                    | ({"deviation": deviation} if deviation else {}),
+                    bench_table(name, speed, current, deviation), tuple(sources), 0,
+                    RUN_TIMEOUT_S)
+            for name, (speed, current), deviation in _entries(plan)]
     result = run_grid(runs, folder, scheduler=scheduler, n_workers=workers,
                       results_db=f"sqlite:///{(folder / 'results.sqlite').resolve()}",
                       progress=sys.stderr.isatty())
     print(f"grid: {len(result.computed)} run(s) computed on {result.workers} worker(s), "
           f"{len(result.skipped)} resumed, wall {result.wall_s:.0f} s", file=sys.stderr)
     rows = []
-    for (name, (speed, current)), grid in zip(plan, result.rows):
-        row = {"motor": name, "speed_rpm": speed, "current_a": current,
+    for (name, (speed, current), deviation), grid in zip(_entries(plan), result.rows):
+        row = {"motor": name, "speed_rpm": speed, "current_a": current, "deviation": deviation,
                "exit_status": grid.get("exit_status"), "seconds": grid.get("seconds"),
                "tests": []}
         if grid["state"] == "done":
@@ -239,17 +302,19 @@ def model_points(rows: list[dict]) -> Counter:
 
 
 def markdown(rows: list[dict]) -> str:
-    lines = ["| motor | speed rpm | current A | pass | wrong rejection | not determinable | "
-             "measured | error | exit |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| motor | speed rpm | current A | deviation | pass | wrong rejection | "
+             "not determinable | measured | error | exit |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         c = counts(row)
         lines.append(f"| {row['motor']} | {row['speed_rpm']:g} | {row['current_a']:g} | "
+                     f"{row.get('deviation') or 'as stated'} | "
                      f"{c[PASS]} | {c[WRONG]} | {c[NOT_DET]} | {c[MEASURED]} | {c[ERROR]} | "
                      f"{row['exit_status']}{' (no record)' if 'run_error' in row else ''} |")
     total = Counter()
     for row in rows:
         total += counts(row)
-    lines.append(f"| **all** | | | {total[PASS]} | {total[WRONG]} | {total[NOT_DET]} | "
+    lines.append(f"| **all** | | | | {total[PASS]} | {total[WRONG]} | {total[NOT_DET]} | "
                  f"{total[MEASURED]} | {total[ERROR]} | |")
     model = model_points(rows)
     judged = model[PASS] + model[WRONG]
@@ -269,7 +334,8 @@ def markdown(rows: list[dict]) -> str:
     bad = [(row, t) for row in rows for t in row["tests"] if t["category"] in (WRONG, ERROR)]
     if bad:
         lines += ["Wrong rejections and errors:", ""]
-        lines += [f"- {row['motor']} {row['speed_rpm']:g} rpm {row['current_a']:g} A: "
+        lines += [f"- {row['motor']} {row['speed_rpm']:g} rpm {row['current_a']:g} A "
+                  f"{row.get('deviation') or ''}: "
                   f"`{t['test_id']}` {t['category']}: {(t['reason'] or '')[:300]}"
                   for row, t in bad]
     reasons = Counter((t["source"], _reason_kind(t["reason"])) for row in rows
@@ -330,6 +396,11 @@ def main(argv=None) -> int:
     parser.add_argument("--shuffle", type=int, metavar="SEED",
                         help="run the plans in a random order drawn with SEED (the self-check "
                              "first); the order is kept in each row")
+    parser.add_argument("--deviation", action="append", default=[],
+                        choices=[*sorted(DEVIATIONS), "all"],
+                        help="run on a motor, loop and transducer off the nameplate (issue 29; "
+                             "repeatable; 'all': every set) at the deviation points of the "
+                             "deviation motors (or --motor/--point)")
     parser.add_argument("--from-json", type=Path,
                         help="only write the table again from a study's validity.json")
     args = parser.parse_args(argv)
@@ -344,6 +415,13 @@ def main(argv=None) -> int:
     if args.point:
         points = [tuple(float(v) for v in text.split(",")) for text in args.point]
         plan = [(name, point) for name in (args.motor or MOTORS) for point in points]
+    if args.deviation:
+        chosen = sorted(DEVIATIONS) if "all" in args.deviation else args.deviation
+        motors = args.motor or DEVIATION_MOTORS
+        points = ([tuple(float(v) for v in text.split(",")) for text in args.point]
+                  if args.point else None)
+        plan = [(name, point, deviation) for deviation in chosen for name in motors
+                for point in (points or deviation_grid(name))]
     sources = args.source
     if args.shuffle is not None:
         sources = plan_order(args.shuffle, args.source)
@@ -353,7 +431,7 @@ def main(argv=None) -> int:
         rows = run_on_dask(plan, sources, args.out / "grid", args.scheduler, args.workers)
         if args.base_json:
             rows = [with_base(row, args.base_json, set(args.source)) for row in rows]
-        (args.out / "validity.json").write_text(json.dumps({"motors": MOTORS, "rows": rows},
+        (args.out / "validity.json").write_text(json.dumps({"motors": MOTORS, "deviations": DEVIATIONS, "rows": rows},
                                                            indent=1))
     else:
         rows = _run_in_turn(plan, args, sources)
@@ -367,19 +445,19 @@ def _run_in_turn(plan, args, sources) -> list[dict]:
     """The points one after another in this process's children (no Dask)."""
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for index, (name, (speed, current)) in enumerate(plan):
+        for index, (name, (speed, current), deviation) in enumerate(_entries(plan)):
             row = run_point(name, speed, current, Path(tmp) / f"p{index}",
-                            sources=sources)
+                            sources=sources, deviation=deviation)
             if args.shuffle is not None:
                 row["plan_order"] = {"seed": args.shuffle, "plans": list(sources)}
             if args.base_json:
                 row = with_base(row, args.base_json, set(args.source))
             rows.append(row)
             c = counts(row)
-            print(f"{name} {speed:g} rpm {current:g} A: {dict(c)} ({row['seconds']} s)",
+            print(f"{name} {speed:g} rpm {current:g} A {deviation or ''}: {dict(c)} ({row['seconds']} s)",
                   file=sys.stderr, flush=True)
             (args.out / "validity.json").write_text(json.dumps(
-                {"motors": MOTORS, "rows": rows}, indent=1))
+                {"motors": MOTORS, "deviations": DEVIATIONS, "rows": rows}, indent=1))
     return rows
 
 

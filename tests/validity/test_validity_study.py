@@ -70,3 +70,40 @@ def test_classify_keeps_each_kind_apart():
     assert study.classify({"outcome": "passed", "kind": "measurement",
                            "verdict": {"x": 1}})[0] == study.PASS
     assert study.classify({"outcome": "error", "error": "boom"}) == (study.ERROR, "boom")
+
+
+def test_deviation_sets_span_the_nameplate_errors_a_real_bench_has():
+    """Issue 29: R × 0.85…1.45, L × 0.7…1.15 (saturating), Ke × 0.92…1.04, the loop × 0.8…1.25
+    and the transducer × 0.7…1.4 of what the bench file states, and a winding warming 20 %."""
+    study = load_study()
+    sets = study.DEVIATIONS.values()
+    for key, low, high in (("r", 0.85, 1.45), ("l", 0.7, 1.15), ("ke", 0.92, 1.04),
+                           ("loop", 0.8, 1.25), ("transducer", 0.7, 1.4)):
+        values = [d[key] for d in sets if key in d]
+        assert min(values) == pytest.approx(low) and max(values) == pytest.approx(high), key
+    assert any("l_sat_at" in d for d in sets) and any("warming_pu" in d for d in sets)
+    assert len(study.DEVIATION_MOTORS) >= 3
+    assert all(len(study.deviation_grid(name)) >= 6 for name in study.DEVIATION_MOTORS)
+
+
+@pytest.mark.parametrize("deviation", ["warm_saturated", "warming", "cold_fast"])
+def test_a_deviation_is_the_bench_files_physics_not_its_nameplate(tmp_path, deviation):
+    """The bench copy keeps the motor's nameplate in [motor] and puts the deviation in
+    [simulation.actual], which the loader accepts; the saturation and the warming are set
+    relative to the point's current."""
+    from hil.config import load_bench
+
+    study = load_study()
+    path = study.bench_copy("p8_48v", -500.0, 20.0, tmp_path, deviation)
+    config = load_bench(path)
+    stated = study.motor_parameters("p8_48v")
+    assert config.motor.phase_resistance_ohm == stated.phase_resistance_ohm
+    dev = study.DEVIATIONS[deviation]
+    actual = config.sim_actual
+    assert actual["phase_resistance_ohm"] == pytest.approx(stated.phase_resistance_ohm * dev["r"])
+    assert actual["ke_v_s_per_rad"] == pytest.approx(stated.ke_v_s_per_rad * dev["ke"])
+    if "l_sat_at" in dev:
+        saturated = 1 / (1 + (20.0 / actual["saturation_current_a"]) ** 2)
+        assert saturated == pytest.approx(1 / (1 + 1 / dev["l_sat_at"] ** 2))
+    if "warming_pu" in dev:
+        assert actual["winding_rise_pu_per_a2"] * 20.0 ** 2 == pytest.approx(dev["warming_pu"])
