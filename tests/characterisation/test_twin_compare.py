@@ -8,56 +8,22 @@ has); the full plan set: studies/results/twin_compare.md."""
 
 from __future__ import annotations
 
-import json
-import os
-import re
-import subprocess
-import sys
 import tomllib
 
 import pytest
 
-from hil.config import example_bench_path
+from studies.twin_compare import DEVIATION, compare, deviated_bench, hil_cli, run_plans
 
 pytestmark = pytest.mark.slow      # characterize + three reduced `hil run`s, one after another
 
-SOURCES = ("--source", "baseline", "--source", "dead_time")
-#: The bench's hidden physics, as multiples of its file's [motor] and [drive].
-DEVIATION = {"phase_resistance_ohm": 1.3, "phase_inductance_h": 0.8, "ke_v_s_per_rad": 0.96,
-             "current_loop_bandwidth_hz": 0.9}
+SOURCES = ("baseline", "dead_time")
 DEAD_TIME_POINTS = [f"testplans/test_dead_time.py::test_dead_time[dead_time_s={t}]"
                     for t in ("2e-06", "3e-06", "4e-06")]
 BASELINE = "testplans/test_baseline.py::test_baseline"
 SELF_CHECK = "testplans/test_self_check.py::"
-
-
-def _hil(*args: str, ok=(0,)) -> str:
-    """The CLI as a user runs it: each run indexed into its records folder's results.sqlite
-    (the tests' ``RIPPLE_HIL_RESULTS_DB=off`` left out), where ``hil compare`` reads them."""
-    env = {key: value for key, value in os.environ.items() if key != "RIPPLE_HIL_RESULTS_DB"}
-    env["PYTHONPATH"] = os.pathsep.join(sys.path)
-    proc = subprocess.run([sys.executable, "-m", "hil", *args], capture_output=True, text=True,
-                          env=env, timeout=600)
-    assert proc.returncode in ok, (args, proc.returncode, proc.stdout[-3000:],
-                                   proc.stderr[-3000:])
-    return proc.stdout
-
-
-def _run(bench, records, seed: int, ok=(0,)) -> str:
-    """``hil run`` of the reduced selection; the record ID it printed."""
-    out = _hil("run", "--bench", str(bench), *SOURCES, "--record-dir", str(records),
-               "--no-report", "--seed", str(seed), ok=ok)
-    return re.search(r"^record: \S+/(\S+) \(complete\)$", out, re.M).group(1)
-
-
-def _deviated_bench(path):
-    stated = tomllib.loads(example_bench_path("sim-bench").read_text())
-    actual = {key: factor * (stated["drive"] if key.startswith("current_loop") else
-                             stated["motor"])[key] for key, factor in DEVIATION.items()}
-    text = example_bench_path("sim-bench").read_text() + "\n[simulation.actual]\n" + "".join(
-        f"{key} = {value!r}\n" for key, value in actual.items())
-    path.write_text(text)
-    return stated, actual
+#: The regulated points of the selection, judged in every run (the self-check's always runs).
+JUDGED = {BASELINE, *DEAD_TIME_POINTS, *(SELF_CHECK + name for name in (
+    "test_bench_self_check", "test_transducer_dynamics", "test_transducer_dynamics-reference"))}
 
 
 @pytest.fixture(scope="module")
@@ -65,16 +31,13 @@ def bench_and_twin(tmp_path_factory):
     """The deviated bench, its twin file, and a run of each (other noise seeds)."""
     root = tmp_path_factory.mktemp("twin")
     bench, twin, records = root / "bench.toml", root / "twin.toml", root / "records"
-    stated, actual = _deviated_bench(bench)
-    _hil("characterize", "--bench", str(bench), "--record-dir", str(root / "characterisation"),
-         "--write-twin", str(twin))
-    ids = {"bench": _run(bench, records, seed=0), "twin": _run(twin, records, seed=1)}
+    stated, actual = deviated_bench(bench)
+    hil_cli("characterize", "--bench", str(bench), "--record-dir",
+            str(root / "characterisation"), "--write-twin", str(twin))
+    ids = {"bench": run_plans(bench, records, 0, SOURCES, ok=(0,)),
+           "twin": run_plans(twin, records, 1, SOURCES, ok=(0,))}
     return {"root": root, "bench": bench, "twin": twin, "records": records, "ids": ids,
             "stated": stated, "actual": actual}
-
-
-def _compare(records, a: str, b: str) -> dict:
-    return json.loads(_hil("compare", a, b, "--records", str(records), "--json"))
 
 
 def _record(records, record_id):
@@ -102,14 +65,11 @@ def test_the_twin_states_the_nameplate_and_runs_the_measured_physics(bench_and_t
 
 def test_the_twin_reproduces_the_bench_within_u_on_every_judged_point(bench_and_twin):
     records, ids = bench_and_twin["records"], bench_and_twin["ids"]
-    result = _compare(records, ids["twin"], ids["bench"])          # d = bench − twin
+    result = compare(records, ids["twin"], ids["bench"])           # d = bench − twin
     verdict = result["reproduction"]
     assert verdict["reproduced"], verdict
     assert verdict["beyond_u"] == [] and verdict["verdicts_differ"] == []
-    assert set(verdict["within_u"]) == {BASELINE, *DEAD_TIME_POINTS,
-                                        SELF_CHECK + "test_bench_self_check",
-                                        SELF_CHECK + "test_transducer_dynamics",
-                                        SELF_CHECK + "test_transducer_dynamics-reference"}
+    assert set(verdict["within_u"]) == JUDGED
     assert verdict["statement"].startswith("reproduced within U on every judged point (7 of 7")
     points = {p["test_id"]: p for p in result["points"]}
     for test_id in DEAD_TIME_POINTS:
@@ -132,22 +92,18 @@ def test_the_twin_reproduces_the_bench_within_u_on_every_judged_point(bench_and_
 def test_a_hidden_fault_the_twin_lacks_is_named(bench_and_twin):
     root, records = bench_and_twin["root"], bench_and_twin["records"]
     faulty = root / "bench-with-fault.toml"
-    faulty.write_text(bench_and_twin["bench"].read_text()
-                      + "\n[simulation.defects]\nhidden_ia_offset_a = 0.3\n")
-    fault_id = _run(faulty, records, seed=2, ok=(1,))                  # its baseline fails
-    result = _compare(records, bench_and_twin["ids"]["twin"], fault_id)
+    deviated_bench(faulty, defects={"hidden_ia_offset_a": 0.3})     # after the twin was written
+    fault_id = run_plans(faulty, records, 2, SOURCES, ok=(1,))      # its baseline fails
+    result = compare(records, bench_and_twin["ids"]["twin"], fault_id)
     verdict = result["reproduction"]
     assert not verdict["reproduced"]
     # a 0.3 A offset (1.5 % of 20 A) adds ~3.4 % pk-pk of order 1 at every regulated point
-    assert set(verdict["beyond_u"]) == {BASELINE, *DEAD_TIME_POINTS,
-                                        SELF_CHECK + "test_bench_self_check",
-                                        SELF_CHECK + "test_transducer_dynamics",
-                                        SELF_CHECK + "test_transducer_dynamics-reference"}
+    assert set(verdict["beyond_u"]) == JUDGED
     assert verdict["plans_beyond_u"] == ["baseline", "dead_time", "self_check"]
     assert {"test_id": BASELINE, "outcome_a": "passed", "outcome_b": "failed"} \
         in verdict["verdicts_differ"]
     baseline = next(p for p in result["points"] if p["test_id"] == BASELINE)["pk_pk_pu"]
     assert baseline["difference"] > 10 * baseline["u_difference"]
-    text = _hil("compare", bench_and_twin["ids"]["twin"], fault_id, "--records", str(records))
+    text = hil_cli("compare", bench_and_twin["ids"]["twin"], fault_id, "--records", str(records))
     assert "NOT reproduced: 7 of 7 judged point(s) differ beyond U_d" in text
     assert f"  beyond U_d: {BASELINE}" in text
