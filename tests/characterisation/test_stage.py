@@ -45,18 +45,20 @@ def test_the_plans_read_the_bench_as_measured_and_the_record_keeps_both(tmp_path
 
 
 def _twin_file_states_what_was_measured(bench):
-    """``hil characterize --write-twin``'s file: a valid simulated bench whose [motor] is what
-    was measured, with no hidden physics of its own."""
+    """``hil characterize --write-twin``'s file: a valid simulated bench that states the bench
+    file's nameplate (the drive's gains came from it) and runs the measured motor as its
+    ``[simulation.actual]`` physics, with no hidden defect of its own."""
     import tomllib
 
-    from hil.commands.characterize import twin_text
+    from hil.characterisation.twin import twin_text
     from hil.config import BenchConfig
 
     text = twin_text(bench.stated_config, bench.characterisation)
     twin = BenchConfig.from_dict(tomllib.loads(text))
-    assert twin.simulated and not twin.sim_actual and not twin.sim_defects
+    assert twin.simulated and not twin.sim_defects
+    assert twin.motor == bench.stated_config.motor
     for name in WARM:
-        assert getattr(twin.motor, name) == bench.characterisation.get(name).value
+        assert twin.sim_actual[name] == bench.characterisation.get(name).value
     assert "± " in text and "(stated " in text
 
 
