@@ -2,8 +2,8 @@
 
 The twin states what the bench file states — the ``[motor]`` nameplate and the documented
 ``[drive]`` loop the drive was configured from — and runs, in ``[simulation.actual]``
-(``hil.actual``), the physics the characterisation measured: R, L, Ke and the loop bandwidth of
-the bench as measured (``Characterisation.measured_config``: the measured value where it
+(``hil.actual``), the physics the characterisation measured: R, L, Ke, the loop bandwidth and
+the transducer's bandwidth of the bench as measured (``Characterisation.measured_config``: the measured value where it
 disagrees with the file beyond U, the stated one where the measurement confirms it). That is
 the bench's own shape (what the user believes, plus the physics), so:
 
@@ -18,8 +18,7 @@ gains on the measured R, L — another drive than the one on the bench — and m
 per-unit base with the measured Ke.
 
 Not carried over (the twin runs them as stated, and its header says so): what the
-characterisation does not identify (the loop delay, the transducer's bandwidth, the saturation
-curve L(|i|) away from the operating point's current, the winding's warming), the bench's own
+characterisation does not identify (the loop delay, the saturation curve L(|i|) away from the operating point's current, the winding's warming), the bench's own
 ``[simulation]`` table (its hidden physics and defects: the twin knows only what was measured)
 and the instruments' addresses.
 """
@@ -48,6 +47,8 @@ def twin_physics(stated, result: Characterisation) -> dict:
     bandwidth_hz = measured.drive.current_loop_bandwidth_hz
     if bandwidth_hz != stated.drive.current_loop_bandwidth_hz:
         physics["current_loop_bandwidth_hz"] = bandwidth_hz
+    if measured.torque.bandwidth_hz != stated.torque.bandwidth_hz:
+        physics["bandwidth_hz"] = measured.torque.bandwidth_hz
     return physics
 
 
