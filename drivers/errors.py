@@ -43,6 +43,15 @@ class LimitError(InstrumentError):
     """A command or a measured value is outside the bench's configured limits."""
 
 
+class ChannelClippedError(LimitError):
+    """A capture channel sat at the end of its range: the capture would understate what it
+    measured. ``channels`` names the clipped channels (empty when the instrument did not say)."""
+
+    def __init__(self, instrument: str, action: str, detail: str, channels=()) -> None:
+        self.channels = tuple(channels)
+        super().__init__(instrument, action, detail)
+
+
 class InjectionRangeError(LimitError, InputError):
     """A fault-injection or command value outside the range the drive's EDS (or the drive) allows.
 

@@ -51,8 +51,9 @@ from ripple_hil_drivers import modbus_pipeline
 from ripple_hil_drivers.modbus_link import SerialClient, TcpClient, connect_reason
 from ripple_hil_drivers.daq_register_map import Channel, RegisterMap, load_register_map
 from ripple_hil_drivers.serial_line import PARITIES, STOPBITS, line_for_port
-from ripple_hil_drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
-                            ProtocolError, TransportLost, transport_reason)
+from ripple_hil_drivers.errors import (ChannelClippedError, DeviceFault, InstrumentError,
+                                      InstrumentTimeout, ProtocolError, TransportLost,
+                                      transport_reason)
 from hil.capture import Capture
 from hil.errors import InputError
 
@@ -154,6 +155,8 @@ _EXCEPTIONS = {cls.code: cls for cls in (IllegalFunction, IllegalAddress, Illega
 _EXCEPTION_TEXT = {1: "illegal function", 2: "illegal data address", 3: "illegal data value",
                    4: "server device failure", 5: "acknowledge", 6: "server device busy"}
 POLL_INTERVAL_S = 0.002
+#: The ends of a channel's int16 range: a sample there may have been clipped.
+INT16_MAX, INT16_MIN = 32767, -32768
 log = logging.getLogger(__name__)
 
 
@@ -569,7 +572,7 @@ class ModbusDaq:
         constants = self._device_constants()
         counts_per_rev = int(constants["encoder_counts_per_rev"])
         n = len(frames)
-        data, lsb, problems = {}, {}, []
+        data, lsb, problems, at_rail = {}, {}, [], []
         ticks = None
         column = 0
         counter = self.map.sample_counter
@@ -591,12 +594,15 @@ class ModbusDaq:
             else:
                 data[channel.name] = raw * channel.scale + channel.offset
                 lsb[channel.name] = channel.scale
+                if clipped and (np.any(raw >= INT16_MAX) or np.any(raw <= INT16_MIN)):
+                    at_rail.append(channel.name)
         data = {"time_s": (ticks if ticks is not None else np.arange(n)) / rate} | data
         meta = {"source": "daq", "instrument": self.name, "sample_rate_hz": rate,
                 "encoder_counts_per_rev": counts_per_rev,
                 "pole_pairs": int(constants["pole_pairs"]), "daq_lsb": lsb,
                 "daq_model": constants["model"], "daq_serial_number": constants["serial_number"],
-                "daq_settle_s": settle_s, "daq_clipped": bool(clipped)}
+                "daq_settle_s": settle_s, "daq_clipped": bool(clipped),
+                "daq_clipped_channels": at_rail}
         if self.line_note:
             meta["daq_line_note"] = self.line_note
         return Capture(channels=data, meta=meta), problems
@@ -620,8 +626,8 @@ class ModbusDaq:
         """Configure, arm, trigger, wait, read, check and disarm; the capture in SI units.
 
         ``channels``: the capture channels wanted (map names, or ``rotor_angle_mech_rad`` for
-        the encoder); None: all of them. Raises LimitError if a channel clipped (the capture
-        would understate the ripple), CaptureIntegrityError if samples are missing or the time
+        the encoder); None: all of them. Raises ChannelClippedError (a LimitError) naming the
+        channels if any clipped (the capture would understate the ripple), CaptureIntegrityError if samples are missing or the time
         base is not uniform.
         """
         if not (math.isfinite(duration_s) and duration_s > 0):
@@ -647,8 +653,12 @@ class ModbusDaq:
             self._disarm_quietly()
         result.meta["daq_transfer"].update(round_trips_setup=setup + 1, round_trips_polling=polls)
         if result.meta["daq_clipped"]:
-            raise LimitError(self.name, "capture", "a channel hit the end of its int16 range "
-                                                   f"(LSBs {result.meta['daq_lsb']})")
+            names = result.meta["daq_clipped_channels"]
+            lsb = result.meta["daq_lsb"]
+            which = ", ".join(f"{name} (±{32767 * lsb[name]:.4g} at LSB {lsb[name]:g})"
+                              for name in names) or "a channel (the DAQ did not say which)"
+            raise ChannelClippedError(self.name, "capture",
+                                      f"{which} hit the end of its int16 range", names)
         return result
 
     def capture_channels(self, channels=None) -> list[str]:

@@ -16,7 +16,7 @@ duration, reference LEFT, position = settle_s: the first sample comes settle_s a
 trigger), RAW points = duration·rate, vertical setup, ``:DIGitize``, ``*OPC?``, read and check
 (points, one x axis, the rate asked, no holes, the error queue empty), convert to SI. A capture
 that is not what was asked raises :class:`ScopeCaptureError` carrying the data as received; a
-clipped channel raises ``LimitError`` (the capture would understate the ripple).
+clipped channel raises ``ChannelClippedError``, a ``LimitError`` (the capture would understate the ripple).
 """
 
 from __future__ import annotations
@@ -28,8 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ripple_hil_drivers.errors import (DeviceFault, InstrumentError, InstrumentTimeout, LimitError,
-                                       ProtocolError, TransportLost, transport_reason)
+from ripple_hil_drivers.errors import (ChannelClippedError, DeviceFault, InstrumentError,
+                                       InstrumentTimeout, ProtocolError, TransportLost,
+                                       transport_reason)
 from hil.capture import Capture
 from hil.errors import InputError
 
@@ -305,8 +306,8 @@ class ScpiScope:
         finally:
             self._stop_quietly()
         if clipped:
-            raise LimitError(self.name, "capture", f"channel(s) {', '.join(clipped)} went off "
-                                                   "the screen (clipped): widen volts_per_div")
+            raise ChannelClippedError(self.name, "capture", f"channel(s) {', '.join(clipped)} "
+                                      "went off the screen (clipped): widen volts_per_div", clipped)
         return capture
 
     # ------------------------------------------------------------------ steps

@@ -20,6 +20,7 @@ class Characterisation:
 
     identified: tuple[Identified, ...] = ()
     not_identified: dict = field(default_factory=dict)     # key -> reason
+    note: str = ""                                         # e.g. where it was characterised
 
     def get(self, name: str) -> Identified | None:
         return next((item for item in self.identified if item.name == name), None)
@@ -79,6 +80,8 @@ class Characterisation:
     def to_dict(self, stated=None) -> dict:
         out = {"identified": [item.to_dict() for item in self.identified],
                "not_identified": dict(self.not_identified)}
+        if self.note:
+            out["note"] = self.note
         if stated is not None:
             extra = [self.loop_row(stated), self.transducer_row(stated)]
             out["stated_vs_measured"] = self.stated_vs_measured(stated) + [

@@ -47,7 +47,6 @@ def has_voltage_channel(bench) -> bool:
 def characterise(bench, record, op=None) -> Characterisation:
     """Identify ψ (as Ke), R and L on ``bench`` at ``op`` (default: the bench file's operating
     point); captures saved in ``record`` as ``characterisation-emf`` / ``-winding``."""
-    from hil.measurement import _acquire
 
     config = bench.config
     op = op or config.operating_point
@@ -57,19 +56,32 @@ def characterise(bench, record, op=None) -> Characterisation:
         return Characterisation(not_identified={key: reason for key in (
             "ke_v_s_per_rad", "phase_resistance_ohm", "phase_inductance_h")})
     pole_pairs = config.motor.pole_pairs
-    emf_capture = _acquire(bench, record, "characterisation-emf", _plan(op, enabled=False),
-                           pole_pairs)
+    note = ""
+    for attempt in range(len(SLOWER_SPEED_FACTORS) + 1):
+        emf_capture = _voltage_capture(bench, record, "characterisation-emf",
+                                       _plan(op, enabled=False), pole_pairs)
+        if not isinstance(emf_capture, str) or attempt == len(SLOWER_SPEED_FACTORS):
+            break
+        slower = replace(op, speed_rpm=op.speed_rpm * SLOWER_SPEED_FACTORS[attempt])
+        note = (f"characterised at {slower.speed_rpm:.0f} rpm, not the operating point's "
+                f"{op.speed_rpm:g} rpm: {emf_capture}")
+        op = slower
+    if isinstance(emf_capture, str):
+        return Characterisation(not_identified={key: emf_capture for key in (
+            "ke_v_s_per_rad", "phase_resistance_ohm", "phase_inductance_h",
+            "current_loop_bandwidth_hz", "bandwidth_hz")})
     emf = back_emf(emf_capture, pole_pairs)
     identified = [ke_from_psi(emf.psi, config.motor.ke_definition)]
     not_identified = {}
-    if op.current_a > 0:
-        winding_capture = _acquire(bench, record, "characterisation-winding",
-                                   _plan(op, enabled=True), pole_pairs)
+    winding_capture = (_voltage_capture(bench, record, "characterisation-winding",
+                                        _plan(op, enabled=True), pole_pairs)
+                       if op.current_a > 0 else "the operating point's current is 0 A")
+    if not isinstance(winding_capture, str):
         identified += winding(winding_capture, emf, pole_pairs,
                               skew_bound_s=VOLTAGE_SKEW_BOUND_S)
     else:
         for key in ("phase_resistance_ohm", "phase_inductance_h"):
-            not_identified[key] = "the operating point's current is 0 A"
+            not_identified[key] = winding_capture
     if len(identified) == 3:
         loop, transducer = _loop(bench, record, op, identified, config)
         for key, found in (("current_loop_bandwidth_hz", loop), ("bandwidth_hz", transducer)):
@@ -80,7 +92,30 @@ def characterise(bench, record, op=None) -> Characterisation:
     if not any(item.name == "bandwidth_hz" for item in identified):
         not_identified.setdefault("bandwidth_hz", "no loop test-signal captures to measure the "
                                   "transducer's response from (the motor was not identified)")
-    return Characterisation(tuple(identified), not_identified)
+    return Characterisation(tuple(identified), not_identified, note)
+
+
+#: Where the terminal voltage at the operating point is beyond the DAQ's voltage channel, the
+#: stage retries at these fractions of its speed (Ke, R and the saturated L at the operating
+#: current do not depend on the speed; the loop fit models the electrical frequency).
+SLOWER_SPEED_FACTORS = (0.6, 0.35)
+
+
+def _voltage_capture(bench, record, name, plan, pole_pairs):
+    """A capture with the terminal voltage, or the reason there is none: a ``vab_v`` beyond the
+    DAQ's range (e.g. a 48 V bus at speed on a ±32.8 V channel) identifies nothing, and the
+    plans run on the nameplate; any other clipped channel is the bench's failure."""
+    from ripple_hil_drivers.errors import ChannelClippedError
+
+    from hil.measurement import _acquire
+
+    try:
+        return _acquire(bench, record, name, plan, pole_pairs)
+    except ChannelClippedError as exc:
+        if set(exc.channels) != {VOLTAGE_CHANNEL}:
+            raise
+        return (f"the terminal voltage is beyond the DAQ's {VOLTAGE_CHANNEL} range at "
+                f"{plan.speed_rpm:g} rpm ({exc.detail})")
 
 
 #: The loop test signal: amplitude as a share of the operating current (clear of the ADC's LSB

@@ -158,3 +158,27 @@ def test_a_transducer_off_its_data_sheet_is_measured_and_predicted_with(tmp_path
     finally:
         record.finish("complete")
         bench.close()
+
+
+def test_a_terminal_voltage_beyond_the_daq_range_is_characterised_slower(tmp_path):
+    """An 8-pole 48 V motor at 2475 rpm: its line voltage is beyond the DAQ's ±32.8 V vab_v
+    channel. The capture names the clipped channel; the stage characterises at a lower speed
+    (the record says where and why) instead of stopping the run (it stopped every plan)."""
+    p8 = {"model": "8-pole 48 V", "pole_count": 8, "dc_bus_v": 48.0,
+          "phase_resistance_ohm": 0.12, "phase_inductance_h": 0.3e-3, "max_reactance_ohm": 0.4,
+          "ke_v_s_per_rad": 0.06, "ke_definition": "rms_phase"}
+    config = default_sim_bench().with_overrides({
+        "motor": p8, "operating_point": {"speed_rpm": 2475.0, "current_a": 20.0}})
+    bench = Bench.open(config, seed=1)
+    record = RunRecord.create(tmp_path, config, bench.identities())
+    try:
+        result = run_stage(bench, record)
+        assert result.note.startswith("characterised at 1485 rpm"), result.note
+        assert "vab_v (±32.77 at LSB 0.001) hit the end of its int16 range" in result.note
+        assert record.data["characterisation"]["note"] == result.note
+        assert abs(result.get("ke_v_s_per_rad").value - 0.06) <= result.get(
+            "ke_v_s_per_rad").expanded + 0.002          # the simulated motor: its nameplate
+        assert not result.not_identified, result.not_identified
+    finally:
+        record.finish("complete")
+        bench.close()

@@ -49,10 +49,21 @@ def run_plans(sources, defects: dict, folder: Path, *, timeout_s: float = 600.0,
         if (folder / "records").exists() else []
     outcomes: dict[str, Counter] = defaultdict(Counter)
     if records:
-        for test in load_record(records[-1])["tests"]:
+        record = load_record(records[-1])
+        for test in record["tests"]:
             outcomes[test.get("source") or "?"][test.get("outcome")] += 1
+        if "failed" in (record.get("characterisation") or {}):
+            # the run stopped at the characterisation stage (no plan ran): the stage caught it
+            outcomes["characterisation"]["error"] += 1
     return {"returncode": done.returncode, "outcomes": dict(outcomes),
             "output": done.stdout[-4000:] + done.stderr[-2000:]}
+
+
+def refused_sources(run: dict) -> set[str]:
+    """Sources none of whose tests was judged: every one not determinable (refused, with the
+    reason in the record) or not run."""
+    return {source for source, counts in run["outcomes"].items()
+            if counts and not any(counts[o] for o in (*FAILED, "passed"))}
 
 
 def failed_sources(run: dict) -> set[str]:
