@@ -71,7 +71,7 @@ def characterise(bench, record, op=None) -> Characterisation:
         for key in ("phase_resistance_ohm", "phase_inductance_h"):
             not_identified[key] = "the operating point's current is 0 A"
     if len(identified) == 3:
-        loop = _loop(bench, record, op, identified, config)
+        loop = _loop(bench, record, op, identified, config, emf.psi.value)
         if isinstance(loop, str):
             not_identified["current_loop_bandwidth_hz"] = loop
         else:
@@ -99,10 +99,10 @@ LOOP_GAIN_RESOLVABLE_U_PU = 0.3
 PWM_HZ = 20_000.0
 
 
-def _loop(bench, record, op, identified, config):
-    """The loop's gain relative to its documentation and its delay (``loop.fit_loop``), or the
-    reason it was not identified."""
-    from hil.characterisation.loop import fit_loop, response
+def _loop(bench, record, op, identified, config, psi_v_s_per_rad):
+    """The loop's gain relative to its documentation (``loop.fit_loop``), or the reason it was
+    not identified; ``psi_v_s_per_rad``: the measured peak phase EMF per mechanical rad/s."""
+    from hil.characterisation.loop import angle_count_elec_rad, fit_loop, response
     from hil.measurement import _acquire
     from hil.sim.injection import Injection
 
@@ -120,26 +120,43 @@ def _loop(bench, record, op, identified, config):
     high = int(Injection.ranges()["loop_test_order"].max)
     orders = sorted({min(high, max(2, round(share * drive.current_loop_bandwidth_hz / f_e)))
                      for share in LOOP_TEST_FREQUENCIES_PU})
-    points = []
+    points, count_elec_rad = [], 0.0
     for order in orders:
         plan = replace(_plan(op, enabled=True), injection={"loop_test_amplitude_a": amplitude,
                                                            "loop_test_order": order},
                        extra_channels=(), sample_rate_hz=LOOP_SAMPLE_RATE_HZ,
                        revolutions=LOOP_REVOLUTIONS)
         capture = _acquire(bench, record, f"characterisation-loop-k{order}", plan, pole_pairs)
-        points.append((order, *response(capture, pole_pairs, order, amplitude)))
+        points.append((order, *response(capture, pole_pairs, order, amplitude,
+                                         op.current_angle_rad)))
+        count_elec_rad = angle_count_elec_rad(capture, pole_pairs)
     by_name = {item.name: item for item in identified}
     plant = (by_name["phase_resistance_ohm"].value, by_name["phase_inductance_h"].value)
-    gain = fit_loop(points, math.copysign(2 * math.pi * f_e, op.speed_rpm),
-                           drive.current_loop_bandwidth_hz, drive.current_loop_delay_s,
-                           (config.motor.phase_resistance_ohm, config.motor.phase_inductance_h),
-                           plant, by_name["phase_inductance_h"].u, PWM_HZ)
+    setup = _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad)
+    gain = fit_loop(points, setup, plant, by_name["phase_inductance_h"].u)
     if gain.expanded >= LOOP_GAIN_RESOLVABLE_U_PU:
         return (f"the measured response does not pin the loop down against its documented "
                 f"design and delay: g = {gain.value:.3g} ± {gain.expanded:.3g} (k = 2), a U of "
                 f"{LOOP_GAIN_RESOLVABLE_U_PU:.0%} or more cannot confirm nor refute the "
                 f"documentation (e.g. a loop delay other than the documented one)")
     return [gain]
+
+
+def _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad):
+    """``loop.LoopSetup`` at ``op``: the documented loop, the PWM, and the legs' duties from the
+    operating point's voltage on the measured motor (E = ψ·ω_m)."""
+    from hil.characterisation.loop import LoopSetup, phase_voltage_peak_v, svpwm_duties
+
+    omega_m = op.speed_rpm * 2 * math.pi / 60.0
+    omega_e = config.motor.pole_pairs * omega_m
+    voltage = phase_voltage_peak_v(op.current_a, op.current_angle_rad, omega_e,
+                                   psi_v_s_per_rad * omega_m, plant)
+    drive = config.drive
+    return LoopSetup(omega_e_rad_s=omega_e, bandwidth_hz=drive.current_loop_bandwidth_hz,
+                     delay_s=drive.current_loop_delay_s,
+                     tuned=(config.motor.phase_resistance_ohm, config.motor.phase_inductance_h),
+                     pwm_hz=PWM_HZ, count_elec_rad=count_elec_rad,
+                     duties=svpwm_duties(voltage, config.motor.dc_bus_v))
 
 
 def run_stage(bench, record) -> Characterisation:
