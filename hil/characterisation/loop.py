@@ -39,7 +39,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from hil.capture import Capture
-from hil.characterisation.identify import Identified, electrical_angle_abs, phasors_per_revolution
+from hil.characterisation.identify import (Identified, electrical_angle_abs, fit_per_revolution,
+                                           phasors_per_revolution)
 
 
 def dq_current(capture: Capture, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -55,43 +56,32 @@ def dq_current(capture: Capture, theta: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def drive_frame_rad(capture: Capture, theta: np.ndarray, current_angle_rad: float,
-                    order: int) -> float:
-    """The angle (rad, electrical) to add to θ to reach the drive's own frame: the drive holds its
-    mean current at i_d = −I·sin φ, i_q = I·cos φ (φ = ``current_angle_rad``) in its frame, so
-    its frame is where the measured mean current sits, γ = atan2(ī_d, ī_q), turned back by −φ
-    (the means fitted beside the test signal at ``order``). Per capture: at a speed where a PWM
-    period holds a whole number of encoder counts the drive's truncated angle lags the rotor by a
-    fixed fraction of a count that differs from capture to capture (order k turned by k times
-    it: up to 0.04 rad at order 24 of the shipped bench)."""
-    whole = _whole_revolutions(theta)
-    means = [_mean_beside(part[whole], theta[whole], order)
-             for part in dq_current(capture, theta)]
-    return math.atan2(means[0], means[1]) + current_angle_rad
-
-
-def _whole_revolutions(theta: np.ndarray) -> np.ndarray:
-    """The samples within the whole electrical revolutions of θ from its first sample."""
-    travel = np.abs(theta - theta[0])
-    return travel < 2 * math.pi * math.floor(travel[-1] / (2 * math.pi))
-
-
-def _mean_beside(signal: np.ndarray, theta: np.ndarray, order: int) -> float:
-    """The constant of a least-squares fit of c + a·cos(k·θ) + b·sin(k·θ) to ``signal``."""
-    basis = np.column_stack([np.ones_like(theta), np.cos(order * theta), np.sin(order * theta)])
-    return float(np.linalg.lstsq(basis, signal, rcond=None)[0][0])
+                    order: int) -> tuple[float, float]:
+    """(γ_d, its type-A u) in rad (electrical): the angle to add to θ to reach the drive's own
+    frame. The drive holds its mean current at i_d = −I·sin φ, i_q = I·cos φ
+    (φ = ``current_angle_rad``) in its frame, so its frame is where the measured mean current
+    sits, atan2(ī_d, ī_q), turned back by −φ; the means fitted per revolution beside the test
+    signal at ``order``, u from their scatter. Per capture: at a speed where a PWM period holds a
+    whole number of encoder counts the drive's truncated angle lags the rotor by a fixed fraction
+    of a count that differs from capture to capture (order k turned by k times it: up to
+    0.04 rad at order 24 of the shipped bench)."""
+    i_d, i_q = (fit_per_revolution(part, theta, order)[1] for part in dq_current(capture, theta))
+    angles = np.arctan2(i_d, i_q) + current_angle_rad
+    return float(angles.mean()), float(np.std(angles, ddof=1) / math.sqrt(angles.size))
 
 
 def response(capture: Capture, pole_pairs: int, order: int, amplitude_a: float,
              current_angle_rad: float = 0.0) -> tuple[complex, float]:
     """(H_k, its type-A u per component) from one capture with the test signal at ``order``, in
-    the drive's own frame (``drive_frame_rad``)."""
+    the drive's own frame (``drive_frame_rad``; its u turns H_k by k·u: added in quadrature)."""
     theta = electrical_angle_abs(capture, pole_pairs)
-    theta = theta + drive_frame_rad(capture, theta, current_angle_rad, order)
+    frame, u_frame = drive_frame_rad(capture, theta, current_angle_rad, order)
+    theta = theta + frame
     _, i_q = dq_current(capture, theta)
     values = phasors_per_revolution(i_q, theta, order) / (-1j * amplitude_a)
     n = values.size
     u = math.hypot(np.std(values.real, ddof=1), np.std(values.imag, ddof=1)) / math.sqrt(2 * n)
-    return complex(values.mean()), float(u)
+    return complex(values.mean()), math.hypot(u, order * u_frame * abs(values.mean()))
 
 
 def angle_count_elec_rad(capture: Capture, pole_pairs: int) -> float:
@@ -136,7 +126,7 @@ def phase_voltage_peak_v(current_a, current_angle_rad, omega_e_rad_s, emf_peak_v
 def svpwm_duties(voltage_peak_v, dc_bus_v, points=120) -> tuple[float, ...]:
     """Duties of the three legs through a revolution: d = ½ + (v_x + z)/V_dc, v_x the phase
     voltages, z = −(max + min)/2 the min-max zero sequence (SVPWM; sine-triangle, z = 0, moves
-    ⟨cos(Ω·d·Ts/2)⟩ by < 0.02 % at the top test order)."""
+    ``pulse_hold`` by ≤ 0.07 % at Ω = 2π·2 kHz, 20 kHz PWM, |v| up to 0.54·V_dc)."""
     theta = np.linspace(0.0, 2 * math.pi, points, endpoint=False)
     legs = np.array([voltage_peak_v * np.cos(theta - 2 * math.pi * x / 3) for x in range(3)])
     zero = -0.5 * (legs.max(axis=0) + legs.min(axis=0))
@@ -211,11 +201,12 @@ def angle_quantisation(orders, count_elec_rad):
     return s * (1.0 + s) / 2, (1.0 - s) / (1.0 + s) / math.sqrt(3.0)
 
 
-#: Relative standard uncertainty (type B, per component) of the model's H: the per-component RMS
-#: mismatch between ``model_response`` (× ``angle_quantisation``, best frame offset) at the true
-#: g, R, L and the simulated drive, measured on a calibration set (the coverage study's seed 0,
-#: 30 drives) and checked on a held-out set (seed 1): studies/results/characterisation_coverage.md.
-MODEL_U_PU = 0.0007
+#: Relative standard uncertainty (type B, per component) of the model's H_k: the RMS of
+#: |H_k − model|/(√2·|H_k|) at the top test order over a calibration set, the model at the true
+#: g, R, L (studies/loop_model_calibration.py: the coverage study's seed 0, 30 drives: 0.072 %,
+#: rounded up; all orders 0.051 %, max 0.19 %), checked on a held-out set (seed 1: 0.081 % at the
+#: top order, one drive 0.45 % at its lowest: studies/results/loop_model_calibration.md).
+MODEL_U_PU = 0.0008
 
 
 def fit_loop(points, setup: LoopSetup, plant, u_inductance):

@@ -86,8 +86,8 @@ def test_the_response_is_read_in_the_drives_own_frame(frame_rad, current_angle_r
     answered, not turned by k times the offset."""
     h = 1.05 * np.exp(-0.4j)
     capture, theta = _synthetic(frame_rad, current_angle_rad, 48, h)
-    assert drive_frame_rad(capture, theta, current_angle_rad, 48) == pytest.approx(frame_rad,
-                                                                                   abs=1e-9)
+    frame, u_frame = drive_frame_rad(capture, theta, current_angle_rad, 48)
+    assert frame == pytest.approx(frame_rad, abs=1e-9) and u_frame < 1e-9
     measured, u = response(capture, POLE_PAIRS, 48, 2.0, current_angle_rad)
     assert measured == pytest.approx(h, abs=1e-9)
     assert u < 1e-9
