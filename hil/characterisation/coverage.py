@@ -43,7 +43,8 @@ def draw_drive(rng) -> dict:
         actual["phase_inductance_h"] = inductance
     truth = {"phase_resistance_ohm": actual["phase_resistance_ohm"],
              "phase_inductance_h": inductance, "ke_v_s_per_rad": actual["ke_v_s_per_rad"],
-             "current_loop_gain_pu": scale["current_loop_bandwidth_hz"]}
+             "current_loop_gain_pu": scale["current_loop_bandwidth_hz"],
+             "bandwidth_hz": actual["bandwidth_hz"]}
     return {"actual": actual, "truth": truth,
             "operating_point": {"speed_rpm": speed_rpm, "current_a": current_a}}
 

@@ -44,7 +44,19 @@ class Characterisation:
         if loop is not None and loop["disagrees"]:
             measured = replace(measured, drive=replace(
                 measured.drive, current_loop_bandwidth_hz=loop["measured"]))
+        transducer = self.transducer_row(stated)
+        if transducer is not None and transducer["disagrees"]:
+            measured = replace(measured, torque=replace(
+                measured.torque, bandwidth_hz=transducer["measured"]))
         return measured
+
+    def transducer_row(self, stated) -> dict | None:
+        """The torque transducer's bandwidth: stated (``[torque] bandwidth_hz``), measured, U, or
+        None (not measured, or nothing stated)."""
+        item = self.get("bandwidth_hz")
+        if item is None or stated.torque.bandwidth_hz is None:
+            return None
+        return _row("bandwidth_hz", stated.torque.bandwidth_hz, item)
 
     def loop_row(self, stated) -> dict | None:
         """The current loop's bandwidth: documented, measured (g × documented), U, or None."""
@@ -61,25 +73,27 @@ class Characterisation:
     def stated_vs_measured(self, stated) -> list[dict]:
         """Per identified parameter: stated, measured, U (k = 2), and whether they disagree
         beyond U (a note about the motor: it is not the drive under test)."""
-        rows = []
-        for item in self.identified:
-            value = getattr(stated.motor, item.name, None)
-            if value is None:
-                continue
-            disagrees = abs(item.value - value) > item.expanded
-            rows.append({"name": item.name, "stated": value, "measured": item.value,
-                         "U_k2": item.expanded, "unit": item.unit, "disagrees": disagrees,
-                         "predictions_use": "measured" if disagrees else
-                         "stated (the measurement confirms it within U)"})
-        return rows
+        return [_row(item.name, getattr(stated.motor, item.name), item)
+                for item in self.identified if item.name in MOTOR_KEYS]
 
     def to_dict(self, stated=None) -> dict:
         out = {"identified": [item.to_dict() for item in self.identified],
                "not_identified": dict(self.not_identified)}
         if stated is not None:
-            loop = self.loop_row(stated)
-            out["stated_vs_measured"] = self.stated_vs_measured(stated) + ([loop] if loop else [])
+            extra = [self.loop_row(stated), self.transducer_row(stated)]
+            out["stated_vs_measured"] = self.stated_vs_measured(stated) + [
+                row for row in extra if row is not None]
         return out
+
+
+def _row(name: str, stated: float, item: Identified) -> dict:
+    """One stated-vs-measured row: the measured value is what the predictions use where it
+    disagrees with the stated one beyond its U (k = 2)."""
+    disagrees = abs(item.value - stated) > item.expanded
+    return {"name": name, "stated": stated, "measured": item.value, "U_k2": item.expanded,
+            "unit": item.unit, "disagrees": disagrees,
+            "predictions_use": "measured" if disagrees else
+            "stated (the measurement confirms it within U)"}
 
 
 def ke_from_psi(psi: Identified, ke_definition: str) -> Identified:

@@ -71,13 +71,15 @@ def characterise(bench, record, op=None) -> Characterisation:
         for key in ("phase_resistance_ohm", "phase_inductance_h"):
             not_identified[key] = "the operating point's current is 0 A"
     if len(identified) == 3:
-        loop = _loop(bench, record, op, identified, config, emf.psi.value)
-        if isinstance(loop, str):
-            not_identified["current_loop_bandwidth_hz"] = loop
-        else:
-            identified += loop
-    not_identified.setdefault("bandwidth_hz", "the transducer's response is checked by the "
-                              "self-check against [torque] bandwidth_hz, not identified")
+        loop, transducer = _loop(bench, record, op, identified, config, emf.psi.value)
+        for key, found in (("current_loop_bandwidth_hz", loop), ("bandwidth_hz", transducer)):
+            if isinstance(found, str):
+                not_identified[key] = found
+            else:
+                identified += found
+    if not any(item.name == "bandwidth_hz" for item in identified):
+        not_identified.setdefault("bandwidth_hz", "no loop test-signal captures to measure the "
+                                  "transducer's response from (the motor was not identified)")
     return Characterisation(tuple(identified), not_identified)
 
 
@@ -92,7 +94,7 @@ LOOP_SAMPLE_RATE_HZ = 47_317.0
 LOOP_REVOLUTIONS = 8
 #: A loop gain measured with U (k = 2) at or above this confirms nothing: the documented loop may
 #: be ±30 % off (testplans/test_characterisation.py), so such a fit is "not identified". The
-#: coverage study's U/g has median 5 % (studies/results/characterisation_coverage.md); a review
+#: coverage study's U/g has median 2.5 % (studies/results/characterisation_coverage.md); a review
 #: found 2152 ± 14302 Hz "confirmed" on a drive whose delay was 100 µs against 75 µs documented.
 LOOP_GAIN_RESOLVABLE_U_PU = 0.3
 #: The drive's PWM frequency while characterised (the EDS default; nothing injected), Hz.
@@ -100,12 +102,18 @@ PWM_HZ = 20_000.0
 
 
 def _loop(bench, record, op, identified, config, psi_v_s_per_rad):
-    """The loop's gain relative to its documentation (``loop.fit_loop``), or the reason it was
-    not identified; ``psi_v_s_per_rad``: the measured peak phase EMF per mechanical rad/s."""
-    from hil.characterisation.loop import angle_count_elec_rad, fit_loop, response
-    from hil.measurement import _acquire
-    from hil.sim.injection import Injection
+    """From the loop test signal's captures: the loop's gain relative to its documentation
+    (``loop.fit_loop``) and the transducer's bandwidth (``transducer.fit_bandwidth``), each a
+    list of Identified or the reason it was not identified; ``psi_v_s_per_rad``: the measured
+    peak phase EMF per mechanical rad/s."""
+    reason = _loop_refusal(bench, config)
+    if reason is not None:
+        return reason, f"no loop test-signal captures ({reason})"
+    return _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad)
 
+
+def _loop_refusal(bench, config) -> str | None:
+    """Why the loop test signal cannot be used on this bench (None: it can)."""
     drive = config.drive
     if drive.current_loop_design != "continuous":
         return (f"the fit knows the documented 'continuous' PI design only, the bench file "
@@ -114,13 +122,24 @@ def _loop(bench, record, op, identified, config, psi_v_s_per_rad):
         return "the bench file states no [drive] current_loop_bandwidth_hz/delay to compare with"
     if "loop_test_amplitude_a" not in bench.drive.injection_limits():
         return "the drive has no loop test-signal objects (0x200C/0x200D)"
+    return None
+
+
+def _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad):
+    """The loop test signal's captures and both fits (``_loop``)."""
+    from hil.characterisation.loop import angle_count_elec_rad, fit_loop, response
+    from hil.characterisation.transducer import fit_bandwidth, response_magnitude
+    from hil.measurement import _acquire
+    from hil.sim.injection import Injection
+
+    drive = config.drive
     pole_pairs = config.motor.pole_pairs
     f_e = abs(op.speed_rpm) / 60.0 * pole_pairs
     amplitude = round(min(10.0, max(0.5, LOOP_TEST_SHARE * op.current_a)), 3)
     high = int(Injection.ranges()["loop_test_order"].max)
     orders = sorted({min(high, max(2, round(share * drive.current_loop_bandwidth_hz / f_e)))
                      for share in LOOP_TEST_FREQUENCIES_PU})
-    points, count_elec_rad = [], 0.0
+    points, transducer_points, count_elec_rad = [], [], 0.0
     for order in orders:
         plan = replace(_plan(op, enabled=True), injection={"loop_test_amplitude_a": amplitude,
                                                            "loop_test_order": order},
@@ -129,7 +148,12 @@ def _loop(bench, record, op, identified, config, psi_v_s_per_rad):
         capture = _acquire(bench, record, f"characterisation-loop-k{order}", plan, pole_pairs)
         points.append((order, *response(capture, pole_pairs, order, amplitude,
                                          op.current_angle_rad)))
+        transducer_points.append(response_magnitude(capture, pole_pairs, order))
         count_elec_rad = angle_count_elec_rad(capture, pole_pairs)
+    transducer = (fit_bandwidth(transducer_points, config.torque.bandwidth_hz)
+                  if config.torque.bandwidth_hz is not None
+                  else "the bench file states no [torque] bandwidth_hz (no first-order model)")
+    transducer = transducer if isinstance(transducer, str) else [transducer]
     by_name = {item.name: item for item in identified}
     plant = (by_name["phase_resistance_ohm"].value, by_name["phase_inductance_h"].value)
     setup = _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad)
@@ -138,8 +162,8 @@ def _loop(bench, record, op, identified, config, psi_v_s_per_rad):
         return (f"the measured response does not pin the loop down against its documented "
                 f"design and delay: g = {gain.value:.3g} ± {gain.expanded:.3g} (k = 2), a U of "
                 f"{LOOP_GAIN_RESOLVABLE_U_PU:.0%} or more cannot confirm nor refute the "
-                f"documentation (e.g. a loop delay other than the documented one)")
-    return [gain]
+                f"documentation (e.g. a loop delay other than the documented one)"), transducer
+    return [gain], transducer
 
 
 def _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad):

@@ -4,10 +4,12 @@ with), print them beside the bench file, and optionally write the user's own twi
 Opens the bench (the shipped simulated bench by default), runs
 :func:`hil.characterisation.stage.characterise` into a record of its own (``--record-dir``,
 the raw captures kept), prints stated vs measured with U (k = 2) and the method of each, and with
-``--write-twin FILE.toml`` writes a simulated bench file of *this* drive: the bench file as
-stated, with the measured R, L, Ke in ``[motor]`` and the measured loop bandwidth in ``[drive]``
-(each U in a comment), no instrument addresses, ``simulated = true``. ``hil run --bench FILE``
-then runs the same plans on that twin; ``hil compare`` sets the two runs side by side.
+``--write-twin FILE.toml`` writes a simulated bench file of *this* drive
+(``hil.characterisation.twin``): the bench file as stated (the nameplate and documented loop the
+drive was configured from), the measured R, L, Ke and loop bandwidth as its
+``[simulation.actual]`` physics (each U in a comment), no instrument addresses,
+``simulated = true``. ``hil run --bench FILE`` then runs the same plans on that twin;
+``hil compare BENCH_RUN TWIN_RUN`` says whether it reproduces the bench within U.
 """
 
 from __future__ import annotations
@@ -32,33 +34,6 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def twin_text(stated, result) -> str:
-    """TOML of the simulated bench of the drive as measured (``stated``: the bench file)."""
-    from hil.commands.sim_bench import bench_file_text
-
-    table = stated.to_dict()
-    table["simulated"] = True
-    table.pop("simulation", None)
-    rows = result.stated_vs_measured(stated)
-    loop = result.loop_row(stated)
-    for row in rows:
-        table["motor"][row["name"]] = row["measured"]
-    if loop is not None:
-        table["drive"]["current_loop_bandwidth_hz"] = loop["measured"]
-    for section in ("drive", "daq", "torque"):
-        for key in ("channel", "host", "port", "serial_port", "interface"):
-            table[section].pop(key, None)
-    header = ["# Written by `hil characterize --write-twin`: a simulated bench of the drive as",
-              f"# measured on {stated.source} (its file's other tables as stated).",
-              "# measured (U at k = 2):"]
-    header += [f"#   {row['name']} = {row['measured']:.6g} ± {row['U_k2']:.2g} {row['unit']} "
-               f"(stated {row['stated']:.6g})" for row in rows + ([loop] if loop else [])]
-    header += [f"#   not identified: {key}: {why}" for key, why in result.not_identified.items()]
-    text = bench_file_text(table)
-    first = text.index("\n", text.index("its own.")) + 1 if "its own." in text else 0
-    return "\n".join(header) + "\n" + text[first:]
-
-
 def run(args) -> int:
     from hil.bench import Bench
     from hil.characterisation.stage import SECTION, characterise
@@ -81,6 +56,8 @@ def run(args) -> int:
         bench.close()
     out = result.to_dict(config) | {"record": str(record.path)}
     if args.write_twin:
+        from hil.characterisation.twin import twin_text
+
         args.write_twin.write_text(twin_text(config, result))
         out["twin"] = str(args.write_twin)
     if args.json:

@@ -40,8 +40,14 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def bench_file_text(config_dict: dict) -> str:
-    """TOML of a bench as loaded, with unset (None) keys left out."""
+#: The header of the bench file `hil sim-bench` prints.
+SERVED_HEADER = ("# Written by `hil sim-bench`: simulated instruments served by another process.\n"
+                 "# The addresses below make `hil run --bench` connect to them instead of starting\n"
+                 "# its own.\n")
+
+
+def bench_file_text(config_dict: dict, header: str = SERVED_HEADER) -> str:
+    """TOML of a bench as loaded, with unset (None) keys left out, after ``header``."""
     import tomli_w
 
     def drop_none(value):
@@ -51,9 +57,6 @@ def bench_file_text(config_dict: dict) -> str:
             return [drop_none(v) for v in value]
         return value
 
-    header = ("# Written by `hil sim-bench`: simulated instruments served by another process.\n"
-              "# The addresses below make `hil run --bench` connect to them instead of starting\n"
-              "# its own.\n")
     return header + tomli_w.dumps(drop_none(config_dict))
 
 

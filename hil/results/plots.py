@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hil.results.reproduction import off_scale
+
 
 def _pyplot():
     import matplotlib
@@ -14,21 +16,10 @@ def _pyplot():
     return plt
 
 
-#: A pk-pk difference or U_d beyond this (per unit of the nameplate torque: 100 %) is not on the
-#: scale of a torque ripple (e.g. the angle reference, measured with the drive disabled, whose
-#: U_d was ±1·10⁷ %): such a point is listed under the plot, not plotted (it would squash every
-#: other point to 0).
-OFF_SCALE_PU = 1.0
-
-
-def off_scale(point: dict) -> bool:
-    d = point["pk_pk_pu"]
-    return abs(d["difference"]) > OFF_SCALE_PU or (d["u_difference"] or 0.0) > OFF_SCALE_PU
-
-
 def compare_plot(result: dict, out: str | Path) -> None:
     """Each matched point's pk-pk difference b − a (% of the nameplate torque) with ±U_d;
-    points off that scale (:data:`OFF_SCALE_PU`) listed below the axes instead."""
+    points off that scale (``hil.results.reproduction.OFF_SCALE_PU``) listed below the axes
+    instead."""
     plt = _pyplot()
     compared = [p for p in result["points"] if p["pk_pk_pu"]["difference"] is not None]
     rows = [p for p in compared if not off_scale(p)]

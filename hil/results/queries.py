@@ -11,6 +11,7 @@ import math
 
 from hil.errors import InputError
 from hil.results.capability import capability, control_chart, measured_yield
+from hil.results.reproduction import reproduction
 from hil.results.schema import point_orders, points, requirement_verdicts, runs
 
 HISTORY_COLUMNS = ("record_id", "created_utc", "status", "statement", "dut_serial",
@@ -77,7 +78,8 @@ def compare(engine, ref_a: str, ref_b: str) -> dict:
     factor), each difference with U_d = √(U_a² + U_b²) and whether |d| > U_d. A test id measured
     at another operating point (speed, current, current angle) or injection in the two runs is
     listed in ``different_point`` with its differences, judged neither changed nor unchanged
-    (``changed`` None): the difference is the point's, not the drive's."""
+    (``changed`` None): the difference is the point's, not the drive's. ``reproduction``:
+    whether B reproduces A on the points either run judged (``hil.results.reproduction``)."""
     from sqlalchemy import select
 
     with engine.connect() as connection:
@@ -122,6 +124,7 @@ def compare(engine, ref_a: str, ref_b: str) -> dict:
             "only_in_b": sorted(set(b_points) - set(a_points)),
             "orders_changed": [{"test_id": r["test_id"], "order": o["order"]} for r in rows
                                for o in r["orders"] if o["changed"]],
+            "reproduction": reproduction(rows),
             "rule": "changed when |b - a| > U_d = sqrt(U_a^2 + U_b^2) (k = 2 each); "
                     "about 5 % of unchanged quantities exceed it by chance"}
 

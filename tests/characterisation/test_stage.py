@@ -48,18 +48,20 @@ def test_the_plans_read_the_bench_as_measured_and_the_record_keeps_both(tmp_path
 
 
 def _twin_file_states_what_was_measured(bench):
-    """``hil characterize --write-twin``'s file: a valid simulated bench whose [motor] is what
-    was measured, with no hidden physics of its own."""
+    """``hil characterize --write-twin``'s file: a valid simulated bench that states the bench
+    file's nameplate (the drive's gains came from it) and runs the measured motor as its
+    ``[simulation.actual]`` physics, with no hidden defect of its own."""
     import tomllib
 
-    from hil.commands.characterize import twin_text
+    from hil.characterisation.twin import twin_text
     from hil.config import BenchConfig
 
     text = twin_text(bench.stated_config, bench.characterisation)
     twin = BenchConfig.from_dict(tomllib.loads(text))
-    assert twin.simulated and not twin.sim_actual and not twin.sim_defects
+    assert twin.simulated and not twin.sim_defects
+    assert twin.motor == bench.stated_config.motor
     for name in WARM:
-        assert getattr(twin.motor, name) == bench.characterisation.get(name).value
+        assert twin.sim_actual[name] == bench.characterisation.get(name).value
     assert "± " in text and "(stated " in text
 
 
@@ -67,6 +69,7 @@ def test_a_bench_as_stated_keeps_its_nameplate(tmp_path):
     bench, record = _staged(tmp_path)
     try:
         assert bench.config.motor == bench.stated_config.motor
+        assert bench.config.torque == bench.stated_config.torque
         rows = record.data["characterisation"]["stated_vs_measured"]
         assert rows and not any(row["disagrees"] for row in rows)
     finally:
@@ -95,10 +98,11 @@ def test_torque_scale_against_the_measured_kt(tmp_path, scale, passes):
 
 def test_identification_coverage_reduced():
     """Two random drives of the study (studies/characterisation_coverage.py): R, L, Ke and the
-    loop's gain within their U (k = 2) of the simulated truth (the study's figure, 30 drives on
-    each of two seeds: studies/results/characterisation_coverage.md)."""
+    transducer's bandwidth and the loop's gain within their U (k = 2) of the simulated truth (the
+    study's figure, 30 drives on each of two seeds: studies/results/characterisation_coverage.md).
+    """
     stats = summary(coverage(2, seed=7))
-    assert set(stats) == set(WARM) | {"current_loop_gain_pu"}
+    assert set(stats) == set(WARM) | {"current_loop_gain_pu", "bandwidth_hz"}
     assert all(stats[name]["within_U"] == 1.0 for name in stats), stats
 
 
@@ -132,6 +136,27 @@ def test_a_loop_the_fit_cannot_pin_down_is_not_identified_never_confirmed(tmp_pa
         rows = record.data["characterisation"]["stated_vs_measured"]
         assert not any("confirms" in str(row.get("predictions_use")) and "loop" in row["name"]
                        for row in rows)
+    finally:
+        record.finish("complete")
+        bench.close()
+
+
+@pytest.mark.parametrize("actual_hz", [700.0, 1400.0])
+def test_a_transducer_off_its_data_sheet_is_measured_and_predicted_with(tmp_path, actual_hz):
+    """Issue 29 (found by the validity study's deviation axis): a transducer whose bandwidth is
+    ×0.7 or ×1.4 of the stated 1 kHz made the PWM-resolution noise check reject a correct drive
+    (its noise through 1.4 kHz read 1.25× the range predicted through 1 kHz). The stage measures
+    the bandwidth from the loop test signal's torque and the plans predict with it; the stated
+    1 kHz of a bench as stated is confirmed, not replaced."""
+    bench, record = _staged(tmp_path, actual={"bandwidth_hz": actual_hz})
+    try:
+        item = bench.characterisation.get("bandwidth_hz")
+        assert abs(item.value - actual_hz) <= item.expanded
+        assert bench.config.torque.bandwidth_hz == item.value          # what the plans read
+        assert bench.stated_config.torque.bandwidth_hz == 1000.0
+        row = next(r for r in record.data["characterisation"]["stated_vs_measured"]
+                   if r["name"] == "bandwidth_hz")
+        assert row["disagrees"] and row["predictions_use"] == "measured"
     finally:
         record.finish("complete")
         bench.close()

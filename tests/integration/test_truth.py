@@ -392,7 +392,10 @@ def test_ctrl_c_twice_is_as_clean_as_once(tmp_path, where):
             run.kill()
         if server:
             server.stop()
-    assert took_s <= 2.0, f"exited {took_s:.2f} s after the second Ctrl-C"
+    # the second press leaves the bench safe (6 steps over CANopen) and skips the PDF and every
+    # wait: ≈ 1 s idle; 2.36 s was seen with the 2 cores loaded to 9. 5 s still tells that from a
+    # run waiting for its report or an instrument timeout (tens of seconds).
+    assert took_s <= 5.0, f"exited {took_s:.2f} s after the second Ctrl-C"
     assert run.returncode == 2, output
     assert "Traceback" not in output and output.count("\n") < 40, output
     folder = only_record(tmp_path / "records")

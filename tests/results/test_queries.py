@@ -59,6 +59,33 @@ def test_compare_flags_only_what_moved_beyond_u_d(fleet):
     assert only["only_in_a"] == ["testplans/test_baseline.py::test_baseline[1]"]
 
 
+def test_compare_says_whether_b_reproduces_a_on_the_judged_points(fleet, tmp_path,
+                                                                   sqlite_url):
+    """The judged points (a verdict in either run) decide: point 0 moved 3 U_d is named with
+    its plan; a run against a copy of itself moved 0.5 U_d is reproduced; a point measured with
+    no verdict that moved 3 U_d decides nothing."""
+    engine, _, a, b, _ = fleet
+    moved = compare(engine, a, b)["reproduction"]
+    assert moved["beyond_u"] == ["testplans/test_baseline.py::test_baseline[0]"]
+    assert moved["within_u"] == ["testplans/test_baseline.py::test_baseline[1]"]
+    assert not moved["reproduced"] and moved["plans_beyond_u"] == ["baseline"]
+    assert moved["statement"].startswith("NOT reproduced: 1 of 2 judged point(s) differ")
+
+    u = 0.0007
+    root = tmp_path / "more"
+    unjudged = point_entry(2, 0.0300 + 3 * math.sqrt(2) * u, u)
+    unjudged["outcome"] = "measured, no verdict"
+    c = synthetic_record(root, [point_entry(1, 0.0300 + 0.5 * math.sqrt(2) * u, u), unjudged])
+    d = synthetic_record(root, [point_entry(1, 0.0300, u), point_entry(2, 0.0300, u)
+                                | {"outcome": "measured, no verdict"}])
+    sync(engine, sealed_records(root))
+    same = compare(engine, c.name, d.name)
+    assert same["changed"] == ["testplans/test_baseline.py::test_baseline[2]"]
+    assert same["reproduction"]["reproduced"]
+    assert same["reproduction"]["within_u"] == ["testplans/test_baseline.py::test_baseline[1]"]
+    assert same["reproduction"]["statement"].startswith("reproduced within U on every judged")
+
+
 def test_statistics_against_their_definitions():
     x = [1.0, 1.2, 0.9, 1.1, 1.05, 0.95]
     cap = capability(x, 0.4, 1.6)
