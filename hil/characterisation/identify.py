@@ -69,20 +69,28 @@ def speed_rad_s(capture: Capture) -> float:
 def phasors_per_revolution(signal: np.ndarray, theta: np.ndarray, order: int = 1
                            ) -> np.ndarray:
     """X per whole electrical revolution of θ (x ≈ Re(X·e^{j·order·θ}) + c), complex array."""
+    return fit_per_revolution(signal, theta, order)[0]
+
+
+def fit_per_revolution(signal: np.ndarray, theta: np.ndarray, order: int = 1
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(X, c) per whole electrical revolution of θ: the least-squares x ≈ Re(X·e^{j·order·θ}) + c,
+    complex and real arrays."""
     direction = 1.0 if theta[-1] >= theta[0] else -1.0
     turns = np.floor((theta - theta[0]) * direction / (2.0 * math.pi))
-    out = []
+    phasors, constants = [], []
     for turn in np.unique(turns)[:-1]:
         pick = turns == turn
         if pick.sum() < 16:
             continue
         angle = order * theta[pick]
         basis = np.column_stack([np.cos(angle), np.sin(angle), np.ones(pick.sum())])
-        (a, b, _), *_ = np.linalg.lstsq(basis, np.asarray(signal, dtype=float)[pick], rcond=None)
-        out.append(complex(a, -b))
-    if len(out) < 2:
+        (a, b, c), *_ = np.linalg.lstsq(basis, np.asarray(signal, dtype=float)[pick], rcond=None)
+        phasors.append(complex(a, -b))
+        constants.append(float(c))
+    if len(phasors) < 2:
         raise ValueError("fewer than two whole electrical revolutions in the capture")
-    return np.array(out)
+    return np.array(phasors), np.array(constants)
 
 
 def _mean_and_u(values: np.ndarray) -> tuple[complex, float, float]:

@@ -83,7 +83,7 @@ def characterise(bench, record, op=None) -> Characterisation:
         for key in ("phase_resistance_ohm", "phase_inductance_h"):
             not_identified[key] = winding_capture
     if len(identified) == 3:
-        loop, transducer = _loop(bench, record, op, identified, config)
+        loop, transducer = _loop(bench, record, op, identified, config, emf.psi.value)
         for key, found in (("current_loop_bandwidth_hz", loop), ("bandwidth_hz", transducer)):
             if isinstance(found, str):
                 not_identified[key] = found
@@ -129,21 +129,22 @@ LOOP_SAMPLE_RATE_HZ = 47_317.0
 LOOP_REVOLUTIONS = 8
 #: A loop gain measured with U (k = 2) at or above this confirms nothing: the documented loop may
 #: be ±30 % off (testplans/test_characterisation.py), so such a fit is "not identified". The
-#: coverage study's U/g has median 5 % (studies/results/characterisation_coverage.md); a review
+#: coverage study's U/g has median 2.5 % (studies/results/characterisation_coverage.md); a review
 #: found 2152 ± 14302 Hz "confirmed" on a drive whose delay was 100 µs against 75 µs documented.
 LOOP_GAIN_RESOLVABLE_U_PU = 0.3
 #: The drive's PWM frequency while characterised (the EDS default; nothing injected), Hz.
 PWM_HZ = 20_000.0
 
 
-def _loop(bench, record, op, identified, config):
+def _loop(bench, record, op, identified, config, psi_v_s_per_rad):
     """From the loop test signal's captures: the loop's gain relative to its documentation
     (``loop.fit_loop``) and the transducer's bandwidth (``transducer.fit_bandwidth``), each a
-    list of Identified or the reason it was not identified."""
+    list of Identified or the reason it was not identified; ``psi_v_s_per_rad``: the measured
+    peak phase EMF per mechanical rad/s."""
     reason = _loop_refusal(bench, config)
     if reason is not None:
         return reason, f"no loop test-signal captures ({reason})"
-    return _loop_captures(bench, record, op, identified, config)
+    return _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad)
 
 
 def _loop_refusal(bench, config) -> str | None:
@@ -159,9 +160,9 @@ def _loop_refusal(bench, config) -> str | None:
     return None
 
 
-def _loop_captures(bench, record, op, identified, config):
+def _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad):
     """The loop test signal's captures and both fits (``_loop``)."""
-    from hil.characterisation.loop import fit_loop, response
+    from hil.characterisation.loop import angle_count_elec_rad, fit_loop, response
     from hil.characterisation.transducer import fit_bandwidth, response_magnitude
     from hil.measurement import _acquire
     from hil.sim.injection import Injection
@@ -173,31 +174,48 @@ def _loop_captures(bench, record, op, identified, config):
     high = int(Injection.ranges()["loop_test_order"].max)
     orders = sorted({min(high, max(2, round(share * drive.current_loop_bandwidth_hz / f_e)))
                      for share in LOOP_TEST_FREQUENCIES_PU})
-    points, transducer_points = [], []
+    points, transducer_points, count_elec_rad = [], [], 0.0
     for order in orders:
         plan = replace(_plan(op, enabled=True), injection={"loop_test_amplitude_a": amplitude,
                                                            "loop_test_order": order},
                        extra_channels=(), sample_rate_hz=LOOP_SAMPLE_RATE_HZ,
                        revolutions=LOOP_REVOLUTIONS)
         capture = _acquire(bench, record, f"characterisation-loop-k{order}", plan, pole_pairs)
-        points.append((order, *response(capture, pole_pairs, order, amplitude)))
+        points.append((order, *response(capture, pole_pairs, order, amplitude,
+                                         op.current_angle_rad)))
         transducer_points.append(response_magnitude(capture, pole_pairs, order))
+        count_elec_rad = angle_count_elec_rad(capture, pole_pairs)
     transducer = (fit_bandwidth(transducer_points, config.torque.bandwidth_hz)
                   if config.torque.bandwidth_hz is not None
                   else "the bench file states no [torque] bandwidth_hz (no first-order model)")
     transducer = transducer if isinstance(transducer, str) else [transducer]
     by_name = {item.name: item for item in identified}
     plant = (by_name["phase_resistance_ohm"].value, by_name["phase_inductance_h"].value)
-    gain = fit_loop(points, math.copysign(2 * math.pi * f_e, op.speed_rpm),
-                    drive.current_loop_bandwidth_hz, drive.current_loop_delay_s,
-                    (config.motor.phase_resistance_ohm, config.motor.phase_inductance_h),
-                    plant, by_name["phase_inductance_h"].u, PWM_HZ)
+    setup = _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad)
+    gain = fit_loop(points, setup, plant, by_name["phase_inductance_h"].u)
     if gain.expanded >= LOOP_GAIN_RESOLVABLE_U_PU:
         return (f"the measured response does not pin the loop down against its documented "
                 f"design and delay: g = {gain.value:.3g} ± {gain.expanded:.3g} (k = 2), a U of "
                 f"{LOOP_GAIN_RESOLVABLE_U_PU:.0%} or more cannot confirm nor refute the "
                 f"documentation (e.g. a loop delay other than the documented one)"), transducer
     return [gain], transducer
+
+
+def _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad):
+    """``loop.LoopSetup`` at ``op``: the documented loop, the PWM, and the legs' duties from the
+    operating point's voltage on the measured motor (E = ψ·ω_m)."""
+    from hil.characterisation.loop import LoopSetup, phase_voltage_peak_v, svpwm_duties
+
+    omega_m = op.speed_rpm * 2 * math.pi / 60.0
+    omega_e = config.motor.pole_pairs * omega_m
+    voltage = phase_voltage_peak_v(op.current_a, op.current_angle_rad, omega_e,
+                                   psi_v_s_per_rad * omega_m, plant)
+    drive = config.drive
+    return LoopSetup(omega_e_rad_s=omega_e, bandwidth_hz=drive.current_loop_bandwidth_hz,
+                     delay_s=drive.current_loop_delay_s,
+                     tuned=(config.motor.phase_resistance_ohm, config.motor.phase_inductance_h),
+                     pwm_hz=PWM_HZ, count_elec_rad=count_elec_rad,
+                     duties=svpwm_duties(voltage, config.motor.dc_bus_v))
 
 
 def run_stage(bench, record) -> Characterisation:

@@ -24,7 +24,7 @@ from scipy.optimize import least_squares
 from hil.capture import Capture
 from hil.characterisation.identify import (Identified, electrical_angle_abs,
                                            phasors_per_revolution, speed_rad_s)
-from hil.characterisation.loop import q_current
+from hil.characterisation.loop import dq_current
 
 #: Relative standard uncertainty of the first-order model's fit (type B): the largest |error| of
 #: the fitted bandwidth against the simulated transducer's truth over the coverage study's
@@ -41,7 +41,7 @@ def response_magnitude(capture: Capture, pole_pairs: int, order: int
                        ) -> tuple[float, float, float]:
     """(f_k in Hz, |H(f_k)|, its type-A standard uncertainty) from one loop capture."""
     theta = electrical_angle_abs(capture, pole_pairs)
-    iq = q_current(capture, theta)
+    _, iq = dq_current(capture, theta)
     torque = np.asarray(capture["torque_nm"], dtype=float)
     dc_nm_per_a = float(torque.mean() / iq.mean())
     ratio = np.abs(phasors_per_revolution(torque, theta, order)

@@ -87,8 +87,9 @@ class FirmwareModel:
 
     Bandwidth ωc = 2π·``bandwidth_per_pwm``·f_pwm (it scales with the PWM frequency knob).
     ``design``: "continuous" — PI designed in s by pole-zero cancellation of the R-L phase,
-    Kp = L·ωc, Ki = R·ωc, run with a forward-Euler integrator (open loop ≈ ωc·Ts/(z − 1) per
-    sample); "discrete" — pole-matched in z: the PI's zero cancels the ZOH-sampled plant pole
+    Kp = L·ωc, Ki = R·ωc, run with an integrator that adds the present error before the output
+    (Kp + Ki·Ts·z/(z − 1), ``firmware._pi_axis``; open loop ≈ ωc·Ts/(z − 1) per sample);
+    "discrete" — pole-matched in z: the PI's zero cancels the ZOH-sampled plant pole
     a = exp(−R·Ts/L) and the delay-free closed-loop pole sits at exp(−ωc·Ts), so
     Kp = a·R·(1 − e^(−ωc·Ts))/(1 − a), Ki·Ts = R·(1 − e^(−ωc·Ts)) (see ``gains``). At the same
     ωc the discrete design has the lower loop gain, 1 − e^(−ωc·Ts) against ωc·Ts (0.40 vs 0.50
