@@ -134,22 +134,33 @@ def disturbance_response(rotor_frequency_rad_s, *, resistance_ohm: float, induct
                          angle_compensation: bool = False):
     """Voltage disturbance → current (A/V) in the rotor frame at rotor-frame frequencies ω
     (rad/s; a number gives a complex, an array an array): P/(1 + C·D·P) with the plant's R (Ω)
-    and L (H); ``gains`` None: no loop (voltage-fed, P). 0 at ω = 0 under a loop (its
-    integrator rejects a constant disturbance completely)."""
+    and L (H); ``gains`` None: no loop (voltage-fed, P). 0 where the controller integrates
+    (ω = 0 with K_r·(1 − D) = 0: its integrator rejects a constant disturbance completely;
+    a realised-voltage integrator without angle compensation does not)."""
     w = np.asarray(rotor_frequency_rad_s, dtype=float)
     s = 1j * w
     plant = 1.0 / (resistance_ohm + inductance_h * (s + 1j * elec_speed_rad_s))
     if gains is not None:
-        safe_w = np.where(w == 0.0, 1.0, w)
-        delay = applied_delay(safe_w, elec_speed_rad_s, delay_s, angle_compensation)
-        controller = controller_response(gains, safe_w, delay)
-        plant = np.where(w == 0.0, 0j, plant / (1.0 + controller * delay * plant))
+        delay = applied_delay(w, elec_speed_rad_s, delay_s, angle_compensation)
+        denominator = controller_denominator(gains, w, delay)
+        integrating = denominator == 0.0
+        controller = ((gains.proportional_v_per_a * s + gains.integral_v_per_a_s)
+                      / np.where(integrating, 1.0, denominator))
+        plant = np.where(integrating, 0j, plant / (1.0 + controller * delay * plant))
     return complex(plant) if plant.ndim == 0 else plant
 
 
+def controller_denominator(gains: LoopGains, rotor_frequency_rad_s, delay):
+    """s + K_r·(1 − D) at rotor-frame frequencies ω (rad/s), D the applied-voltage factor
+    there (:func:`applied_delay`): C's denominator, 0 where the controller integrates."""
+    s = 1j * np.asarray(rotor_frequency_rad_s, dtype=float)
+    return s + gains.realised_feedback_per_s * (1.0 - delay)
+
+
 def controller_response(gains: LoopGains, rotor_frequency_rad_s, delay):
-    """C(s) = (K_p·s + K_i)/(s + K_r·(1 − D)) (V/A) at rotor-frame frequencies ω ≠ 0 (rad/s),
-    ``delay`` the applied-voltage factor D there (:func:`applied_delay`; module docstring)."""
+    """C(s) = (K_p·s + K_i)/(s + K_r·(1 − D)) (V/A) at rotor-frame frequencies ω (rad/s) where
+    the controller does not integrate, ``delay`` the applied-voltage factor D there
+    (:func:`applied_delay`; module docstring)."""
     s = 1j * np.asarray(rotor_frequency_rad_s, dtype=float)
     return ((gains.proportional_v_per_a * s + gains.integral_v_per_a_s)
-            / (s + gains.realised_feedback_per_s * (1.0 - delay)))
+            / controller_denominator(gains, rotor_frequency_rad_s, delay))

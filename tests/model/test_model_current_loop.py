@@ -15,6 +15,7 @@ What each test proves:
 * ``test_clamping_model_runs_the_stated_design``: the dead-time model's time-domain solution
   (2-DOF, realised integrator, angle compensation, both directions) equals the six-step series
   through the closed form where the dwell is negligible (order 6 within 3 %, phase 0.02 rad).
+* ``test_a_constant_disturbance_is_rejected_only_where_the_controller_integrates``: ω = 0.
 * ``test_pi_only_models_have_no_2dof_equivalent``: the PI equivalence refuses a 2-DOF loop.
 """
 
@@ -102,6 +103,18 @@ def test_2dof_response_against_a_time_stepped_controller(w_e, compensation):
         expected = _stepped_response(w_e, w_d, compensation)
         got = _response("2dof", w_e, w_d, compensation=compensation)
         assert abs(got - expected) <= 0.01 * abs(expected), (w_d, got, expected)
+
+
+def test_a_constant_disturbance_is_rejected_only_where_the_controller_integrates():
+    """ω = 0: the PI and the angle-compensated 2-DOF loop reject it completely; the realised-
+    voltage integrator without angle compensation sees u_a = e^{−jω_e·τ}·u ≠ u and settles with
+    a finite response, the limit of ω → 0."""
+    w_e = 418.9
+    assert _response("continuous", w_e, 0.0) == 0j
+    assert _response("2dof", w_e, 0.0, compensation=True) == 0j
+    finite = _response("2dof", w_e, 0.0, compensation=False)
+    assert abs(finite) > 0.01
+    assert finite == pytest.approx(_response("2dof", w_e, 1e-3, compensation=False), rel=1e-4)
 
 
 @pytest.mark.parametrize("speed_rpm", [-1000.0, -1538.46, 800.0])
