@@ -21,7 +21,8 @@ on the rotor angle it was meant for). In the frequency domain u_a = D·u with D 
     C(s) = (K_p·s + K_i) / (s + K_r·(1 − D)),      i = P·d / (1 + C·D·P)
 
 for a voltage disturbance d (the dead time's), the integrator rejecting a constant d
-completely. The designs:
+completely where it integrates (not a realised-voltage integrator without angle compensation,
+which sees u_a ≠ u in steady state). The designs:
 
 * ``"continuous"`` — the PI designed in s: K_p = ω_c·L, K_i = ω_c·R, K_r = 0 (pole-zero
   cancellation, closed loop ω_c/(s + ω_c) without delay); per axis, no cross term.
@@ -45,8 +46,9 @@ completely. The designs:
   design: at −800 rpm on the 8-pole motor its order-6 response is 21 % below the realised
   form's — a bench file's "2dof" is the realised form (motulator's, documented there).
 
-Decoupling of the cross terms and the back-EMF feed-forward are not in this form (the models
-here neglect them, as before; the diagnosis' ``hil.diagnosis.signatures`` has its own forms).
+Decoupling of the cross terms and the back-EMF feed-forward are not in this form (the dead-time
+model neglects them, as before); ``hil.diagnosis.signatures`` takes the continuous and 2-DOF
+designs from here and adds decoupling and the exact z-domain discrete PI itself.
 """
 
 from __future__ import annotations
