@@ -31,6 +31,7 @@ from typing import Any, NoReturn
 import can
 
 from hil import plausibility
+from hil.current_loop import LOOP_DESIGNS, pi_equivalent_bandwidth_hz
 from hil.errors import InputError
 from hil.motor import KE_DEFINITIONS, MotorParameters
 
@@ -96,13 +97,17 @@ class DriveConfig:
     current_loop_bandwidth_hz: float | None = _key(None, "float", lo=1.0, hi=50_000.0)
     current_loop_delay_s: float | None = _key(None, "float", lo=0.0, hi=0.01)
     #: How the firmware's current loop is built (what the simulated bench's twin runs; on a real
-    #: bench they document the firmware): PI designed in s ("continuous": Kp = L·ωc, Ki = R·ωc)
-    #: or pole-matched in z ("discrete"); dq decoupling (−ωe·L·i cross terms) and back-EMF
+    #: bench they document the firmware): PI designed in s ("continuous": Kp = L·ωc, Ki = R·ωc),
+    #: pole-matched in z ("discrete"), or the complex-vector 2-DOF PI of Briz 2000 / Awan 2019
+    #: ("2dof": u = α·L·i_ref − 2α·L·i + (α + jωe)·α·L/s·(i_ref − i), integrator fed from the
+    #: realised voltage; motulator's current controller; equations and source:
+    #: ``hil.current_loop``; the ripple-hil twin runs the two PIs only); dq decoupling
+    #: (−ωe·L·i cross terms) and back-EMF
     #: feed-forward on/off; computation delay from the current sample to the compare update in
     #: PWM periods (0, 0.5, 1 or 1.5; the PWM adds half a period, so current_loop_delay_s =
     #: (current_loop_delay_periods + 0.5) / f_pwm); inverse-Park angle advanced by ωe × that
     #: delay (angle compensation) on/off.
-    current_loop_design: str = _key("continuous", "str", choices=("continuous", "discrete"))
+    current_loop_design: str = _key("continuous", "str", choices=LOOP_DESIGNS)
     current_loop_decoupling: bool = _key(False, "bool")
     current_loop_emf_feedforward: bool = _key(False, "bool")
     current_loop_delay_periods: float = _key(1.0, "float", choices=(0.0, 0.5, 1.0, 1.5))
@@ -114,16 +119,17 @@ class DriveConfig:
 
     def current_loop_equivalent_bandwidth_hz(self, pwm_frequency_hz: float = 20_000.0
                                              ) -> float | None:
-        """Bandwidth of the continuous-design PI (Kp = L·ωc, Ki = R·ωc) that the closed-form
-        predictions assume, with the same integral gain as the stated loop (what rejects the
-        low-order dead-time and PWM-resolution disturbances): the stated bandwidth for
-        ``"continuous"``; f_pwm·(1 − e^(−2π·bw/f_pwm))/(2π) for the pole-matched ``"discrete"``
-        design (its Ki = R·(1 − e^(−ωc·Ts))/Ts). None when the bandwidth is not stated."""
-        bandwidth = self.current_loop_bandwidth_hz
-        if bandwidth is None or self.current_loop_design == "continuous":
-            return bandwidth
-        return -pwm_frequency_hz * math.expm1(-2.0 * math.pi * bandwidth / pwm_frequency_hz) \
-            / (2.0 * math.pi)
+        """Bandwidth of the continuous-design PI (Kp = L·ωc, Ki = R·ωc) that the PI-only
+        closed-form predictions assume, with the same integral gain as the stated loop (what
+        rejects the low-order PWM-resolution and word-length disturbances):
+        ``hil.current_loop.pi_equivalent_bandwidth_hz``. A ``"2dof"`` loop has no such PI: its
+        stated α_c/(2π) is returned, its reference-tracking bandwidth (the design's closed loop
+        is α_c/(s + α_c)), for the loop-lag bounds of the order phases; the PI-only models
+        refuse it (``hil.validity``). None when the bandwidth is not stated."""
+        if self.current_loop_design == "2dof":
+            return self.current_loop_bandwidth_hz
+        return pi_equivalent_bandwidth_hz(self.current_loop_design,
+                                          self.current_loop_bandwidth_hz, pwm_frequency_hz)
 
 
 @dataclass(frozen=True)

@@ -36,8 +36,14 @@ def twin_config(bench: BenchConfig):
     it) and the transducer's bandwidth.
     """
     from hil.sim import DriveConfig, FirmwareModel, MotorModel, TransducerModel
+    from hil.sim.config import LOOP_DESIGNS
 
     drive = bench.drive
+    if drive.current_loop_design not in LOOP_DESIGNS:
+        raise InputError(f"{bench.source}: drive.current_loop_design = "
+                         f"{drive.current_loop_design!r} is not a loop the ripple-hil twin runs "
+                         f"(it runs {', '.join(LOOP_DESIGNS)}); a 2-DOF complex-vector loop runs "
+                         f"on [simulation] plant = \"motulator\"")
     loop = {"design": drive.current_loop_design, "decoupling": drive.current_loop_decoupling,
             "emf_feedforward": drive.current_loop_emf_feedforward,
             "delay_periods": drive.current_loop_delay_periods,

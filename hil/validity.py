@@ -34,8 +34,11 @@ What a region checks, in the order a refusal names it:
 6. **Whole orders.** The order a rule judges must be a whole order over the analysed period
    (:func:`period_problems`, issue 30): an encoder count order that is not a whole number per
    electrical revolution is analysed over the staircase's common period, or refused.
-7. **Loop delay** a point's sampled-loop model can represent (PWM resolution:
-   :func:`loop_delay_problems`), and **the simulated plant**: an injection the bench's
+7. **Loop design and delay** a point's model can represent: the stated
+   ``current_loop_design`` among the model's ``REPRESENTED_LOOP_DESIGNS`` (a PI-only model
+   cannot judge a point on a "2dof" loop, whose integral action α_c²·L it would take for
+   R·ω_c: :func:`loop_design_problems`), the sampled-loop delay (PWM resolution:
+   :func:`loop_delay_problems`); and **the simulated plant**: an injection the bench's
    ``[simulation] plant`` cannot realise (``hil.plants.capabilities``; issue 30).
 """
 
@@ -172,11 +175,33 @@ def problems(plan, config: BenchConfig) -> list[str]:
     found += period_problems(plan, config)
     if region.floor_fraction is not None and plan.rule is not None:
         found += floor_problems(plan, config, region.floor_fraction)
+    found += loop_design_problems(plan, config)
     found += loop_delay_problems(plan)
     from hil.plants.capabilities import plant_problems   # what the simulated plant cannot do
 
     found += plant_problems(plan, config)
     return found
+
+
+def loop_design_problems(plan, config: BenchConfig) -> list[str]:
+    """The stated loop design outside the design(s) the point's model represents (its module's
+    ``REPRESENTED_LOOP_DESIGNS``; docstring 7): checked where the plan predicts with the stated
+    loop (its prediction takes ``current_loop_bandwidth_hz``)."""
+    if "current_loop_bandwidth_hz" not in plan.prediction_params:
+        return []
+    import importlib
+
+    from hil.model import SOURCES
+
+    function = SOURCES.get(plan.source)
+    represented = None if function is None else getattr(
+        importlib.import_module(function.__module__), "REPRESENTED_LOOP_DESIGNS", None)
+    design = config.drive.current_loop_design
+    if represented is None or design in represented:
+        return []
+    return [f"current loop design outside the {plan.source} model: the bench file states "
+            f"current_loop_design = {design!r}, the model represents {', '.join(represented)} "
+            "only (hil.current_loop)"]
 
 
 def loop_delay_problems(plan) -> list[str]:

@@ -80,6 +80,10 @@ DEFECT_SELECTORS = {"encoder": "(test_encoder_resolution and 50])",
                     "self_check": "test_bench_self_check"}
 ANGLE_REFERENCE = "test_angle_reference"
 CAUGHT, MISSED = "caught", "MISSED"
+#: a stored test marked ``"superseded": "<why>"`` (after the fact): judged against a model of a
+#: loop the bench file misstated (it could not state motulator's 2-DOF design before
+#: ``current_loop_design = "2dof"``); its re-run with the loop stated is in another row
+SUPERSEDED = "superseded (loop misstated)"
 #: a stored test marked ``"void": "<why>"`` (after the fact, with the reason): it ran on a plant
 #: with a fault of ours, so it is no statement about the plan
 VOID = "void (plant fault)"
@@ -106,8 +110,6 @@ def bench_copy(motor: str, speed_rpm: float, current_a: float, folder: Path) -> 
 
 def hil_run(bench: Path, sources: dict, folder: Path, defects: dict | None = None) -> dict:
     """One ``hil run`` under ``.venv-motulator``: the named tests of the named plans."""
-    from hil.record import load_record
-
     records = folder / "records"
     args = [str(VENV_PYTHON), "-m", "hil", "run", "--bench", str(bench), "--no-report",
             "--record-dir", str(records), "--results-db", "off"]
@@ -126,7 +128,15 @@ def hil_run(bench: Path, sources: dict, folder: Path, defects: dict | None = Non
     if not found:
         row["error"] = (done.stderr or done.stdout)[-2000:]
         return row | {"tests": []}
-    record = load_record(found[-1].parent)
+    return record_row(found[-1].parent, row)
+
+
+def record_row(record_dir: Path, row: dict) -> dict:
+    """``row`` (how the run was made) with the plant, the drive's identity and each test's
+    category from the record in ``record_dir`` (also for a ``hil run`` made by hand)."""
+    from hil.record import load_record
+
+    record = load_record(record_dir)
     row["plant"] = record["bench"]["loaded"].get("simulation", {}).get("plant", "ripple-hil")
     row["drive_firmware"] = next((i["identity"].get("firmware") for i in record["instruments"]
                                   if i["role"] == "drive"), None)
@@ -200,6 +210,8 @@ def verdict_of(test: dict) -> str:
     reason is not an ``AssertionError``) counted as an error, never as a rejection."""
     if test.get("void"):
         return VOID
+    if test.get("superseded"):
+        return SUPERSEDED
     if test["category"] == WRONG and not test["reason"].startswith("AssertionError"):
         return ERROR
     return test["category"]
@@ -227,7 +239,7 @@ def table(rows: list[dict]) -> str:
         for t in row["tests"]:
             reason = t["reason"].replace("|", "/").replace("\n", " ")
             category = verdict_of(t)
-            reason = t.get("void") or reason
+            reason = t.get("void") or t.get("superseded") or reason
             lines.append(f"| {row['motor']} | {point} | {t['test']} | {category} | "
                          f"{reason} |")
             if t["source"] not in ("self_check",):

@@ -75,11 +75,14 @@ PWM_SWITCHING_SWEEP = [{"pwm_frequency_hz": f} for f in (10_000.0, 20_000.0, 40_
 #: (hil.validity); 1 µs (0.22 % predicted) is refused there at 500 rpm / 20 A (floor 0.10 %
 #: against half of the 0.18 % acceptance half-width), which left the slope two points.
 DEAD_TIME_SWEEP = [{"dead_time_s": t} for t in (2e-6, 3e-6, 4e-6)]
-def current_loop(config) -> dict:
-    """The drive's current-loop bandwidth and delay from the bench file's ``[drive]`` table.
+def stated_current_loop(config) -> dict:
+    """The drive's current loop as the bench file's ``[drive]`` table states it: design,
+    bandwidth, delay and angle compensation, for a model that takes the design
+    (``hil.current_loop``; the dead time's).
 
-    The dead-time and PWM-resolution expectations need them (the loop rejects those voltage
-    disturbances); a bench file that does not state them cannot run those plans.
+    The dead-time and PWM-resolution expectations need the loop (it rejects those voltage
+    disturbances); a bench file that does not state its bandwidth and delay cannot run those
+    plans.
     """
     from hil.errors import InputError
 
@@ -87,10 +90,21 @@ def current_loop(config) -> dict:
     if drive.current_loop_bandwidth_hz is None or drive.current_loop_delay_s is None:
         raise InputError("bench file [drive] current_loop_bandwidth_hz and current_loop_delay_s "
                          "are needed by this plan (from the drive firmware's documentation)")
-    # The closed forms assume the continuous-design PI (Kp = L·ωc, Ki = R·ωc); a discrete
-    # (pole-matched) loop enters with the bandwidth of the same integral gain.
-    return {"current_loop_bandwidth_hz": drive.current_loop_equivalent_bandwidth_hz(),
-            "current_loop_delay_s": drive.current_loop_delay_s}
+    return {"current_loop_bandwidth_hz": drive.current_loop_bandwidth_hz,
+            "current_loop_delay_s": drive.current_loop_delay_s,
+            "current_loop_design": drive.current_loop_design,
+            "current_loop_angle_compensation": drive.current_loop_angle_compensation}
+
+
+def current_loop(config) -> dict:
+    """The stated loop (:func:`stated_current_loop`) for a model that represents a PI only
+    (PWM resolution, word length): the continuous-design PI (Kp = L·ωc, Ki = R·ωc) of the same
+    integral gain (a discrete, pole-matched loop enters with that bandwidth) and the delay. A
+    "2dof" loop has no such PI: ``hil.validity`` refuses those plans' points on it (the stated
+    bandwidth is passed only so that the point can be built and refused)."""
+    loop = stated_current_loop(config)
+    return {"current_loop_bandwidth_hz": config.drive.current_loop_equivalent_bandwidth_hz(),
+            "current_loop_delay_s": loop["current_loop_delay_s"]}
 
 
 def point(op, source: str, injection: dict, rule: DecisionRule | None, **overrides):

@@ -4,7 +4,8 @@ The paper's eq 38 is a per-event current step (Δi_q = (2/3)·V_dc·T_d/L_s) rea
 ripple; it ignores the current loop that rejects the disturbance. The plan judges against the
 current-clamping model of hil.model.dead_time: the average leg error T_d·f_sw·V_dc of eqs 32-37
 with the sign of the actual current (the current dwells at zero at each crossing), the drive's
-current loop (bandwidth and delay from the bench file) and the stated transducer response. The
+current loop (design, bandwidth, delay and angle compensation from the bench file:
+``hil.current_loop``) and the stated transducer response. The
 paper's figure is recorded beside it (prediction.extras).
 
 Validity region (``hil.validity``, checked by the pre-flight before the bench is touched): every
@@ -44,7 +45,7 @@ PHASE_TOLERANCE_RAD = math.radians(5.0)
 
 
 def prediction_params(config) -> dict:
-    return {"model": "current_clamping", **c.current_loop(config),
+    return {"model": "current_clamping", **c.stated_current_loop(config),
             "transducer_bandwidth_hz": config.torque.bandwidth_hz}
 
 

@@ -15,6 +15,7 @@ import re
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from hil.current_loop import LOOP_DESIGNS
 from hil.errors import InputError
 from hil.model import OperatingPoint, Prediction, SOURCES, predict
 from hil.model.core import check_range
@@ -80,13 +81,22 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  "nominal current of eq 38 (default: --current-a)", float, 0.0, 100.0, True),
     SourceOption("--current-loop-bandwidth-hz", "current_loop_bandwidth_hz",
                  ("dead_time", "pwm_resolution", "word_length"),
-                 "PI current-loop bandwidth for model=average_voltage or closed_loop "
+                 "current-loop bandwidth (ω_c/2π; α_c/2π of a 2dof loop) for "
+                 "model=average_voltage, current_clamping or closed_loop "
                  "(dead_time, pwm_resolution) or derived (word_length)", float, 0.0,
                  25000.0, True),
     SourceOption("--current-loop-delay-us", "current_loop_delay_s",
                  ("dead_time", "pwm_resolution", "word_length"),
                  "current-loop delay for model=average_voltage or derived, µs (the simulated "
                  "drive: 75, i.e. 1.5 PWM periods)", lambda us: us * 1e-6, 0.0, 1000.0),
+    SourceOption("--current-loop-design", "current_loop_design", ("dead_time",),
+                 "the current loop's design (hil.current_loop): continuous PI (default), "
+                 "discrete (pole-matched PI) or 2dof (complex-vector 2-DOF PI)", str, kind=str,
+                 choices=LOOP_DESIGNS),
+    SourceOption("--current-loop-angle-compensation", "current_loop_angle_compensation",
+                 ("dead_time",), "the voltage applied at the angle advanced by ω_e × the loop "
+                 "delay: on or off (default)", lambda value: value == "on", kind=str,
+                 choices=("on", "off")),
     SourceOption("--adc-bits", "adc_bits", ("word_length",),
                  "current ADC resolution for model=derived (default 12)", int, 6, 24, kind=int),
     SourceOption("--trig-values", "trig_values", ("word_length",),

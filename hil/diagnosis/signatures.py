@@ -26,7 +26,9 @@ P/(1 + L) for a voltage disturbance. Designs: "continuous" PI (Kp = L·ω_c, Ki 
 "2dof" the complex-vector 2-DOF PI of Briz 2000 / Awan 2019 (feedback L·(2α + (α² + jω_e·α)/s),
 α = ω_c: motulator's current controller; its integrator updated from the computed or from the
 realised voltage, ``DriveSetup.current_loop_integrator_realised``, both among a stated loop's
-variants), and "unknown" (the mean transfer over a family of
+variants; the continuous and 2-DOF equations are ``hil.current_loop``'s, the models' one place,
+whose realised form C = (K_p·s + K_i)/(s + K_r·(1 − D)) is exact in the delay), and "unknown"
+(the mean transfer over a family of
 plausible loops, :meth:`DriveSetup.loop_variants`, whose spread the diagnosis propagates).
 Decoupling adds −jω_e·L to the feedback (it cancels the plant's cross term with the measured
 current); back-EMF feed-forward adds a current-independent voltage and changes no transfer; the
@@ -48,6 +50,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from hil.current_loop import applied_delay, controller_response, loop_gains
 from hil.errors import InputError
 from hil.model import OperatingPoint
 from hil.model.dead_time import average_model_torque_pu, loop_rejection
@@ -112,8 +115,9 @@ class DriveSetup:
     #: the 2-DOF loop's integrator updated from the *realised* voltage (back-calculation
     #: anti-windup u_i += T_s·(α + jω_e)·(u − v) fed with the voltage applied, one loop delay τ
     #: after it was computed; motulator's ComplexPIController) instead of the computed one: it
-    #: also integrates −(1 − e^{−sτ})·v ≈ −sτ·v, dividing the integral action by
-    #: 1 + (α + jω_e)·τ. At a sensor error's rotor-frame frequency the correction T − 1 is
+    #: also integrates −(1 − e^{−sτ})·u, so C = (K_p·s + K_i)/(s + (α + jω_e)·(1 − e^{−sτ}))
+    #: (``hil.current_loop``), ≈ the computed form divided by 1 + (α + jω_e)·τ at low
+    #: frequency. At a sensor error's rotor-frame frequency the correction T − 1 is
     #: dominated by the integral action (1/L ≈ −j·R·ω_e/(L·α²)), so it grows by that factor
     #: (1.3-1.6 on the issue-23 motulator drives). Not a bench-file key: a stated 2-DOF loop's
     #: variants include both forms (:meth:`loop_variants`), the drive runs one of them ("unknown":
@@ -240,28 +244,26 @@ def loop_gain(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
     motor = op.motor
     r, l = motor.phase_resistance_ohm, motor.phase_inductance_h
     w_e = op.elec_speed_rad_s
-    s = 1j * np.asarray(rotor_frequency_rad_s, dtype=float)
-    alpha = 2 * math.pi * setup.current_loop_bandwidth_hz
+    w = np.asarray(rotor_frequency_rad_s, dtype=float)
+    s = 1j * w
     design = setup.current_loop_design
-    if design == "continuous":
-        controller = alpha * (r + l * s) / s
-    elif design == "discrete":
+    delay = applied_delay(w, w_e, setup.current_loop_delay_s,
+                          setup.current_loop_angle_compensation)
+    if design == "discrete":
         period = 1.0 / setup.pwm_frequency_hz
-        kp, ki = discrete_pi_gains(r, l, alpha, period)
+        kp, ki = discrete_pi_gains(r, l, 2 * math.pi * setup.current_loop_bandwidth_hz, period)
         z = np.exp(s * period)
         controller = kp + ki * period * z / (z - 1.0)
-    elif design == "2dof":
-        integral = (alpha * alpha + 1j * w_e * alpha) / s
-        if setup.current_loop_integrator_realised:
-            integral = integral / (1.0 + (alpha + 1j * w_e) * setup.current_loop_delay_s)
-        controller = l * (2.0 * alpha + integral)
+    elif design in ("continuous", "2dof"):   # hil.current_loop's equations
+        gains = loop_gains(design, setup.current_loop_bandwidth_hz, resistance_ohm=r,
+                           inductance_h=l, elec_speed_rad_s=w_e)
+        if not setup.current_loop_integrator_realised:
+            gains = replace(gains, realised_feedback_per_s=0j)
+        controller = controller_response(gains, w, delay)
     else:
         raise InputError(f"loop_gain needs a concrete design, got {design!r}")
     if setup.current_loop_decoupling:
         controller = controller - 1j * w_e * l
-    tau = setup.current_loop_delay_s
-    delay = np.exp(-s * tau) if setup.current_loop_angle_compensation \
-        else np.exp(-(s + 1j * w_e) * tau)
     return controller * delay / (r + l * (s + 1j * w_e))
 
 

@@ -11,14 +11,16 @@ when φ = 0: it is the torque of that step only if it were aligned with the EMF.
 
 Average-voltage model ("average_voltage"): each leg loses ε = T_d·f_sw·V_dc of its average voltage
 against its current, Δv_x = −ε·sign(i_x). Without the common mode this is a six-step wave with
-harmonics n = 6k ± 1 of amplitude 4ε/(π·n). Each drives the motor impedance R + j·n·ω_e·L_s; with a
-synchronous-frame PI current loop (Kp = ω_c·L_s, Ki = ω_c·R, no decoupling) the disturbance is
-rejected by S = 1/(1 + C·P) evaluated at the rotor-frame frequency ((n − 1)·ω_e for the positive
-sequence n = 6k + 1, −(n + 1)·ω_e for the negative sequence n = 6k − 1). An optional loop delay τ
-(``current_loop_delay_s``; e.g. 1.5 PWM periods: one of computation, half of PWM hold) enters as
-C(s)·e^{−(s + jω_e)·τ} — the voltage is applied τ later at the angle it was computed for (no angle
-compensation). The harmonic currents in the torque sum Σ e_x·i_x/ω_m give order-6 ripple; the
-series is summed to n = 601.
+harmonics n = 6k ± 1 of amplitude 4ε/(π·n). Each drives the motor impedance R + j·n·ω_e·L_s; the
+stated current loop (``hil.current_loop``: ``current_loop_design`` "continuous" — the
+synchronous-frame PI Kp = ω_c·L_s, Ki = ω_c·R, no decoupling —, "discrete" or "2dof", the
+complex-vector 2-DOF PI) rejects the disturbance, current per volt P/(1 + C·D·P) evaluated at the
+rotor-frame frequency ((n − 1)·ω_e for the positive sequence n = 6k + 1, −(n + 1)·ω_e for the
+negative sequence n = 6k − 1). The loop delay τ (``current_loop_delay_s``; e.g. 1.5 PWM periods:
+one of computation, half of PWM hold) enters as D = e^{−(s + jω_e)·τ} — the voltage is applied τ
+later at the angle it was computed for — or, with ``current_loop_angle_compensation``, e^{−sτ}.
+The harmonic currents in the torque sum Σ e_x·i_x/ω_m give order-6 ripple; the series is summed
+to n = 601.
 
 Current-clamping model ("current_clamping", the one the dead-time plan judges against): the same
 average voltage error, but with the sign of the *actual* current, solved in the time domain to its
@@ -48,11 +50,15 @@ import math
 
 import numpy as np
 
+from hil.current_loop import (LOOP_DESIGNS, LoopGains, check_design, disturbance_response,
+                              loop_gains)
 from hil.errors import InputError
 from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
                             angle_grid, check_range)
 
 DEAD_TIME_RANGE_S = (0.0, 10e-6)
+#: The stated loop designs the models here represent (``hil.validity`` refuses the others).
+REPRESENTED_LOOP_DESIGNS = LOOP_DESIGNS
 #: Nominal current that reproduces the paper's "2 µs → 2 %" with Table I (see module docstring).
 PAPER_NOMINAL_CURRENT_A = (2.0 / 3.0) * 12.0 * 2e-6 / 38.5e-6 / 0.02
 MODELS = ("paper", "average_voltage", "current_clamping")
@@ -95,44 +101,58 @@ def paper_current_step_a(dead_time_s: float, dc_bus_v: float, inductance_h: floa
     return (2.0 / 3.0) * dc_bus_v * dead_time_s / inductance_h
 
 
+def stated_loop_gains(op: OperatingPoint, design: str, bandwidth_hz: float | None,
+                      pwm_frequency_hz: float = 20_000.0) -> LoopGains | None:
+    """The stated loop's gains (``hil.current_loop``), designed with the R and L of
+    ``op.loop_motor`` (the plant's by default); None without a bandwidth (no loop)."""
+    if not bandwidth_hz:
+        return None
+    tuned = op.loop_motor
+    return loop_gains(design, bandwidth_hz, resistance_ohm=tuned.phase_resistance_ohm,
+                      inductance_h=tuned.phase_inductance_h,
+                      elec_speed_rad_s=op.elec_speed_rad_s, pwm_frequency_hz=pwm_frequency_hz)
+
+
 def loop_rejection(rotor_frequency_rad_s, op: OperatingPoint,
-                   bandwidth_rad_s: float | None, delay_s: float = 0.0):
-    """Disturbance voltage → current of the motor in the rotor frame, with the PI loop if any.
+                   bandwidth_rad_s: float | None, delay_s: float = 0.0, *,
+                   gains: LoopGains | None = None, angle_compensation: bool = False):
+    """Disturbance voltage → current of the motor in the rotor frame, with the loop if any
+    (``hil.current_loop.disturbance_response``): ``gains``, else the continuous PI at
+    ``bandwidth_rad_s`` (rad/s) designed with ``op.loop_motor``'s R and L; neither: voltage-fed.
 
     ``rotor_frequency_rad_s`` a number (returns a complex) or an array (returns an array).
     """
+    if gains is None and bandwidth_rad_s:
+        gains = stated_loop_gains(op, "continuous", bandwidth_rad_s / (2.0 * math.pi))
     motor = op.motor
-    s = 1j * np.asarray(rotor_frequency_rad_s, dtype=float)
-    plant = 1.0 / (motor.phase_resistance_ohm
-                   + motor.phase_inductance_h * (s + 1j * op.elec_speed_rad_s))
-    if bandwidth_rad_s:
-        safe_s = np.where(s == 0.0, 1j, s)
-        tuned = op.loop_motor                # the gains' R and L (the plant's by default)
-        controller = bandwidth_rad_s * (tuned.phase_resistance_ohm
-                                        + tuned.phase_inductance_h * safe_s) / safe_s
-        controller = controller * np.exp(-(safe_s + 1j * op.elec_speed_rad_s) * delay_s)
-        # the integrator rejects a constant disturbance completely
-        plant = np.where(s == 0.0, 0j, plant / (1.0 + controller * plant))
-    return complex(plant) if plant.ndim == 0 else plant
+    return disturbance_response(
+        rotor_frequency_rad_s, resistance_ohm=motor.phase_resistance_ohm,
+        inductance_h=motor.phase_inductance_h, elec_speed_rad_s=op.elec_speed_rad_s,
+        gains=gains, delay_s=delay_s, angle_compensation=angle_compensation)
 
 
 def average_model_torque_pu(theta: np.ndarray, op: OperatingPoint, dead_time_s: float,
                             pwm_frequency_hz: float,
                             current_loop_bandwidth_hz: float | None,
                             current_loop_delay_s: float = 0.0, *,
-                            rejection=None) -> np.ndarray:
+                            rejection=None, current_loop_design: str = "continuous",
+                            current_loop_angle_compensation: bool = False) -> np.ndarray:
     """Torque per unit of (3/2)·E·I·cos φ/ω_m at electrical angles θ, average dead-time model.
 
     ``rejection``: optional callable, rotor-frame frequencies (rad/s, array) → disturbance
-    voltage → current transfer (A/V) of another loop design (hil.diagnosis.signatures
-    .loop_disturbance); default the PI of :func:`loop_rejection` with the given bandwidth/delay.
+    voltage → current transfer (A/V) of another loop (hil.diagnosis.signatures
+    .loop_disturbance); default :func:`loop_rejection` with the stated design, bandwidth (Hz),
+    delay (s) and angle compensation.
     """
     omega = op.elec_speed_rad_s
     eps = dead_time_s * pwm_frequency_hz * op.dc_bus_v
-    bandwidth = 2 * math.pi * current_loop_bandwidth_hz if current_loop_bandwidth_hz else None
     if rejection is None:
+        gains = stated_loop_gains(op, current_loop_design, current_loop_bandwidth_hz,
+                                  pwm_frequency_hz)
+
         def rejection(w):
-            return loop_rejection(w, op, bandwidth, current_loop_delay_s)
+            return loop_rejection(w, op, None, current_loop_delay_s, gains=gains,
+                                  angle_compensation=current_loop_angle_compensation)
     harmonics = np.array([n for n in range(1, HIGHEST_HARMONIC + 1, 2) if n % 3 != 0])
     positive = harmonics % 6 == 1
     # positive sequence n = 6k + 1 at (n − 1)·ω_e; negative n = 6k − 1 at −(n + 1)·ω_e, conj.
@@ -163,9 +183,13 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
                       pwm_frequency_hz: float = 20000.0,
                       current_loop_bandwidth_hz: float | None = None,
                       current_loop_delay_s: float = 0.0,
-                      transducer_bandwidth_hz: float | None = None) -> Prediction:
+                      transducer_bandwidth_hz: float | None = None,
+                      current_loop_design: str = "continuous",
+                      current_loop_angle_compensation: bool = False) -> Prediction:
     """Order-6 dead-time ripple: the paper's eq 38, the average-voltage-error series, or that
-    error with the actual current's sign (``current_clamping``, module docstring)."""
+    error with the actual current's sign (``current_clamping``, module docstring). The loop:
+    ``current_loop_design`` at ``current_loop_bandwidth_hz`` (Hz), ``current_loop_delay_s`` (s)
+    and ``current_loop_angle_compensation``, as ``hil.current_loop`` writes them."""
     t_d = check_range("dead_time_s", dead_time_s, *DEAD_TIME_RANGE_S, unit=" s")
     if model not in MODELS:
         raise InputError(f"model={model!r} is not one of {', '.join(MODELS)}")
@@ -176,6 +200,8 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
         check_range("current_loop_bandwidth_hz", current_loop_bandwidth_hz, 0.0, 0.5 * f_sw,
                     unit=" Hz")
     delay = check_range("current_loop_delay_s", current_loop_delay_s, 0.0, 1e-3, unit=" s")
+    loop = {"design": check_design(current_loop_design),
+            "angle_compensation": bool(current_loop_angle_compensation)}
     if transducer_bandwidth_hz is not None:
         check_range("transducer_bandwidth_hz", transducer_bandwidth_hz, 0.0, 1e6, unit=" Hz",
                     low_open=True)
@@ -183,7 +209,8 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
     inputs = {"dead_time_s": t_d, "nominal_current_a": nominal, "model": model,
               "pwm_frequency_hz": f_sw, "current_loop_bandwidth_hz": current_loop_bandwidth_hz,
               "current_loop_delay_s": delay, "transducer_bandwidth_hz": transducer_bandwidth_hz,
-              **op.to_dict()}
+              "current_loop_design": loop["design"],
+              "current_loop_angle_compensation": loop["angle_compensation"], **op.to_dict()}
     paper_pu = step / nominal
     if model == "paper":
         return Prediction(
@@ -198,10 +225,12 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
         raise InputError("speed_rpm=0: the average-voltage form has no harmonics at standstill "
                          "(allowed: speed_rpm != 0 with model=average_voltage)")
     if model == "current_clamping":
-        return _clamping_prediction(op, t_d, f_sw, current_loop_bandwidth_hz, delay,
+        return _clamping_prediction(op, t_d, f_sw, current_loop_bandwidth_hz, delay, loop,
                                     transducer_bandwidth_hz, inputs, paper_pu, step)
     theta = angle_grid()
-    torque = average_model_torque_pu(theta, op, t_d, f_sw, current_loop_bandwidth_hz, delay)
+    torque = average_model_torque_pu(theta, op, t_d, f_sw, current_loop_bandwidth_hz, delay,
+                                     current_loop_design=loop["design"],
+                                     current_loop_angle_compensation=loop["angle_compensation"])
     mean = float(np.mean(torque))
     waveform = (torque - mean) / mean
     return Prediction(
@@ -211,16 +240,27 @@ def predict_dead_time(op: OperatingPoint, *, dead_time_s: float,
         assumptions=[
             "current direction taken from the ideal sinusoidal currents",
             "average (per-PWM-period) voltage error, no zero-current clamping",
-            f"synchronous-frame PI, Kp = ω_c·L_s, Ki = ω_c·R, no decoupling, delay {delay:.3g} s, "
-            "continuous-time (no sampling)"
-            if current_loop_bandwidth_hz else "no current loop (voltage-fed, open loop)"],
+            loop_assumption(loop, current_loop_bandwidth_hz, delay)],
         angle_rad=theta, waveform_pu=waveform,
         extras={"paper_pk_pk_pu": paper_pu, "current_step_a": step,
                 "leg_voltage_error_v": t_d * f_sw * op.dc_bus_v})
 
 
+def loop_assumption(loop: dict, bandwidth_hz: float | None, delay_s: float) -> str:
+    """The stated loop as the prediction's assumption, in words."""
+    if not bandwidth_hz:
+        return "no current loop (voltage-fed, open loop)"
+    form = {"continuous": "synchronous-frame PI, Kp = ω_c·L_s, Ki = ω_c·R",
+            "discrete": "pole-matched discrete PI as the continuous PI of its integral gain",
+            "2dof": "complex-vector 2-DOF PI, K_p = 2α_c·L, K_i = (α_c + jω_e)·α_c·L, its "
+                    "integrator fed from the applied voltage"}[loop["design"]]
+    return (f"{form} ({bandwidth_hz:g} Hz), no decoupling, delay {delay_s:.3g} s"
+            f"{' with angle compensation' if loop['angle_compensation'] else ''}, "
+            "continuous-time (no sampling)")
+
+
 def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
-                         bandwidth_hz: float | None, delay_s: float,
+                         bandwidth_hz: float | None, delay_s: float, loop: dict,
                          transducer_bandwidth_hz: float | None, inputs: dict, paper_pu: float,
                          step: float) -> Prediction:
     """The current-clamping model's prediction (module docstring)."""
@@ -236,8 +276,8 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
         loop_bandwidth_rad_s=2 * math.pi * bandwidth_hz if bandwidth_hz else 0.0,
         delay_s=delay_s, max_order=CLAMPING_MAX_ORDER,
         dc_bus_v=op.dc_bus_v, pwm_frequency_hz=f_sw,
-        loop_resistance_ohm=op.loop_motor.phase_resistance_ohm,
-        loop_inductance_h=op.loop_motor.phase_inductance_h)
+        loop_gains=stated_loop_gains(op, loop["design"], bandwidth_hz, f_sw),
+        angle_compensation=loop["angle_compensation"])
     orders = np.arange(coefficients.size)
     elec_hz = op.elec_speed_rad_s / (2 * math.pi)
     coefficients = coefficients * transducer_response(orders * elec_hz, transducer_bandwidth_hz)
@@ -255,8 +295,7 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
             "leg error from the simulated (not the ideal) current at the leg's two edges: the "
             "PWM ripple's excursion (centre-aligned SVPWM) and zero-current clamping within the "
             "dead intervals included; diode drops and the loop's sampling neglected",
-            f"synchronous-frame PI, Kp = ω_c·L, Ki = ω_c·R, no decoupling, delay {delay_s:.3g} s,"
-            " continuous-time" if bandwidth_hz else "no current loop (voltage-fed, open loop)",
+            loop_assumption(loop, bandwidth_hz, delay_s),
             f"orders 1..{CLAMPING_MAX_ORDER} kept" + (
                 f"; first-order transducer {transducer_bandwidth_hz:g} Hz applied"
                 if transducer_bandwidth_hz else "; air-gap torque (no transducer response)")],

@@ -12,9 +12,11 @@ pulses at every zero crossing, rich in orders 12, 18, …).
 
 This module solves the same average model (per-PWM-period leg error −ε·sign(i_x), isolated
 neutral, R-L phases with sinusoidal EMF, eq 1) with the sign of the simulated current, in the
-time domain, until the periodic steady state, with the current loop the bench file states:
-a synchronous-frame PI on both axes (Kp = ω_c·L_s, Ki = ω_c·R, no decoupling) whose stationary
-output is applied ``delay_s`` after it was computed (no angle compensation). Forward Euler with a
+time domain, until the periodic steady state, with the current loop the bench file states
+(``hil.current_loop``, no decoupling): the PI Kp = ω_c·L_s, Ki = ω_c·R on both axes, or
+the complex-vector 2-DOF PI whose integrator is fed from the applied voltage; its stationary
+output is applied ``delay_s`` after it was computed, at the angle it was computed for or, with
+angle compensation, at the angle advanced by ω_e·``delay_s``. Forward Euler with a
 step small enough that the sign's chatter at a clamp (2ε·dt/L_s) stays below 0.2 % of the current.
 Returned: torque Σ e_x·i_x/ω_m per unit of the ideal (3/2)·E·I·cos φ/ω_m over one electrical
 revolution, against the electrical angle.
@@ -45,6 +47,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from hil.current_loop import LoopGains, pi_gains
 
 #: chatter of the explicit sign at a clamp, per unit of the current amplitude
 CHATTER_PU = 0.002
@@ -111,8 +115,8 @@ def _leg_errors(u, cur, v_dc, l, f_pwm, t_d, out):
 
 
 @njit(cache=True, fastmath=False)
-def _run(r, l, emf, w_e, amp, phi, eps, kp, ki, dt, delay_steps, settle_steps, rev_steps,
-         v_dc, f_pwm, t_d):
+def _run(r, l, emf, w_e, amp, phi, eps, kp, ki_re, ki_im, kr_re, kr_im, advance_rad, dt,
+         delay_steps, settle_steps, rev_steps, v_dc, f_pwm, t_d):
     offsets = (0.0, 2.0 * math.pi / 3.0, -2.0 * math.pi / 3.0)
     cur = np.empty(3)
     for x in range(3):
@@ -123,7 +127,7 @@ def _run(r, l, emf, w_e, amp, phi, eps, kp, ki, dt, delay_steps, settle_steps, r
     size = delay_steps + 1
     pending = np.zeros((size, 3))
     for k in range(size):
-        psi0 = w_e * (k - delay_steps) * dt - phi
+        psi0 = w_e * (k - delay_steps) * dt - phi + advance_rad
         for x in range(3):
             pending[k, x] = z1 * math.sin(psi0 - offsets[x]) + z2 * math.cos(psi0 - offsets[x])
     head = 0
@@ -141,14 +145,25 @@ def _run(r, l, emf, w_e, amp, phi, eps, kp, ki, dt, delay_steps, settle_steps, r
         for x in range(3):
             err1 -= 2.0 / 3.0 * cur[x] * math.sin(psi - offsets[x])
             err2 -= 2.0 / 3.0 * cur[x] * math.cos(psi - offsets[x])
-        z1 += ki * err1 * dt
-        z2 += ki * err2 * dt
+        z1 += (ki_re * err1 - ki_im * err2) * dt
+        z2 += (ki_re * err2 + ki_im * err1) * dt
         u1 = kp * err1 + z1
         u2 = kp * err2 + z2
-        # ring buffer: write the new command, read the one computed delay_steps ago
+        # ring buffer: write the new command (at the advanced angle), read the one computed
+        # delay_steps ago
         slot = (head + delay_steps) % size
         for x in range(3):
-            pending[slot, x] = u1 * math.sin(psi - offsets[x]) + u2 * math.cos(psi - offsets[x])
+            pending[slot, x] = (u1 * math.sin(psi + advance_rad - offsets[x])
+                                + u2 * math.cos(psi + advance_rad - offsets[x]))
+        if kr_re != 0.0 or kr_im != 0.0:
+            # the integrator also sees the applied minus the computed voltage (rotor frame)
+            a1 = -u1
+            a2 = -u2
+            for x in range(3):
+                a1 += 2.0 / 3.0 * pending[head, x] * math.sin(psi - offsets[x])
+                a2 += 2.0 / 3.0 * pending[head, x] * math.cos(psi - offsets[x])
+            z1 += (kr_re * a1 - kr_im * a2) * dt
+            z2 += (kr_re * a2 + kr_im * a1) * dt
         if t_d > 0.0:
             _leg_errors(pending[head], cur, v_dc, l, f_pwm, t_d, errors)
         for x in range(3):
@@ -189,7 +204,9 @@ def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: flo
                   max_order: int, dc_bus_v: float = 0.0,
                   pwm_frequency_hz: float = 0.0,
                   loop_resistance_ohm: float | None = None,
-                  loop_inductance_h: float | None = None) -> np.ndarray:
+                  loop_inductance_h: float | None = None,
+                  loop_gains: LoopGains | None = None,
+                  angle_compensation: bool = False) -> np.ndarray:
     """Complex order coefficients c_k (k = 0..max_order) of the torque per unit of the ideal,
     torque(θ) = Re Σ c_k·e^{jkθ} (c_0 real: the mean per unit), θ the electrical angle.
 
@@ -197,9 +214,12 @@ def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: flo
     is ε = T_d·f_sw·V_dc (V). A loop bandwidth of 0 runs voltage-fed (no loop). With
     ``dc_bus_v`` (V) and ``pwm_frequency_hz`` (Hz) both > 0 the leg error comes from the current at
     the leg's edges with the PWM ripple and the clamping in the dead intervals (module
-    docstring); with either 0 it is the plain −ε·sign(i). ``loop_resistance_ohm`` and
-    ``loop_inductance_h``: the R and L the PI was designed with (Kp = L·ωc, Ki = R·ωc); None: the
-    motor's (``resistance_ohm``, ``inductance_h``).
+    docstring); with either 0 it is the plain −ε·sign(i). The loop: ``loop_gains``
+    (``hil.current_loop``: u = K_p·e + z, dz/dt = K_i·e + K_r·(u_applied − u); the design's
+    bandwidth ``loop_bandwidth_rad_s`` sets the step and the settling), or None: the PI
+    Kp = L·ωc, Ki = R·ωc at ωc = ``loop_bandwidth_rad_s`` with ``loop_resistance_ohm`` and
+    ``loop_inductance_h``, the R and L it was designed with (None: the motor's).
+    ``angle_compensation``: the voltage applied at the angle advanced by ω_e·``delay_s``.
     """
     w = elec_speed_rad_s
     period = 2.0 * math.pi / abs(w)
@@ -216,12 +236,15 @@ def torque_orders(*, resistance_ohm: float, inductance_h: float, emf_peak_v: flo
     slow = inductance_h / resistance_ohm + (1.0 / loop_bandwidth_rad_s if loop_bandwidth_rad_s
                                             else 0.0)
     settle_steps = int(math.ceil(max(period, 20.0 * slow) / dt))
-    kp = loop_bandwidth_rad_s * (inductance_h if loop_inductance_h is None else loop_inductance_h)
-    ki = loop_bandwidth_rad_s * (resistance_ohm if loop_resistance_ohm is None
-                                 else loop_resistance_ohm)
+    gains = loop_gains or pi_gains(
+        loop_bandwidth_rad_s,
+        resistance_ohm=resistance_ohm if loop_resistance_ohm is None else loop_resistance_ohm,
+        inductance_h=inductance_h if loop_inductance_h is None else loop_inductance_h)
+    ki, kr = gains.integral_v_per_a_s, gains.realised_feedback_per_s
     theta, torque = _run(resistance_ohm, inductance_h, emf_peak_v, w, amp, current_angle_rad,
-                         leg_error_v, kp, ki, dt, int(round(delay_s / dt)), settle_steps,
-                         rev_steps, float(dc_bus_v), float(pwm_frequency_hz),
+                         leg_error_v, gains.proportional_v_per_a, ki.real, ki.imag, kr.real,
+                         kr.imag, w * delay_s if angle_compensation else 0.0, dt,
+                         int(round(delay_s / dt)), settle_steps, rev_steps, float(dc_bus_v), float(pwm_frequency_hz),
                          leg_error_v / (dc_bus_v * pwm_frequency_hz)
                          if dc_bus_v > 0.0 and pwm_frequency_hz > 0.0 else 0.0)
     per_unit = torque / (1.5 * amp * math.cos(current_angle_rad))

@@ -58,6 +58,7 @@ import math
 
 import numpy as np
 
+from hil.current_loop import PI_DESIGNS
 from hil.errors import InputError
 from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
                             check_range)
@@ -68,6 +69,9 @@ PWM_BITS_RANGE = (4, 17)
 BASES = ("paper", "dc_bus")
 MODELS = ("paper", "closed_loop", "derived")
 MODULATIONS = ("svpwm", "sine")
+#: The stated loop designs this model represents: a PI (the discrete one by its equivalent
+#: bandwidth, ``hil.current_loop``); ``hil.validity`` refuses a point on another.
+REPRESENTED_LOOP_DESIGNS = PI_DESIGNS
 #: Expected range of the derived model, (low, high) factors of its value: the spread of the
 #: simulated drive against it over the validation grid (module docstring), rounded outward.
 #: Out of sample (``studies/pwm_calibration.py``, hil/model/README.md): calibration 0.37-0.93x,

@@ -71,12 +71,16 @@ import math
 
 import numpy as np
 
+from hil.current_loop import PI_DESIGNS
 from hil.errors import InputError
 from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
                             check_range)
 
 #: Q-format full scale of the current: the ADC range of the contract, ±100 A.
 FULL_SCALE_CURRENT_A = 100.0
+#: The stated loop designs this model represents: a PI (the discrete one by its equivalent
+#: bandwidth, ``hil.current_loop``); ``hil.validity`` refuses a point on another.
+REPRESENTED_LOOP_DESIGNS = PI_DESIGNS
 WORD_LENGTH_RANGE_BITS = (6, 32)
 #: The drive's current ADC (the simulated drive: 12 bits over ±I_max).
 ADC_BITS = 12

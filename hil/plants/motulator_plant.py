@@ -11,10 +11,12 @@ What is motulator's (its published package, driven through its API):
   time's blanking intervals resolved, the leg voltage during blanking set by the current's
   sign; gates blocked (drive disabled) with its diode model;
 * controller ``CurrentVectorController`` (sensored) with its continuous-time 2-DOF
-  complex-vector PI (or, ``[drive] current_loop_design = "discrete"``, its direct discrete-time
-  design), α_c = 2π·``current_loop_bandwidth_hz``, sampling twice per carrier period with one
-  sample of computational delay, its SVPWM (``PWM``, min/max zero sequence), gate enable
-  (``set_enable``);
+  complex-vector PI (the bench file's ``current_loop_design = "2dof"``, ``hil.current_loop``;
+  a file stating "continuous" misstates this drive, which runs the 2-DOF design all the same)
+  or, ``[drive] current_loop_design = "discrete"``, its direct discrete-time design (not the
+  twin's pole-matched PI), α_c = 2π·``current_loop_bandwidth_hz``, sampling twice per carrier
+  period with one sample of computational delay, its SVPWM (``PWM``, min/max zero sequence),
+  gate enable (``set_enable``);
 * current sensors ``Sensor`` (gain and offset per phase).
 
 What this module adds, each a thing motulator leaves to its user:

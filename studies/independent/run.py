@@ -19,6 +19,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 VENV_PYTHON = REPO / ".venv-motulator" / "bin" / "python"
 GENERATOR = Path(__file__).resolve().parent / "motulator_captures.py"
+LOOP_RESPONSE = Path(__file__).resolve().parent / "motulator_loop_response.py"
 
 #: Motors of the study, in the generator's spec keys (SI: Ω, H, V·s per electrical rad, V).
 MOTORS = {
@@ -64,6 +65,23 @@ def generate(spec: dict, out_dir: str | Path, *, timeout_s: float = 1800.0) -> P
     if not manifest.is_file():
         raise RuntimeError(f"motulator generator wrote no {manifest}")
     return manifest
+
+
+def loop_response(spec: dict, *, timeout_s: float = 600.0) -> dict[float, complex]:
+    """motulator's current loop alone under a rotor-frame voltage disturbance
+    (``motulator_loop_response.py``, its docstring for ``spec``): {ω_d rad/s: current per volt
+    A/V}."""
+    if not available():
+        raise SimulatorMissing(f"{VENV_PYTHON.parent.parent} is missing or unfinished: run "
+                               ".ci/setup-motulator")
+    proc = subprocess.run([str(VENV_PYTHON), str(LOOP_RESPONSE)], input=json.dumps(spec),
+                          text=True, capture_output=True, timeout=timeout_s,
+                          env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"})
+    if proc.returncode != 0:
+        raise RuntimeError(f"motulator loop response failed (exit {proc.returncode}):\n"
+                           f"{proc.stderr[-3000:]}")
+    return {row["frequency_rad_s"]: complex(*row["response_a_per_v"])
+            for row in json.loads(proc.stdout)["responses"]}
 
 
 def restate(out_dir: str | Path) -> Path:

@@ -230,6 +230,11 @@ def test_simulated_bench_builds_its_loop_from_the_bench_file():
             {"drive": {"current_loop_bandwidth_hz": 5000.0}}))
     with pytest.raises(InputError, match="current_loop_design"):
         default_sim_bench().with_overrides({"drive": {"current_loop_design": "pole-placement"}})
+    # a 2-DOF loop is a bench-file design (hil.current_loop) the twin does not run: refused with
+    # the plant that runs it
+    two_dof = default_sim_bench().with_overrides({"drive": {"current_loop_design": "2dof"}})
+    with pytest.raises(InputError, match="2dof.*motulator"):
+        twin_config(two_dof)
 
 
 @pytest.mark.parametrize("delay", [0.0, 0.5, 1.5])

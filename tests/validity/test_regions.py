@@ -171,3 +171,20 @@ def test_region_dict_is_json_safe():
     table = {name: region.to_dict() for name, region in validity.REGIONS.items()}
     assert json.loads(json.dumps(table, allow_nan=False))["encoder"]["speed_rpm"] == [0.0, 60.0]
     assert table["dc_offset"]["speed_rpm"] == [0.0, None]
+
+
+def test_a_2dof_loop_is_judged_by_the_dead_time_model_and_refused_by_the_pi_only_models():
+    """A bench stating current_loop_design = "2dof" (issue 30, motulator's loop): the dead-time
+    plan predicts with that design; the PWM-resolution and word-length models represent a PI
+    only, so their points are not determinable here with that reason (they would take the 2-DOF
+    loop's integral action α_c²·L for R·ω_c); on the stated PI nothing is refused for it."""
+    pi = at(1000.0, 20.0)
+    two_dof = pi.with_overrides({"drive": {"current_loop_design": "2dof"}})
+    dead = test_dead_time.plan(two_dof, {"dead_time_s": 2e-6})
+    assert dead.prediction_params["current_loop_design"] == "2dof"
+    assert validity.loop_design_problems(dead, two_dof) == []
+    for module, injection in ((test_pwm_resolution, {"pwm_period_counts": 64}),
+                              (test_word_length, {"word_length_bits": 12})):
+        found = validity.problems(module.plan(two_dof, injection), two_dof)
+        assert any("current loop design outside" in p and "'2dof'" in p for p in found), found
+        assert validity.loop_design_problems(module.plan(pi, injection), pi) == []
