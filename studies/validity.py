@@ -88,7 +88,9 @@ RUN_TIMEOUT_S = 1200.0
 
 #: Actual-vs-nameplate deviation sets (issue 29): multiples of the bench file's [motor] R, L, Ke,
 #: [drive] loop bandwidth and [torque] bandwidth; ``l_sat_at`` puts the saturation current at that
-#: multiple of the point's current (L(|i|) = L/(1 + (|i|/i_sat)²): 2 → L × 0.8 at the point);
+#: multiple of ``SATURATION_REFERENCE_A`` (L(|i|) = L/(1 + (|i|/i_sat)²): 2 → L × 0.8 at 20 A,
+#: × 0.985 at 5 A; relative to the point's current it made a 5 A point's motor saturate to
+#: L × 0.2 at the 20 A other plans use, and its loop, tuned on the nameplate, went unstable);
 #: ``warming_pu``: the winding's steady rise at the point's current (τ = ``WARMING_TAU_S``).
 DEVIATIONS: dict[str, dict] = {
     "warm_saturated": {"r": 1.30, "l": 1.00, "l_sat_at": 2.0, "ke": 0.96},
@@ -97,6 +99,8 @@ DEVIATIONS: dict[str, dict] = {
     "warming": {"r": 1.00, "l": 1.00, "l_sat_at": 3.0, "ke": 0.98, "loop": 1.10,
                 "transducer": 0.85, "warming_pu": 0.20},
 }
+#: The current (peak A) at which ``l_sat_at`` is set: the study's high-current points'.
+SATURATION_REFERENCE_A = 20.0
 #: The winding's thermal time constant of the warming set, s (a run's captures last seconds)
 WARMING_TAU_S = 2.0
 #: Six points per motor for the deviation axis: both directions, low and high current, near
@@ -147,7 +151,7 @@ def actual_table(table: dict, deviation: str, current_a: float) -> dict:
               "phase_inductance_h": motor["phase_inductance_h"] * dev["l"],
               "ke_v_s_per_rad": motor["ke_v_s_per_rad"] * dev["ke"]}
     if "l_sat_at" in dev:
-        actual["saturation_current_a"] = dev["l_sat_at"] * abs(current_a)
+        actual["saturation_current_a"] = dev["l_sat_at"] * SATURATION_REFERENCE_A
     if "loop" in dev:
         actual["current_loop_bandwidth_hz"] = drive["current_loop_bandwidth_hz"] * dev["loop"]
     if "transducer" in dev:

@@ -89,8 +89,8 @@ def test_deviation_sets_span_the_nameplate_errors_a_real_bench_has():
 @pytest.mark.parametrize("deviation", ["warm_saturated", "warming", "cold_fast"])
 def test_a_deviation_is_the_bench_files_physics_not_its_nameplate(tmp_path, deviation):
     """The bench copy keeps the motor's nameplate in [motor] and puts the deviation in
-    [simulation.actual], which the loader accepts; the saturation and the warming are set
-    relative to the point's current."""
+    [simulation.actual], which the loader accepts; the saturation current is set at 20 A, the
+    warming at the point's current."""
     from hil.config import load_bench
 
     study = load_study()
@@ -102,8 +102,9 @@ def test_a_deviation_is_the_bench_files_physics_not_its_nameplate(tmp_path, devi
     actual = config.sim_actual
     assert actual["phase_resistance_ohm"] == pytest.approx(stated.phase_resistance_ohm * dev["r"])
     assert actual["ke_v_s_per_rad"] == pytest.approx(stated.ke_v_s_per_rad * dev["ke"])
-    if "l_sat_at" in dev:
-        saturated = 1 / (1 + (20.0 / actual["saturation_current_a"]) ** 2)
-        assert saturated == pytest.approx(1 / (1 + 1 / dev["l_sat_at"] ** 2))
+    if "l_sat_at" in dev:     # set at 20 A, whatever the point's current
+        assert actual["saturation_current_a"] == pytest.approx(20.0 * dev["l_sat_at"])
+        low_point = study.actual_table(study.bench_table("p8_48v", 250.0, 5.0), deviation, 5.0)
+        assert low_point["saturation_current_a"] == actual["saturation_current_a"]
     if "warming_pu" in dev:
         assert actual["winding_rise_pu_per_a2"] * 20.0 ** 2 == pytest.approx(dev["warming_pu"])
