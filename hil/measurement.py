@@ -210,7 +210,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         if plan.rule is not None:
             op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
                                 current_angle_rad=plan.current_angle_rad, motor=bench.config.motor,
-                                loop_tuning=_loop_tuning(bench))
+                                loop_tuning=loop_tuning_of(bench))
             prediction = _predict(plan, op)
             nameplate_nm = op.mean_torque_nm
             predicted_pu = judged_prediction_pu(prediction, plan.rule) * (
@@ -261,7 +261,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
                         checks or [], phase_verdict)
 
 
-def _loop_tuning(bench: Bench):
+def loop_tuning_of(bench: Bench):
     """The R and L the drive's loop was designed with when the bench's motor was measured to
     differ (``hil.characterisation``): the stated ``[motor]`` the drive was configured from;
     None otherwise (the models' pole-zero cancellation)."""

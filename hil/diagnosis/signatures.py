@@ -123,6 +123,9 @@ class DriveSetup:
     #: variants include both forms (:meth:`loop_variants`), the drive runs one of them ("unknown":
     #: its family's bandwidths 0.5-5× already span a factor 1.6 of the integral action).
     current_loop_integrator_realised: bool = False
+    #: The R and L the drive's loop gains were set from when the motor was measured to differ
+    #: (the stated [motor] a drive was configured from, issue 29); None: ``motor``'s own.
+    loop_tuning: MotorParameters | None = None
 
     def __post_init__(self) -> None:
         if self.current_loop_design not in LOOP_DESIGNS:
@@ -224,7 +227,8 @@ class DriveSetup:
 def operating_point(speed_rpm: float, current_a: float, current_angle_rad: float,
                     setup: DriveSetup) -> OperatingPoint:
     return OperatingPoint(speed_rpm=speed_rpm, current_a=current_a,
-                          current_angle_rad=current_angle_rad, motor=setup.motor)
+                          current_angle_rad=current_angle_rad, motor=setup.motor,
+                          loop_tuning=setup.loop_tuning)
 
 
 def discrete_pi_gains(resistance_ohm: float, inductance_h: float, bandwidth_rad_s: float,
@@ -241,8 +245,9 @@ def discrete_pi_gains(resistance_ohm: float, inductance_h: float, bandwidth_rad_
 def loop_gain(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
     """Loop gain (controller's feedback part × delay × plant) of a concrete design at
     rotor-frame frequencies ω ≠ 0 (rad/s; array or number), module docstring."""
-    motor = op.motor
+    motor, tuned = op.motor, op.loop_motor      # the plant; the motor the gains were set from
     r, l = motor.phase_resistance_ohm, motor.phase_inductance_h
+    r_t, l_t = tuned.phase_resistance_ohm, tuned.phase_inductance_h
     w_e = op.elec_speed_rad_s
     w = np.asarray(rotor_frequency_rad_s, dtype=float)
     s = 1j * w
@@ -251,19 +256,20 @@ def loop_gain(rotor_frequency_rad_s, op: OperatingPoint, setup: DriveSetup):
                           setup.current_loop_angle_compensation)
     if design == "discrete":
         period = 1.0 / setup.pwm_frequency_hz
-        kp, ki = discrete_pi_gains(r, l, 2 * math.pi * setup.current_loop_bandwidth_hz, period)
+        kp, ki = discrete_pi_gains(r_t, l_t, 2 * math.pi * setup.current_loop_bandwidth_hz,
+                                   period)
         z = np.exp(s * period)
         controller = kp + ki * period * z / (z - 1.0)
     elif design in ("continuous", "2dof"):   # hil.current_loop's equations
-        gains = loop_gains(design, setup.current_loop_bandwidth_hz, resistance_ohm=r,
-                           inductance_h=l, elec_speed_rad_s=w_e)
+        gains = loop_gains(design, setup.current_loop_bandwidth_hz, resistance_ohm=r_t,
+                           inductance_h=l_t, elec_speed_rad_s=w_e)
         if not setup.current_loop_integrator_realised:
             gains = replace(gains, realised_feedback_per_s=0j)
         controller = controller_response(gains, w, delay)
     else:
         raise InputError(f"loop_gain needs a concrete design, got {design!r}")
     if setup.current_loop_decoupling:
-        controller = controller - 1j * w_e * l
+        controller = controller - 1j * w_e * l_t
     return controller * delay / (r + l * (s + 1j * w_e))
 
 
