@@ -23,11 +23,15 @@ pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The simulated transducer in a process of its own; prints its pty and stops when stdin closes.
+#: Its engine is loaded before it serves (loading numba's cache took 0.7-0.96 s in the first
+#: answer, beyond the driver's 0.5 s: the line failed "before the kill" on an idle machine).
 SERVER = textwrap.dedent(f"""
     import sys
     sys.path.insert(0, {str(ROOT / "tests" / "drivers_daq")!r})
     from daq_twin import make_twin
+    from hil.sim.warmup import prepare_twin_engine
     from ripple_hil_drivers.simulated.transducer_pty import SimulatedTransducer
+    prepare_twin_engine()      # as SimulatedBench.start: the engine loaded before serving
     sim = SimulatedTransducer(make_twin()).start()
     print(sim.port, flush=True)
     sys.stdin.read()
