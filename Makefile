@@ -4,6 +4,8 @@ PYTHON ?= python3
 VENV := .venv
 STAMP := $(VENV)/.installed-stamp
 BIN := $(VENV)/bin
+# pytest-xdist workers for `make test` (tests/conftest.py schedules them: shared fixtures built once)
+TEST_WORKERS ?= 2
 
 .PHONY: run test bench clean
 
@@ -19,7 +21,7 @@ run: $(STAMP)
 
 test: $(STAMP)
 	.ci/setup-motulator
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n $(TEST_WORKERS)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks

@@ -1,5 +1,12 @@
 """Fixtures shared by the test folders: a simulated bench over the real stacks, a run record."""
 
+import functools
+import os
+import re
+import shutil
+import tempfile
+from pathlib import Path
+
 import pytest
 
 from hil.bench import Bench
@@ -30,3 +37,75 @@ def run_record(tmp_path, sim_bench):
     yield record
     if record.status == "running":
         record.finish("complete")
+
+
+#: Folders whose conftest gives a costly session-scoped fixture: a PostgreSQL server and a
+#: default run's records (results), Dask clusters (campaign), the twin's compiled engine loaded
+#: before the first capture (drivers_daq, drivers_transducer). Each runs whole on one worker.
+SHARED_SESSION_FOLDERS = ("tests/campaign", "tests/drivers_daq", "tests/drivers_transducer",
+                          "tests/results")
+#: Folders of whole runs, benches and independent simulators: their tests start first, so the
+#: quick unit tests fill the workers' tails.
+LONG_RUNNING_FOLDERS = ("tests/independent", "tests/integration", "tests/mutations",
+                        "tests/results", "tests/campaign", "tests/station", "tests/validity",
+                        "tests/characterisation", "tests/sim", "tests/plans", "tests/reports")
+_SHARED_FIXTURES = re.compile(r"scope\s*=\s*[\"'](module|class|package)[\"']|def setup_module")
+
+
+def _in(folders: tuple[str, ...], nodeid: str) -> str | None:
+    return next((f for f in folders if nodeid.startswith(f + "/")), None)
+
+
+@functools.lru_cache(maxsize=None)
+def _file_shares_fixtures(rootdir: Path, path: str) -> bool:
+    return bool(_SHARED_FIXTURES.search((rootdir / path).read_text(encoding="utf-8")))
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """``make test``'s pytest-xdist scheduling: a folder of SHARED_SESSION_FOLDERS goes whole to
+    one worker, a file with module-scoped fixtures whole to one worker (each is built once), any
+    other test to whichever worker is free; the LONG_RUNNING_FOLDERS start first."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    rootdir = config.rootpath
+    config.option.loadscopereorder = False          # the order below instead
+
+    class FolderFileOrTest(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            path = nodeid.split("::")[0]
+            folder = _in(SHARED_SESSION_FOLDERS, nodeid)
+            if folder:
+                return folder
+            return path if _file_shares_fixtures(rootdir, path) else nodeid
+
+        def schedule(self) -> None:
+            if self.collection is None and self.collection_is_completed:
+                for node, collected in list(self.registered_collections.items()):
+                    self.registered_collections[node] = sorted(
+                        collected, key=lambda nodeid: _in(LONG_RUNNING_FOLDERS, nodeid) is None)
+            super().schedule()
+
+    return FolderFileOrTest(config, log)
+
+
+_WORKER_TMP = pytest.StashKey[str]()
+
+
+def pytest_configure(config):
+    """Each pytest-xdist worker gets a temporary folder of its own (``TMPDIR``, inherited by the
+    runs it starts): the station's one-run-per-bench lock lives there, and two workers' stations,
+    each with its own in-process simulated bench, are two computers, not one bench twice."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    if worker:
+        folder = tempfile.mkdtemp(prefix=f"ripple-hil-tests-{worker}-")
+        os.chmod(folder, 0o755)     # the test PostgreSQL server runs as the postgres user
+        config.stash[_WORKER_TMP] = folder
+        os.environ["TMPDIR"] = folder
+        tempfile.tempdir = None
+
+
+def pytest_unconfigure(config):
+    folder = config.stash.get(_WORKER_TMP, None)
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)
+
