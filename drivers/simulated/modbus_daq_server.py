@@ -66,6 +66,7 @@ from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ModbusIOException
 from pymodbus.pdu import ExceptionResponse
 from pymodbus.pdu.file_message import FileRecord, ReadFileRecordRequest, ReadFileRecordResponse
+from pymodbus.pdu.register_message import ReadHoldingRegistersResponse, ReadInputRegistersResponse
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
@@ -82,6 +83,8 @@ SPEED_APPLY_WAIT_S = 0.05
 _INPUT_FC = 4
 _REGISTER_FCS = (3, 4, 6, 16)
 _WRITE_FCS = (6, 16)
+_READ_FCS = (3, 4)
+_READ_RESPONSES = {3: ReadHoldingRegistersResponse, 4: ReadInputRegistersResponse}
 _BIT_FCS = (1, 2, 5, 15)
 #: Function codes pymodbus passes to the device's registers (the device refuses all but 3/4/6/16).
 _DATASTORE_FCS = (*_REGISTER_FCS, *_BIT_FCS, 22, 23)
@@ -698,7 +701,8 @@ class SimulatedDaq:
         else:
             self._server = _InOrderTcpServer(device, address=(self._host, self._port),
                                              trace_packet=self._trace_packet)
-        self._server.daq_device = self.device       # answers Read File Record (0x14)
+        self._server.daq_device = self.device       # answers register reads and Read File
+        self._server.daq_unit_id = self.unit_id     # Record (0x14) itself
         self._server.decoder.register(_FileRecordRequest)
         await self._server.serve_forever(background=True)
         if self._bridge is None:
@@ -751,7 +755,9 @@ class _InOrderRequestHandler(ServerRequestHandler):
         try:
             while self._queue:
                 self.last_pdu, self.last_addr = self._queue.popleft()
-                if self.last_pdu.function_code in _DATASTORE_FCS:
+                if self._is_register_read(self.last_pdu):
+                    self.server_send(self._register_read(self.last_pdu), self.last_addr)
+                elif self.last_pdu.function_code in _DATASTORE_FCS:
                     await self.handle_request()
                 elif self.last_pdu.function_code == ReadFileRecordRequest.function_code:
                     self.server_send(self._file_records(self.last_pdu), self.last_addr)
@@ -764,6 +770,25 @@ class _InOrderRequestHandler(ServerRequestHandler):
         finally:
             self._draining = False
 
+
+    def _is_register_read(self, request) -> bool:
+        return request.function_code in _READ_FCS and \
+            request.dev_id == self.server.daq_unit_id
+
+    def _register_read(self, request):
+        """The answer to a Read Holding/Input Registers request, straight from the DAQ device
+        (the same words and exceptions pymodbus's datastore would pass on, without copying
+        them through its register image: the capture buffer is read this way)."""
+        try:
+            words = self.server.daq_device.handle(request.function_code, request.address,
+                                                  request.count)
+        except Refusal as refusal:
+            answer = ExceptionResponse(request.function_code, ExcCodes(refusal.code))
+        else:
+            answer = _READ_RESPONSES[request.function_code](registers=words)
+        answer.transaction_id = request.transaction_id
+        answer.dev_id = request.dev_id
+        return answer
 
     def _file_records(self, request: _FileRecordRequest):
         """The answer to a Read File Record request: each sub-request's words from the DAQ
