@@ -21,6 +21,8 @@ from pathlib import Path
 from hil.errors import InputError
 
 ENV_VAR = "RIPPLE_HIL_RESULTS_DB"
+#: URLs that switch the results database off.
+DISABLED = ("off", "none")
 DEFAULT_FILE = "results.sqlite"
 #: Seconds a PostgreSQL connection attempt may take before the database counts as down.
 CONNECT_TIMEOUT_S = 3
@@ -44,6 +46,11 @@ def resolve_url(cli_url: str | None = None, bench_file: str | Path | None = None
         if url:
             return normalise_url(url)
     return f"sqlite:///{Path(records_dir).resolve() / DEFAULT_FILE}"
+
+
+def is_disabled(url: str) -> bool:
+    """``url`` (as :func:`resolve_url` gives it) switches the results database off."""
+    return url.strip().lower() in DISABLED
 
 
 def bench_results_url(bench_file: str | Path) -> str | None:

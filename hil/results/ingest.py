@@ -17,14 +17,13 @@ from pathlib import Path
 from hil.errors import HilError, InputError
 from hil.record import RECORD_FILE, SEAL_FILE, load_record, verify_record
 from hil.results import extract
+from hil.results.db import is_disabled
 from hil.results.schema import (diagnosis_estimates, point_orders, points, requirement_verdicts,
                                 runs)
 
 log = logging.getLogger("hil.results")
 #: Seconds ``index_after_run`` lets indexing take before leaving the record to ``hil db sync``.
 AFTER_RUN_TIMEOUT_S = 5.0
-#: ``--results-db`` / ``RIPPLE_HIL_RESULTS_DB`` values that turn indexing after a run off.
-DISABLED = ("off", "none")
 
 
 def record_folder(path: str | Path) -> Path:
@@ -146,7 +145,7 @@ def index_after_run(record_dir: str | Path, url: str | None = None, *,
     record stays for ``hil db sync``."""
     import sys
 
-    if url is not None and url.strip().lower() in DISABLED:
+    if url is not None and is_disabled(url):
         return False
     outcome: list = []
 
@@ -156,7 +155,7 @@ def index_after_run(record_dir: str | Path, url: str | None = None, *,
 
             folder = record_folder(record_dir)
             target = resolve_url(url, bench_file, folder.parent)
-            if target.strip().lower() in DISABLED:
+            if is_disabled(target):
                 outcome.append("disabled")
                 return
             outcome.append(ingest_record(engine_for(target), folder))
