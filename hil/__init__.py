@@ -9,7 +9,3 @@ inside this package, so it is always imported first (issue 22.9: a warning on ev
 """
 
 __version__ = "0.1.0"
-
-from ripple_hil_drivers.python_can import install as _install_python_can_hook
-
-_install_python_can_hook()

@@ -52,8 +52,9 @@ LONG_RUNNING_FOLDERS = ("tests/independent", "tests/integration", "tests/mutatio
 _SHARED_FIXTURES = re.compile(r"scope\s*=\s*[\"'](module|class|package)[\"']|def setup_module")
 
 
-def _in(folders: tuple[str, ...], nodeid: str) -> str | None:
-    return next((f for f in folders if nodeid.startswith(f + "/")), None)
+def _in(folders: tuple[str, ...], scope: str) -> bool:
+    """``scope`` (a node id, a file or a folder) lies in one of ``folders``."""
+    return any(scope == f or scope.startswith(f + "/") for f in folders)
 
 
 @functools.lru_cache(maxsize=None)
@@ -61,29 +62,35 @@ def _file_shares_fixtures(rootdir: Path, path: str) -> bool:
     return bool(_SHARED_FIXTURES.search((rootdir / path).read_text(encoding="utf-8")))
 
 
+@pytest.hookimpl(optionalhook=True)                   # a hook of pytest-xdist's
 def pytest_xdist_make_scheduler(config, log):
     """``make test``'s pytest-xdist scheduling: a folder of SHARED_SESSION_FOLDERS goes whole to
     one worker, a file with module-scoped fixtures whole to one worker (each is built once), any
-    other test to whichever worker is free; the LONG_RUNNING_FOLDERS start first."""
+    other test to whichever worker is free; the LONG_RUNNING_FOLDERS start first, each group in
+    xdist's own order (most tests first)."""
     from xdist.scheduler import LoadScopeScheduling
 
     rootdir = config.rootpath
-    config.option.loadscopereorder = False          # the order below instead
 
     class FolderFileOrTest(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
             path = nodeid.split("::")[0]
-            folder = _in(SHARED_SESSION_FOLDERS, nodeid)
+            folder = next((f for f in SHARED_SESSION_FOLDERS if _in((f,), path)), None)
             if folder:
                 return folder
             return path if _file_shares_fixtures(rootdir, path) else nodeid
 
-        def schedule(self) -> None:
-            if self.collection is None and self.collection_is_completed:
-                for node, collected in list(self.registered_collections.items()):
-                    self.registered_collections[node] = sorted(
-                        collected, key=lambda nodeid: _in(LONG_RUNNING_FOLDERS, nodeid) is None)
-            super().schedule()
+        def _assign_work_unit(self, node) -> None:
+            # the work queue (scope -> node ids) is complete before the first assignment; only
+            # its order changes here (the workers' collections must stay as they were collected:
+            # xdist names a test to a worker by its index in them)
+            if not getattr(self, "_long_first", False):
+                self._long_first = True
+                units = sorted(self.workqueue.items(),
+                               key=lambda unit: not _in(LONG_RUNNING_FOLDERS, unit[0]))
+                self.workqueue.clear()
+                self.workqueue.update(units)
+            super()._assign_work_unit(node)
 
     return FolderFileOrTest(config, log)
 

@@ -227,6 +227,12 @@ class DaqDevice:
                 self._set("dyno_speed_setpoint_rpm", self._speed_setpoint_rpm)
             return [image[a] for a in range(address, address + count)]
 
+    def maps(self, function_code: int, address: int, count: int) -> bool:
+        """Every register of a read (function code 3 or 4) is in the map."""
+        image = self._image["input" if function_code == _INPUT_FC else "holding"]
+        return 1 <= count <= 125 and address in image and address + count - 1 in image and \
+            all(a in image for a in range(address, address + count))
+
     def read_file_record(self, file: int, record: int, count: int) -> list[int]:
         """One Read File Record (0x14) sub-request on a ``file_record`` map: the buffer words
         at (file, record) as its ``[transfer]`` lays them out; raises Refusal like the spec
@@ -772,8 +778,11 @@ class _InOrderRequestHandler(ServerRequestHandler):
 
 
     def _is_register_read(self, request) -> bool:
+        """A Read Holding/Input Registers request for this unit within the map (anything else
+        takes pymodbus's own path, which refuses an unmapped address before the device)."""
         return request.function_code in _READ_FCS and \
-            request.dev_id == self.server.daq_unit_id
+            request.dev_id == self.server.daq_unit_id and \
+            self.server.daq_device.maps(request.function_code, request.address, request.count)
 
     def _register_read(self, request):
         """The answer to a Read Holding/Input Registers request, straight from the DAQ device
@@ -784,6 +793,9 @@ class _InOrderRequestHandler(ServerRequestHandler):
                                                   request.count)
         except Refusal as refusal:
             answer = ExceptionResponse(request.function_code, ExcCodes(refusal.code))
+        except Exception:  # noqa: BLE001 - as pymodbus's handler: the device failed
+            log.exception("simulated DAQ: register read failed")
+            answer = ExceptionResponse(request.function_code, ExcCodes.DEVICE_FAILURE)
         else:
             answer = _READ_RESPONSES[request.function_code](registers=words)
         answer.transaction_id = request.transaction_id

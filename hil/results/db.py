@@ -44,7 +44,7 @@ def resolve_url(cli_url: str | None = None, bench_file: str | Path | None = None
     if bench_file is not None:
         url = bench_results_url(bench_file)
         if url:
-            return normalise_url(url)
+            return url if is_disabled(url) else normalise_url(url)
     return f"sqlite:///{Path(records_dir).resolve() / DEFAULT_FILE}"
 
 

@@ -112,6 +112,18 @@ def test_url_precedence(tmp_path, monkeypatch):
     assert resolve_url("x.sqlite", bench, tmp_path).endswith("/x.sqlite")
 
 
+def test_off_in_the_bench_file_is_off(tmp_path, monkeypatch):
+    """``[results] url = "off"`` switches indexing off like ``--results-db off`` (it had become
+    the SQLite file ``<cwd>/off``)."""
+    from hil.results.db import is_disabled
+
+    bench = tmp_path / "bench.toml"
+    bench.write_text('[results]\nurl = "off"\n')
+    monkeypatch.delenv(ENV_VAR, raising=False)
+    assert is_disabled(resolve_url(None, bench, tmp_path))
+    assert not is_disabled(resolve_url(None, None, tmp_path))
+
+
 def test_export_csv_and_parquet(tmp_path, sqlite_url):
     from hil.results.export import export_tables
 
