@@ -404,6 +404,21 @@ class BenchConfig:
     sim_actual: dict = field(default_factory=dict)
     #: ``[simulation] plant``: who computes the simulated instruments' samples (``hil.plants``)
     sim_plant: str = "ripple-hil"
+    #: The ``[motor]`` the drive's PI current loop was designed from (Kp = L·ωc, Ki = R·ωc) when
+    #: it is not :attr:`motor`: set by ``hil.characterisation.result.Characterisation.
+    #: measured_config`` to the stated nameplate when the measured motor differs (the drive was
+    #: configured from the nameplate); None: the motor's own (the models' pole-zero cancellation)
+    loop_tuning: MotorParameters | None = field(default=None, repr=False)
+
+    def model_point(self, speed_rpm: float, current_a: float, current_angle_rad: float = 0.0,
+                    **options):
+        """The models' ``hil.model.OperatingPoint`` on this bench: its motor and the motor its
+        loop was tuned on (:attr:`loop_tuning`); ``options``: the point's other fields."""
+        from hil.model import OperatingPoint
+
+        return OperatingPoint(speed_rpm=speed_rpm, current_a=current_a,
+                              current_angle_rad=current_angle_rad, motor=self.motor,
+                              loop_tuning=self.loop_tuning, **options)
 
     @classmethod
     def from_dict(cls, d: dict, *, source: str | None = None, sha256: str | None = None,

@@ -208,9 +208,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         settings = analysis_settings(plan, bench)
         result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
         if plan.rule is not None:
-            op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                                current_angle_rad=plan.current_angle_rad, motor=bench.config.motor,
-                                loop_tuning=loop_tuning_of(bench))
+            op = bench.config.model_point(plan.speed_rpm, plan.current_a, plan.current_angle_rad)
             prediction = _predict(plan, op)
             nameplate_nm = op.mean_torque_nm
             predicted_pu = judged_prediction_pu(prediction, plan.rule) * (
@@ -259,16 +257,6 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     record.add_test(entry)
     return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry, judged,
                         checks or [], phase_verdict)
-
-
-def loop_tuning_of(bench: Bench):
-    """The R and L the drive's loop was designed with when the bench's motor was measured to
-    differ (``hil.characterisation``): the stated ``[motor]`` the drive was configured from;
-    None otherwise (the models' pole-zero cancellation)."""
-    stated = getattr(bench, "stated_config", None)
-    if stated is None or stated.motor == bench.config.motor:
-        return None
-    return stated.motor
 
 
 def _torque_accuracy_nm(bench: Bench) -> float | None:
@@ -383,16 +371,16 @@ def analysed_order(order: float | None, plan: PointPlan, what: str = "point") ->
     return int(whole)
 
 
-def predicted_order(plan: PointPlan, motor) -> int | None:
-    """The order the plan's closed form predicts, numbered over the analysed period (None: no
-    single order); InputError where it is not whole (:func:`analysed_order`)."""
-    op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                        current_angle_rad=plan.current_angle_rad, motor=motor)
+def predicted_order(plan: PointPlan, config) -> int | None:
+    """The order the plan's closed form predicts on the bench ``config`` (a
+    ``hil.config.BenchConfig``), numbered over the analysed period (None: no single order);
+    InputError where it is not whole (:func:`analysed_order`)."""
+    op = config.model_point(plan.speed_rpm, plan.current_a, plan.current_angle_rad)
     return analysed_order(_predict(plan, op).order, plan)
 
 
 def _order_of(plan: PointPlan, bench: Bench) -> int | None:
-    order = predicted_order(plan, bench.config.motor)
+    order = predicted_order(plan, bench.config)
     return None if order is None or order > plan.max_order else order
 
 

@@ -140,7 +140,7 @@ def _order_problems(plan, config: BenchConfig) -> list[str]:
     from hil.measurement import predicted_order
 
     try:
-        order = predicted_order(plan, config.motor)
+        order = predicted_order(plan, config)
     except InputError as exc:
         return [f"prediction: {exc}"]
     if order is not None and order > plan.max_order:

@@ -286,12 +286,10 @@ def period_problems(plan, config: BenchConfig) -> list[str]:
         return []
     from hil.measurement import analysed_order
     from hil.measurement import _predict as predict_plan
-    from hil.model import OperatingPoint
 
     try:
-        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                            current_angle_rad=plan.current_angle_rad, motor=config.motor,
-                            allow_beyond_voltage_limit=True)
+        op = config.model_point(plan.speed_rpm, plan.current_a, plan.current_angle_rad,
+                                allow_beyond_voltage_limit=True)
         prediction = predict_plan(plan, op)
         analysed_order(prediction.order, plan)
     except InputError as exc:
@@ -374,12 +372,10 @@ def floor_problems(plan, config: BenchConfig, fraction: float = FLOOR_FRACTION) 
     from hil.measurement import BASELINE
     from hil.measurement import _predict as predict_plan   # the prediction measure_point judges
     from hil.measurement import judged_prediction_pu
-    from hil.model import OperatingPoint
 
     try:
-        op = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                            current_angle_rad=plan.current_angle_rad, motor=config.motor,
-                            allow_beyond_voltage_limit=True)
+        op = config.model_point(plan.speed_rpm, plan.current_a, plan.current_angle_rad,
+                                allow_beyond_voltage_limit=True)
         prediction = None if plan.source == BASELINE else predict_plan(plan, op)
     except InputError as exc:
         return [f"no prediction at this point: {exc}"]

@@ -158,11 +158,8 @@ def self_check_point(op):
     from hil.characterisation.result import torque_scale_tolerance_pu
 
     def checks(capture, result, plan, bench):
-        from hil.model import OperatingPoint
-
-        nameplate = OperatingPoint(speed_rpm=plan.speed_rpm, current_a=plan.current_a,
-                                   current_angle_rad=plan.current_angle_rad,
-                                   motor=bench.config.motor).mean_torque_nm
+        nameplate = bench.config.model_point(plan.speed_rpm, plan.current_a,
+                                             plan.current_angle_rad).mean_torque_nm
         pole_pairs = bench.config.motor.pole_pairs
         measured = torque_scale_tolerance_pu(bench, nameplate)    # K_t from the bench's ψ
         tolerance, basis = measured or (SELF_CHECK_TORQUE_TOL_PU, None)

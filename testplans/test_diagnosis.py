@@ -33,7 +33,7 @@ from hil.capture import Capture
 from hil.diagnosis import diagnose, spectra_from_captures
 from hil.diagnosis import additions
 from hil.diagnosis.bench_setup import check_setup_known, setup_from_bench_dict
-from hil.measurement import PointPlan, loop_tuning_of
+from hil.measurement import PointPlan
 from hil.outcome_kinds import not_determinable
 from hil.record import capture_path
 from ripple_hil_testplans import diagnosis_design as design
@@ -80,7 +80,7 @@ def _pairs(record, points) -> list:
 def test_diagnosis(bench, record):
     pairs = _pairs(record, POINTS)
     setup, class_pct = setup_from_bench_dict(bench.config.to_dict(),
-                                             loop_tuning=loop_tuning_of(bench))
+                                             loop_tuning=bench.config.loop_tuning)
     spectra = spectra_from_captures(pairs, max_mech_order=design.MAX_MECH_ORDER)
     result = diagnose(spectra, setup=setup, transducer_class_pct=class_pct)
     result.notes.extend(check_setup_known(setup))

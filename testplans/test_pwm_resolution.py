@@ -141,7 +141,6 @@ def test_pwm_resolution_noise(record, bench):
     noise model's range (simple acceptance, :func:`noise_decision`)."""
     from hil.analysis.nonsync import floor_removed, nonsynchronous_rms_of_capture
     from hil.capture import Capture
-    from hil.model import OperatingPoint
     from hil.measurement import DEFAULT_PWM_FREQUENCY_HZ
     from hil.model.pwm_noise import predict_noise
     from hil.outcome_kinds import MEASURED
@@ -164,8 +163,8 @@ def test_pwm_resolution_noise(record, bench):
         stat = nonsynchronous_rms_of_capture(capture, pole_pairs=pole_pairs,
                                              max_order=MAX_ORDER)
         point = entry["operating_point"]
-        op = OperatingPoint(speed_rpm=point["speed_rpm"], current_a=point["current_a"],
-                            current_angle_rad=point["current_angle_rad"], motor=config.motor)
+        op = config.model_point(point["speed_rpm"], point["current_a"],
+                                point["current_angle_rad"])
         model = predict_noise(op, entry["injection"]["pwm_period_counts"],
                               pwm_frequency_hz=entry["injection"].get(
                                   "pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ),

@@ -65,11 +65,10 @@ def rule_at(config, injection):
     the predicted order-1 ripple is below SIGNATURE_FLOOR_PU."""
     import dataclasses
 
-    from hil.model import OperatingPoint, predict
+    from hil.model import predict
 
     op = config.operating_point
-    point = OperatingPoint(speed_rpm=op.speed_rpm, current_a=op.current_a,
-                           current_angle_rad=op.current_angle_rad, motor=config.motor)
+    point = config.model_point(op.speed_rpm, op.current_a, op.current_angle_rad)
     predicted = predict("word_length", point, **injection,
                         **prediction_params(config)).extras["order1_pk_pk_pu"]
     if predicted < SIGNATURE_FLOOR_PU:

@@ -37,10 +37,13 @@ class Characterisation:
         """``stated`` (a ``hil.config.BenchConfig``) with :meth:`used`'s motor parameters in
         ``[motor]`` and the measured loop bandwidth in ``[drive]`` (where it disagrees beyond
         U): the bench as measured, which every plan's prediction, band and validity region then
-        read (the record keeps the stated file)."""
+        read (the record keeps the stated file). Where the motor changes, ``loop_tuning`` keeps
+        the stated one: the drive's PI gains were set from it."""
         changes = {name: value for name, value in self.used(stated).items()
                    if value != getattr(stated.motor, name)}
-        measured = replace(stated, motor=replace(stated.motor, **changes)) if changes else stated
+        measured = stated if not changes else replace(
+            stated, motor=replace(stated.motor, **changes),
+            loop_tuning=stated.loop_tuning or stated.motor)    # the drive's gains: its nameplate
         loop = self.loop_row(stated)
         if loop is not None and loop["disagrees"]:
             measured = replace(measured, drive=replace(

@@ -42,6 +42,7 @@ def test_the_plans_read_the_bench_as_measured_and_the_record_keeps_both(tmp_path
         gain = bench.characterisation.get("current_loop_gain_pu")    # the loop as documented
         assert abs(gain.value - 1.0) <= gain.expanded, gain          # (was 0.950 ± 0.017)
         assert bench.config.drive == bench.stated_config.drive
+        assert bench.config.loop_tuning == stated          # the drive's gains: its nameplate
     finally:
         record.finish("complete")
         bench.close()

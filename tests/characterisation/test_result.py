@@ -1,0 +1,42 @@
+"""The bench as measured (``Characterisation.measured_config``): the plans' models see the
+measured motor as the plant and the stated nameplate as the motor the drive's PI gains were
+designed from (the drive was configured from it; issue 29)."""
+
+from dataclasses import replace
+
+from hil.characterisation.identify import Identified
+from hil.characterisation.result import Characterisation
+from hil.config import default_sim_bench
+
+
+def _identified(name: str, value: float, u: float) -> Identified:
+    return Identified(name, value, u, "SI", "test")
+
+
+def test_a_motor_measured_off_its_nameplate_keeps_the_nameplate_as_the_loop_tuning():
+    stated = default_sim_bench()
+    warm_r = stated.motor.phase_resistance_ohm * 1.3
+    result = Characterisation(identified=(_identified("phase_resistance_ohm", warm_r, 1e-4),))
+    measured = result.measured_config(stated)
+    assert measured.motor.phase_resistance_ohm == warm_r
+    assert measured.loop_tuning == stated.motor
+    point = measured.model_point(500.0, 20.0)
+    assert point.motor == measured.motor and point.loop_motor == stated.motor
+
+
+def test_a_motor_the_measurement_confirms_has_no_separate_loop_tuning():
+    stated = default_sim_bench()
+    r = stated.motor.phase_resistance_ohm
+    result = Characterisation(identified=(_identified("phase_resistance_ohm", r * 1.001, r * 0.01),))
+    measured = result.measured_config(stated)
+    assert measured == stated and measured.loop_tuning is None
+    assert measured.model_point(500.0, 20.0).loop_motor == stated.motor
+
+
+def test_an_already_tuned_bench_keeps_its_tuning():
+    stated = default_sim_bench()
+    nameplate = replace(stated.motor, phase_inductance_h=stated.motor.phase_inductance_h * 1.1)
+    tuned = replace(stated, loop_tuning=nameplate)
+    result = Characterisation(identified=(
+        _identified("phase_resistance_ohm", stated.motor.phase_resistance_ohm * 1.3, 1e-4),))
+    assert result.measured_config(tuned).loop_tuning == nameplate
