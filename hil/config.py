@@ -536,7 +536,9 @@ class BenchConfig:
         """A new bench with ``changes`` merged into the file's tables and validated again.
 
         Example: ``bench.with_overrides({"daq": {"host": "127.0.0.1", "port": 5020}})``. The
-        ``sha256`` stays that of the original file; ``raw`` shows the merged tables.
+        ``sha256`` stays that of the original file; ``raw`` shows the merged tables. It rebuilds
+        from the file's tables: a bench as measured (``Characterisation.measured_config``) comes
+        back as stated, without its measured values and ``loop_tuning``.
         """
         merged = _deep_merge(self.raw, changes)
         return BenchConfig.from_dict(merged, source=self.source, sha256=self.sha256,

@@ -46,6 +46,9 @@ def phase_judge(rel_tol: float):
         drive = bench.config.drive
         loop_hz = (drive.current_loop_equivalent_bandwidth_hz()
                    if drive.current_loop_bandwidth_hz is not None else None)
+        tuned = bench.config.loop_tuning
+        if loop_hz is not None and tuned is not None:    # gains Kp = ωc·L_tuned on the plant's L:
+            loop_hz *= tuned.phase_inductance_h / bench.config.motor.phase_inductance_h  # crossover
         chain = chain_phase(order, plan.speed_rpm, bench.config.motor.pole_pairs,
                             transducer_bandwidth_hz=bench.config.torque.bandwidth_hz,
                             loop_bandwidth_hz=loop_hz, loop_delay_s=drive.current_loop_delay_s,

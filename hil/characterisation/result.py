@@ -36,8 +36,9 @@ class Characterisation:
     def measured_config(self, stated):
         """``stated`` (a ``hil.config.BenchConfig``) with :meth:`used`'s motor parameters in
         ``[motor]`` and the measured loop bandwidth in ``[drive]`` (where it disagrees beyond
-        U): the bench as measured, which every plan's prediction, band and validity region then
-        read (the record keeps the stated file). Where the motor changes, ``loop_tuning`` keeps
+        U): the bench as measured, which every plan's prediction and band then read (the record
+        keeps the stated file). The pre-flight's validity refusals are decided at collection,
+        before the stage, on the stated file. Where the motor changes, ``loop_tuning`` keeps
         the stated one: the drive's PI gains were set from it."""
         changes = {name: value for name, value in self.used(stated).items()
                    if value != getattr(stated.motor, name)}
@@ -89,6 +90,14 @@ class Characterisation:
             extra = [self.loop_row(stated), self.transducer_row(stated)]
             out["stated_vs_measured"] = self.stated_vs_measured(stated) + [
                 row for row in extra if row is not None]
+            tuned = self.measured_config(stated).loop_tuning
+            if tuned is not None:
+                out["loop_tuning"] = {
+                    "phase_resistance_ohm": tuned.phase_resistance_ohm,
+                    "phase_inductance_h": tuned.phase_inductance_h,
+                    "basis": "the models' PI gains (Kp = L·ωc, Ki = R·ωc) from the stated "
+                             "[motor] the drive was configured from; the plant is the measured "
+                             "motor"}
         return out
 
 

@@ -164,17 +164,18 @@ def q_axis_measurement_response(frequency_hz: np.ndarray, op: OperatingPoint,
                                 current_loop_delay_s: float = 0.0) -> np.ndarray:
     """G(ω): an error of the computed I_q at ``frequency_hz`` (rotor frame) → actual I_q error,
     magnitude and phase (module docstring, "Loop and transducer"); 1 without a loop stated
-    (ideal regulation)."""
+    (ideal regulation). The plant is ``op.motor``, the PI's gains those of ``op.loop_motor``
+    (the motor the drive was tuned on)."""
     f = np.asarray(frequency_hz, dtype=float)
     if not current_loop_bandwidth_hz:
         return np.ones_like(f, dtype=complex)
-    motor = op.motor
+    motor, tuned = op.motor, op.loop_motor
     wc = 2.0 * math.pi * current_loop_bandwidth_hz
     we = op.elec_speed_rad_s
 
     def tracking(s):
         plant = 1.0 / (motor.phase_resistance_ohm + motor.phase_inductance_h * (s + 1j * we))
-        controller = wc * (motor.phase_resistance_ohm + motor.phase_inductance_h * s) / s
+        controller = wc * (tuned.phase_resistance_ohm + tuned.phase_inductance_h * s) / s
         loop = controller * plant * np.exp(-(s + 1j * we) * current_loop_delay_s)
         return loop / (1.0 + loop)
 

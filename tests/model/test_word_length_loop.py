@@ -38,6 +38,19 @@ def test_measurement_response_is_the_first_order_loop_without_delay_or_rotation(
     assert q_axis_measurement_response(f, op, None) == pytest.approx(np.ones(3))
 
 
+def test_a_loop_tuned_on_another_motor_is_the_mistuned_first_order_loop():
+    """Gains from the nameplate (``loop_tuning``), plant L 25 % above it, no delay or rotation:
+    the loop gain is ωc·L_tuned/(L·s) (the PI's zero still cancels the pole when R/L matches),
+    a first-order loop of bandwidth 1600·L_tuned/L."""
+    nameplate = MotorParameters()
+    plant = dataclasses.replace(nameplate, phase_resistance_ohm=nameplate.phase_resistance_ohm
+                                * 1.25, phase_inductance_h=nameplate.phase_inductance_h * 1.25)
+    op = OperatingPoint(speed_rpm=1e-6, current_a=20.0, motor=plant, loop_tuning=nameplate)
+    f = np.array([10.0, 1280.0, 8000.0])
+    got = q_axis_measurement_response(f, op, 1600.0, 0.0)
+    assert got == pytest.approx(1.0 / (1.0 + 1j * f / 1280.0), rel=1e-6)
+
+
 def test_without_a_loop_or_transducer_the_model_is_the_ideal_regulation_form():
     """README figure of the derived model: 500 rpm, 20 A, 8 bits → 8.5 % [5.3, 11.6]."""
     op = OperatingPoint(speed_rpm=500.0, current_a=20.0)
