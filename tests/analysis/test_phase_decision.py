@@ -120,6 +120,32 @@ def test_the_plans_phase_judge_corrects_for_the_stated_transducer_and_needs_it()
     assert judge(lagging, prediction, plan, unstated) is None
 
 
+def test_the_loop_lag_bound_follows_a_loop_tuned_on_the_nameplate():
+    """A drive whose gains came from its nameplate (``loop_tuning``) on a motor measured with
+    L 25 % higher crosses over at ωc·L_tuned/L: the loop-lag bound is atan(f/1280 Hz), not
+    atan(f/1600 Hz)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from hil.config import default_sim_bench
+    from hil.model import predict
+    from ripple_hil_testplans.phase import phase_judge
+
+    stated = default_sim_bench()
+    plant = replace(stated.motor, phase_resistance_ohm=stated.motor.phase_resistance_ohm * 1.25,
+                    phase_inductance_h=stated.motor.phase_inductance_h * 1.25)
+    config = replace(stated, motor=plant, loop_tuning=stated.motor)
+    speed_rpm = ELECTRICAL_HZ * 60.0 / config.motor.pole_pairs
+    prediction = predict("dc_offset", config.model_point(speed_rpm, 20.0), ia_offset_a=0.2)
+    lag = math.atan(ELECTRICAL_HZ / config.torque.bandwidth_hz)
+    measured = result(1.0, {1: (0.02, prediction.extras["order_phase_rad"] - lag)})
+    verdict = phase_judge(0.2)(measured, prediction, SimpleNamespace(speed_rpm=speed_rpm),
+                               SimpleNamespace(config=config))
+    assert verdict.tolerance_rad == pytest.approx(math.asin(0.2) + lag + math.atan(
+        ELECTRICAL_HZ / 1280.0) + 2 * math.pi * ELECTRICAL_HZ * 75e-6 + math.pi
+        * config.motor.pole_pairs / 7200, rel=1e-6)
+
+
 def test_the_plans_phase_judge_uses_the_angle_reference():
     """Issue 30: on motulator's drive the angle channel reads θ₀ = 180° at phase a's back-EMF
     rising zero. With that reference (measured by the self-check, or stated) the order-1 phase
