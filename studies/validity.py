@@ -363,18 +363,18 @@ def _reason_kind(reason: str | None) -> str:
 
 def with_base(row: dict, base_json: Path, sources: set[str]) -> dict:
     """``row`` (a run of only ``sources``) completed with the other plans' tests of the same
-    motor and point in an earlier full study (``base_json``), which are kept as they were."""
+    motor, point and deviation in an earlier full study (``base_json``), kept as they were."""
     rows = json.loads(base_json.read_text())["rows"]
+    key = ("motor", "speed_rpm", "current_a", "deviation")
     for base in rows:
-        if (base["motor"], base["speed_rpm"], base["current_a"]) == \
-                (row["motor"], row["speed_rpm"], row["current_a"]):
+        if all(base.get(name) == row.get(name) for name in key):
             kept = [t for t in base["tests"] if t["source"] not in sources]
             rerun = [t for t in row["tests"] if t["source"] in sources]
             return {**row, "tests": kept + rerun,
                     "rerun": f"{', '.join(sorted(sources))} re-run; other plans from "
                              f"{base_json.name}"}
     raise SystemExit(f"{base_json}: no row for {row['motor']} {row['speed_rpm']:g} rpm "
-                     f"{row['current_a']:g} A")
+                     f"{row['current_a']:g} A (deviation {row.get('deviation')})")
 
 
 def main(argv=None) -> int:
