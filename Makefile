@@ -6,9 +6,6 @@ STAMP := $(VENV)/.installed-stamp
 BIN := $(VENV)/bin
 # pytest-xdist workers for `make test` (tests/conftest.py schedules them: shared fixtures built once)
 TEST_WORKERS ?= 2
-# Python caches compiled modules (and pytest its rewritten test plans) in __pycache__ even where
-# the environment turns that off: every `hil run` a test starts would compile the project again
-unexport PYTHONDONTWRITEBYTECODE
 
 .PHONY: run test bench clean
 
