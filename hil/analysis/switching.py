@@ -195,23 +195,24 @@ def effective_samples_per_period(sample_rate_hz: float, pwm_frequency_hz: float,
 def synchronous_grid(sample_rate_hz: float, pwm_frequency_hz: float, periods: int,
                      windows_per_revolution: float, revolutions: int = 8) -> bool:
     """Whether the windows' sample phases sit at (nearly) the same place against the carrier at
-    the same electrical angle in every revolution of a capture of ``revolutions``: every window
-    holds the same phases (G·f_s/f_pwm a whole number, the window-level twin of an integer
-    multiple), or their arrangement repeats every c windows and a revolution holds a whole
-    number of those cycles — or, with the rate rounded to whole Hz, nearly so. The corners the
-    samples miss move with the duty cycles, so the misses then form a pattern synchronous with
-    the rotor that the revolutions' average keeps (8-pole motor at 1000 rpm, 5 A, 20 kHz:
+    the same electrical angle in every revolution of a capture of ``revolutions``. The corners
+    the samples miss move with the duty cycles, so the misses then form a pattern synchronous
+    with the rotor that the revolutions' average keeps (8-pole motor at 1000 rpm, 5 A, 20 kHz:
     190 kHz in windows of 2 periods read an envelope of orders 3, 6, 9 with 1/7 of the order-6
     amplitude of the 10 kHz point, a wrong rejection on the signature); otherwise the
     arrangement at an angle changes from revolution to revolution and the average dithers the
     misses out.
 
-    The test: r revolutions later the window at the same angle is round(r·W) windows on (W
-    windows per revolution), its first sample moved by round(r·W)·G·f_s/f_pwm sample intervals;
-    over the capture's revolutions those offsets, modulo one interval, must leave no gap wider
-    than half an interval. 10-pole motor at 1200 rpm, 40 kHz, windows of 3 periods: 186667 Hz is 14/3·f_pwm
-    rounded to whole Hz, so every window held the same 14 phases but for a drift of 0.03 of an
-    interval over 8 revolutions; the envelope's order 6 read 3e-5 N·m where 0.9e-3 was due."""
+    Exactly: the same phases in every window (G·f_s/f_pwm whole), or an arrangement cycle
+    fitting a revolution a whole number of times. Nearly (a rate rounded to whole Hz, or the
+    beat of the window's phase grid, b = G·f_s − N·f_pwm with N = round(G·f_s/f_pwm), a whole
+    number of times f_e): at :data:`DITHER_ANGLES` angles of a revolution, where one window
+    holds fewer than :data:`DENSE_SAMPLES_PER_PERIOD` effective samples per period, the phases
+    of the windows at that angle in all the revolutions together must give at least
+    :data:`MIN_DITHER_RATIO` times one window's. 10-pole motor at 1200 rpm, 40 kHz,
+    windows of 3 periods: 186667 Hz (14/3·f_pwm + ⅓ Hz, b = 1 Hz) and 187 kHz (b = 1 kHz =
+    10·f_e) both repeat every revolution (ratio 1.08); the envelope's order 6 read 3e-5 N·m
+    where 1e-3 was due."""
     rate, pwm = float(sample_rate_hz), float(pwm_frequency_hz)
     cycles = periods * rate / pwm
     if abs(cycles - round(cycles)) < 1e-9 * max(1.0, cycles):
@@ -221,11 +222,42 @@ def synchronous_grid(sample_rate_hz: float, pwm_frequency_hz: float, periods: in
         per_cycle = windows_per_revolution / cycle
         if abs(per_cycle - round(per_cycle)) < 1e-6:
             return True
-    # the window at the same angle r revolutions on, and its first sample's offset (intervals)
-    later = np.round(windows_per_revolution * np.arange(max(1, revolutions)))
-    offsets = np.sort(np.mod(later * cycles, 1.0))
-    gaps = np.diff(np.concatenate([offsets, [offsets[0] + 1.0]]))
-    return float(gaps.max()) > 0.5
+    period_s = 1.0 / pwm
+    window_s = periods * period_s
+    offsets = np.round(windows_per_revolution * np.arange(max(1, revolutions))).astype(np.int64)
+    for angle in range(DITHER_ANGLES):
+        first = int(round(angle * windows_per_revolution / DITHER_ANGLES))
+        phases = [_window_phases(first + k, window_s, period_s, rate) for k in offsets]
+        single = period_s / _circular_gap(phases[0], period_s)
+        if single >= DENSE_SAMPLES_PER_PERIOD:
+            continue                # one window alone leaves no corner worth a pattern
+        union = period_s / _circular_gap(np.concatenate(phases), period_s)
+        if union / single < MIN_DITHER_RATIO:
+            return True
+    return False
+
+
+#: :func:`synchronous_grid`: angles of a revolution checked, and the least gain in effective
+#: samples per period the revolutions' union must bring (1: every revolution repeats the same
+#: arrangement; R: each of R revolutions adds its own).
+DITHER_ANGLES = 8
+MIN_DITHER_RATIO = 2.0
+#: ... applied where one window holds fewer effective samples per period than this (4 × the
+#: minimum: where :func:`capture_settings` stops looking for more).
+DENSE_SAMPLES_PER_PERIOD = 4 * MIN_EFFECTIVE_SAMPLES_PER_PERIOD
+
+
+def _window_phases(index: int, window_s: float, period_s: float, rate_hz: float) -> np.ndarray:
+    """Sample phases (s, mod T_s) of window ``index`` of a capture sampled from t = 0."""
+    first = math.ceil(index * window_s * rate_hz - 1e-9)
+    stop = math.ceil((index + 1) * window_s * rate_hz - 1e-9)
+    return np.mod(np.arange(first, stop) / rate_hz, period_s)
+
+
+def _circular_gap(phase_s: np.ndarray, period_s: float) -> float:
+    """Largest gap between phases on the circle of one PWM period."""
+    ordered = np.sort(phase_s)
+    return float(max(np.diff(ordered).max(initial=0.0), period_s - ordered[-1] + ordered[0]))
 
 
 def capture_effective_samples_per_period(sample_rate_hz: float, pwm_frequency_hz: float,
@@ -307,8 +339,7 @@ def capture_settings(speed_rpm: float, pole_pairs: int, pwm_frequency_hz: float,
         for q in fractions:
             rate = float(round(pwm_frequency_hz * (n + q)))   # a DAQ takes whole Hz
             revs = min(revolutions, int(buffer_samples * elec_hz / rate - 0.25))
-            if rate > max_sample_rate_hz or revs < min_revolutions \
-                    or synchronous_grid(rate, pwm_frequency_hz, periods, per_revolution, revs):
+            if rate > max_sample_rate_hz or revs < min_revolutions:
                 continue
             bound = min(effective_samples_per_period(rate, pwm_frequency_hz, g, windows=8)
                         for g in lengths)
@@ -316,6 +347,8 @@ def capture_settings(speed_rpm: float, pole_pairs: int, pwm_frequency_hz: float,
         for bound, revs, rate in sorted(candidates, reverse=True):
             if best_key is not None and (bound, revs) <= best_key:
                 break               # no other rate of this n can do better
+            if synchronous_grid(rate, pwm_frequency_hz, periods, per_revolution, revs):
+                continue
             effective = capture_effective_samples_per_period(
                 rate, pwm_frequency_hz, lengths, (revs + 0.25) * pwm_frequency_hz / elec_hz)
             key = (round(effective, 6), revs)

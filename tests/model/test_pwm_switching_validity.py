@@ -122,22 +122,26 @@ def test_no_rate_whose_sample_grid_is_synchronous_with_the_rotor():
     10 kHz): a wrong rejection on the signature. Such rates, and rates whose arrangement cycle
     fits a whole number of times in a revolution (500 rpm: 195 kHz repeats every 4 windows of
     5 periods, 120 per revolution), are not chosen; nor are rates that are so only nearly,
-    rounded to whole Hz: 193333 Hz is 29/3·20 kHz + 1/3 Hz, the same phases in every window of 3
-    periods but for a drift of 0.05 of a sample interval over 8 revolutions of 125 windows.
-    10-pole motor at 1200 rpm, 40 kHz: 186667 Hz (14/3·40 kHz) had been kept and the correct
-    drive's envelope lost its order 6 (3e-5 N·m where 1e-3 was due, "dominant order 2": a
-    wrong rejection); 187 kHz reads order 6 at 1e-3 N·m (hil run on that bench)."""
+    rounded to whole Hz, or whose window phase grid beats a whole number of times per
+    revolution. 10-pole motor at 1200 rpm, 40 kHz, windows of 3 periods: 186667 Hz (14/3·40 kHz
+    + ⅓ Hz) had been kept and the correct drive's envelope lost its order 6 (3e-5 N·m where
+    1e-3 was due, "dominant order 2": a wrong rejection); 187 kHz beats at 1 kHz = 10·f_e (the
+    12-pole motor at 1000 rpm read "dominant order 10" there); 187027 Hz reads order 6 at
+    0.95e-3 N·m (hil run on that bench)."""
     from hil.analysis.switching import synchronous_grid
 
+    per_revolution = 40_000.0 / 100.0 / 3
     assert synchronous_grid(190_000.0, 20_000.0, 2, 150.0)
     assert synchronous_grid(195_000.0, 20_000.0, 5, 120.0)
     assert synchronous_grid(193_333.0, 20_000.0, 3, 125.0)
-    assert synchronous_grid(186_667.0, 40_000.0, 3, 40_000.0 / 100.0 / 3)
+    assert synchronous_grid(186_667.0, 40_000.0, 3, per_revolution)
+    assert synchronous_grid(187_000.0, 40_000.0, 3, per_revolution)
     assert not synchronous_grid(193_514.0, 20_000.0, 3, 125.0)
-    assert not synchronous_grid(187_000.0, 40_000.0, 3, 40_000.0 / 100.0 / 3)
+    assert not synchronous_grid(187_027.0, 40_000.0, 3, per_revolution)
     for speed_rpm, pole_pairs, pwm_hz in ((1000.0, 4, 20_000.0), (500.0, 4, 20_000.0),
                                           (1200.0, 4, 40_000.0), (-500.0, 2, 10_000.0),
-                                          (1200.0, 5, 40_000.0), (1538.0, 2, 20_000.0)):
+                                          (1200.0, 5, 40_000.0), (1000.0, 6, 40_000.0),
+                                          (1538.0, 2, 20_000.0)):
         settings = capture_settings(speed_rpm, pole_pairs, pwm_hz, **DAQ)
         elec_hz = abs(speed_rpm) * pole_pairs / 60.0
         per_revolution = pwm_hz / (elec_hz * settings.window_periods)
