@@ -23,11 +23,13 @@ CASES = [
     # defect, plans run, plans that must fail (one run per defect: a run's fixed cost, the
     # bench's characterisation and self-check, is paid once)
     ({"ignore_injection": "*"}, INJECTION_PLANS, set(INJECTION_PLANS)),
-    # a PWM counter applied scaled: the non-synchronous noise check of the plan catches it
+    # every injection applied scaled; a PWM counter applied scaled: the plan's non-synchronous
+    # noise check catches it
     ({"injection_scale": 1.5}, ["dc_offset", "gain_mismatch", "dead_time", "pwm_resolution"],
      {"dc_offset", "gain_mismatch", "dead_time", "pwm_resolution"}),
     # a drive applying 70 % of the commanded dead time: inside the ±35 % pk-pk band; the order-6
-    # amplitude check (±15 %) and the sweep's slope catch it
+    # amplitude check (±15 %) and the sweep's slope catch it; 70 % of the PWM counter: the noise
+    # check
     ({"injection_scale": 0.7}, ["dead_time", "pwm_resolution"], {"dead_time", "pwm_resolution"}),
     ({"hidden_ia_offset_a": 0.3}, ["baseline", "dc_offset"], {"baseline", "dc_offset"}),
     ({"word_length_offset_bits": -2}, ["word_length"], {"word_length"}),
@@ -67,10 +69,9 @@ def test_a_daq_dropping_samples_stops_the_run_at_the_characterisation_stage(tmp_
 
 
 def test_the_same_plans_pass_on_the_drive_without_defects(tmp_path):
-    """The control: without a defect the plans the cases run pass (so a case's failure is the
-    defect's doing)."""
-    sources = ["self_check", "baseline", "dc_offset", "gain_mismatch", "dead_time",
-               "pwm_resolution"]
+    """The control: without a defect the plans the cases run pass, in the same runs (so a
+    case's failure is the defect's doing)."""
+    sources = ["self_check", "baseline", *INJECTION_PLANS]
     run = run_plans(sources, {}, tmp_path)
     assert failed_sources(run) == set(), run["output"]
     assert run["returncode"] == 0, run["output"]
