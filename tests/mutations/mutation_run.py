@@ -66,7 +66,8 @@ def refused_sources(run: dict) -> set[str]:
             if counts and not any(counts[o] for o in (*FAILED, "passed"))}
 
 
-def failed_sources(run: dict) -> set[str]:
-    """Sources with at least one failed or errored test in the record."""
+def failed_sources(run: dict, outcomes=FAILED) -> set[str]:
+    """Sources with at least one test of ``outcomes`` (default: failed or errored) in the
+    record; ``outcomes=("failed",)``: a verdict that failed, not a plan that broke."""
     return {source for source, counts in run["outcomes"].items()
-            if any(counts[o] for o in FAILED)}
+            if any(counts[o] for o in outcomes)}
