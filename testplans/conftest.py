@@ -29,12 +29,15 @@ def agreed_decision_rules(record):
 
 
 @pytest.fixture(autouse=True)
-def not_determinable_here(request, agreed_decision_rules):
-    """Skip a point the pre-flight found outside its plan's validity region (hil.validity), with
-    its reason, after the decision rules are in the record; nothing is sent to the drive."""
+def not_determinable_here(request, agreed_decision_rules, bench):
+    """Skip a point outside its plan's validity region (hil.validity), with its reason, after the
+    decision rules are in the record; nothing is sent to the drive. The region is that of the
+    bench as characterised (``bench.config``) where the characterisation changed it, else the
+    pre-flight's decision on the file as stated (fixtures/preflight.py ``refusal_on_bench``)."""
     from hil.outcome_kinds import not_determinable
-    from ripple_hil_fixtures.preflight import refusal_of
+    from ripple_hil_fixtures.preflight import refusal_on_bench
 
-    reason = refusal_of(request.node)
+    stated = getattr(bench, "stated_config", None) or bench.config
+    reason = refusal_on_bench(request.node, stated, bench.config)
     if reason is not None:
         pytest.skip(not_determinable(reason))

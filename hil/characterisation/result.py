@@ -37,8 +37,9 @@ class Characterisation:
         """``stated`` (a ``hil.config.BenchConfig``) with :meth:`used`'s motor parameters in
         ``[motor]`` and the measured loop bandwidth in ``[drive]`` (where it disagrees beyond
         U): the bench as measured, which every plan's prediction and band then read (the record
-        keeps the stated file). The pre-flight's validity refusals are decided at collection,
-        before the stage, on the stated file. Where the motor changes, ``loop_tuning`` keeps
+        keeps the stated file). The validity regions are decided on it too: the pre-flight's
+        refusals at collection, on the stated file, are decided again after the stage
+        (fixtures/preflight.py ``refusal_on_bench``). Where the motor changes, ``loop_tuning`` keeps
         the stated one: the drive's PI gains were set from it."""
         changes = {name: value for name, value in self.used(stated).items()
                    if value != getattr(stated.motor, name)}
