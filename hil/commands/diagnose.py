@@ -5,8 +5,8 @@ Each capture's operating point is what is stated for it (``FILE@CURRENT_A[,ANGLE
 (``<record>/captures/``), else its meta (simulated captures), else ``--current-a``; the speed is
 measured from the capture. Foreign files (CSV, ``.npz`` of arrays, MDF4, TDMS) are imported
 with :mod:`hil.capture_import`. The drive's current loop, the transducer's bandwidth and accuracy
-class come from the record's bench (or ``--bench FILE``), then the manifest's [drive]/[motor],
-then the options. Each capture's angle reference (hil/diagnosis/README.md) is stated
+class come from the record's bench as its run characterised it (or ``--bench FILE``), then the
+manifest's [drive]/[motor], then the options. Each capture's angle reference (hil/diagnosis/README.md) is stated
 (``--emf-a-zero-elec-deg``, the manifest), recorded (the capture's meta), measured from its phase
 currents, or unknown (no signed calibration then).
 """
@@ -71,16 +71,44 @@ def register(subparsers) -> None:
 
 
 def _bench_dict(args, records: list[dict | None]) -> dict:
+    """The bench the captures were taken on: ``--bench FILE``, else the record's bench *as
+    characterised* (:func:`as_characterised`), else the default simulated bench's motor."""
     if args.bench:
         from hil.config import load_bench
 
         return load_bench(args.bench).to_dict()
     for record in records:
         if record and isinstance(record.get("bench"), dict) and record["bench"].get("loaded"):
-            return record["bench"]["loaded"]
+            return as_characterised(record["bench"]["loaded"], record.get("characterisation"))
     from hil.config import default_sim_bench
 
     return {"motor": default_sim_bench().to_dict()["motor"]}
+
+
+#: The characterisation's parameters (``stated_vs_measured`` names) and where each sits in a bench
+#: dict: the same values the run's plans read (``Characterisation.measured_config``).
+CHARACTERISED_KEYS = {"ke_v_s_per_rad": "motor", "phase_resistance_ohm": "motor",
+                      "phase_inductance_h": "motor", "current_loop_bandwidth_hz": "drive",
+                      "bandwidth_hz": "torque"}
+
+
+def as_characterised(bench: dict, characterisation) -> dict:
+    """``bench`` (a record's ``bench.loaded``, the file as stated) with the values its run's
+    characterisation stage gave the plans (``predictions_use`` "measured"), and the stated
+    motor the drive's PI gains came from as ``loop_tuning`` where the motor changed: a diagnosis
+    of that run's captures then models the bench the plans judged, not its nameplate."""
+    rows = (characterisation or {}).get("stated_vs_measured") or []
+    used = {row["name"]: row["measured"] for row in rows
+            if row.get("predictions_use") == "measured" and row.get("name") in CHARACTERISED_KEYS}
+    if not used:
+        return bench
+    bench = {**bench, **{table: dict(bench.get(table) or {})
+                         for table in set(CHARACTERISED_KEYS.values())}}
+    if any(CHARACTERISED_KEYS[name] == "motor" for name in used):
+        bench["loop_tuning"] = dict(bench["motor"])
+    for name, value in used.items():
+        bench[CHARACTERISED_KEYS[name]][name] = value
+    return bench
 
 
 def run(args) -> int:
@@ -101,6 +129,8 @@ def run(args) -> int:
                "current_channel_u_a": args.current_channel_u_a,
                "dead_time_bound_s": args.dead_time_bound_s}
     setup_keys.update({k: v for k, v in options.items() if v is not None})  # options win
+    if bench.get("loop_tuning"):
+        setup_keys["loop_tuning"] = _motor(bench["loop_tuning"])
     setup, class_pct = setup_from_bench_dict(bench, **setup_keys)
     pairs = []
     for (capture, record, op), entry in zip(loaded, entries):
@@ -251,6 +281,15 @@ LOOP_DESIGN_KEYS = ("current_loop_design", "current_loop_decoupling",
                     "current_loop_emf_feedforward", "current_loop_angle_compensation",
                     "current_loop_delay_periods")
 SETUP_DRIVE_KEYS = ("pwm_frequency_hz", "dead_time_bound_s", "current_channel_u_a")
+
+
+def _motor(table: dict):
+    from dataclasses import fields
+
+    from hil.motor import MotorParameters
+
+    names = {f.name for f in fields(MotorParameters)}
+    return MotorParameters(**{k: v for k, v in table.items() if k in names})
 
 
 def _setup_keys(bench: dict, manifest) -> tuple[dict, list[str]]:
