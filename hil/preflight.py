@@ -10,8 +10,10 @@ alone, at collection time; nothing is sent to the bench:
   does not handle braking, the motor's voltage limit (dead time included), a capture the DAQ
   cannot hold or sample fast enough, a ripple below the bench's resolvable floor. That point is
   skipped as *not determinable here* with its reason (``fixtures/preflight.py``); the rest run.
-  The region is decided again after the characterisation stage, on the bench as characterised
-  (``refusal_on_bench``): a voltage limit or floor moves with the motor it is computed from.
+  For the shipped plans (their conftest's ``not_determinable_here``) the region is decided
+  again after the characterisation stage, on the bench as characterised
+  (``fixtures/preflight.py refusal_on_bench``): a voltage limit or floor moves with the motor it
+  is computed from. Other plan folders keep the collection-time decision.
   So is a point that needs a knob the drive under test cannot inject (its drive profile leaves
   the knob out, :func:`missing_knob_refusal`): "the drive under test has no <knob>".
 """

@@ -7,7 +7,8 @@ Table I at 20 A: its stated nameplate needs 6.73 V at 1650 rpm and 6.96 V at 172
 the 6.93 V of SVPWM at 12 V. A motor whose EMF is 4 % above its nameplate needs 6.95 V at
 1650 rpm: judged on the stated file, the saturated drive errored in every plan and voided the
 self-check (exit 1 on a correct drive). One 8 % below needs 6.5 V at 1720 rpm: refused on the
-stated file, though the bench can run it.
+stated file, though the bench can run it (and word length's rule, built from a prediction
+at the point, refused the whole run at collection).
 """
 
 import json
@@ -18,14 +19,14 @@ from hil.cli import main
 from hil.config import example_bench_path
 
 
-def _run(tmp_path, speed_rpm: float, actual_ke: float) -> tuple[int, dict]:
+def _run(tmp_path, speed_rpm: float, actual_ke: float, *sources: str) -> tuple[int, dict]:
     text = example_bench_path("sim-bench").read_text()
     assert "speed_rpm = 500.0" in text and "[simulation" not in text
     bench = tmp_path / "bench.toml"
     bench.write_text(text.replace("speed_rpm = 500.0", f"speed_rpm = {speed_rpm}")
                      + f"\n[simulation.actual]\nke_v_s_per_rad = {actual_ke}\n")
     code = main(["run", "--bench", str(bench), "--record-dir", str(tmp_path / "records"),
-                 "--source", "baseline", "--no-report"])
+                 "--no-report"] + [f"--source={source}" for source in ("baseline",) + sources])
     (record,) = (tmp_path / "records").glob("*/record.json")
     return code, json.loads(record.read_text())
 
@@ -45,7 +46,10 @@ def test_a_point_beyond_the_measured_motors_voltage_is_refused_not_failed(tmp_pa
 
 
 def test_a_point_the_measured_motor_can_reach_is_judged(tmp_path):
-    code, record = _run(tmp_path, 1720.0, 0.023 * 0.92)
+    # word length's decision rule is built from a prediction at the point: beyond the stated
+    # voltage limit it must not refuse the run at collection (it did: exit 2, nothing run)
+    code, record = _run(tmp_path, 1720.0, 0.023 * 0.92, "word_length")
     assert code == 0
     assert _outcome(record, "test_baseline")["outcome"] == "passed"
     assert _outcome(record, "test_bench_self_check")["outcome"] == "passed"
+    assert _outcome(record, "test_word_length[word_length_bits=10]")["outcome"] == "passed"
