@@ -27,6 +27,13 @@ and dead-time plans use), against the base points of the same speed and current:
   cogging widens its uncertainty instead of moving it unseen (an 8-pole twin at 1000 rpm carries
   ≈ 0.1 mN·m of it, 5× its type-A σ, with a different phase at 10 and 20 A).
 1000 rpm: the shortest captures of the design (bench time) and the larger dead-time signal.
+
+Repeated bases (``repeat_points``): each additions point's base is captured once more after the
+additions, nothing injected. The two bases' scatter, pooled over the four points, is the
+between-capture reproducibility no single capture's revolution scatter holds
+(hil.diagnosis.reproducibility): at 1000 rpm and 20 kHz on an 8-pole motor the PWM carrier and
+the rotor are locked (300 periods per electrical revolution), and where they sit when a capture
+starts moved the base's order-6 coefficient by several of its type-A σ.
 """
 
 from __future__ import annotations
@@ -67,6 +74,8 @@ class DesignPoint:
     current_angle_rad: float = CURRENT_ANGLE_RAD
     #: one known addition (key of hil.diagnosis.additions, value), or None for a base point
     addition: tuple[str, float] | None = None
+    #: a base point captured again after the additions (its reproducibility)
+    repeat: bool = False
 
     @property
     def _addition_text(self) -> str:
@@ -82,7 +91,8 @@ class DesignPoint:
     @property
     def label(self) -> str:
         return f"{self.speed_rpm:+g} rpm, {self.current_a:g} A" + (
-            f", {self._addition_text}" if self.addition else "")
+            f", {self._addition_text}" if self.addition else "") + (
+            ", repeated" if self.repeat else "")
 
     @property
     def test_id(self) -> str:
@@ -110,6 +120,13 @@ def addition_points() -> list[DesignPoint]:
     """The standard-additions points (each against the base point of its speed and current)."""
     return [DesignPoint(speed_rpm=speed, current_a=current, addition=(key, value))
             for speed, current, key, value in ADDITIONS]
+
+
+def repeat_points() -> list[DesignPoint]:
+    """The additions points' bases, captured again after the additions (module docstring)."""
+    seen = dict.fromkeys((speed, current) for speed, current, _, _ in ADDITIONS)
+    return [DesignPoint(speed_rpm=speed, current_a=current, repeat=True)
+            for speed, current in seen]
 
 
 def design_points() -> list[DesignPoint]:

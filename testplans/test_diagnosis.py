@@ -42,16 +42,20 @@ pytestmark = pytest.mark.ripple_source("diagnosis")
 
 POINTS = design.design_points()
 ADDITION_POINTS = design.addition_points()
+REPEAT_POINTS = design.repeat_points()
 #: test id of each measured point, filled as the points run (module order: points first)
 _MEASURED: dict = {}
 #: the fit's result and the bench setup, for the additions test
 _FIT: dict = {}
 
 
-@pytest.mark.parametrize("point", POINTS + ADDITION_POINTS,
-                         ids=[p.label.replace(" ", "") for p in POINTS + ADDITION_POINTS])
+@pytest.mark.parametrize("point", POINTS + ADDITION_POINTS + REPEAT_POINTS,
+                         ids=[p.label.replace(" ", "")
+                              for p in POINTS + ADDITION_POINTS + REPEAT_POINTS])
 def test_diagnosis_point(measure, point):
-    expectation = ("nothing injected: measured for the ripple diagnosis (no model verdict)"
+    expectation = ("nothing injected: measured again after the additions, for their "
+                   "between-capture reproducibility (no model verdict)" if point.repeat else
+                   "nothing injected: measured for the ripple diagnosis (no model verdict)"
                    if point.addition is None else
                    f"known addition {point.addition[0]} = {point.addition[1]:g} (standard "
                    "additions: calibrates its source's transfer in situ; no model verdict here, "
@@ -130,7 +134,7 @@ def test_diagnosis_by_additions(bench, record):
     if lacking:
         pytest.skip(not_determinable("standard additions: " + "; ".join(
             f"the drive under test has no {knob}" for knob in lacking)))
-    pairs = _pairs(record, ADDITION_POINTS)
+    pairs = _pairs(record, ADDITION_POINTS + REPEAT_POINTS)
     points = {(p.speed_rpm, p.current_a) for p in ADDITION_POINTS}
     bases = [additions.with_addition(s, {}) for s, point in zip(_FIT["spectra"], POINTS)
              if (point.speed_rpm, point.current_a) in points]
@@ -141,7 +145,8 @@ def test_diagnosis_by_additions(bench, record):
     routes = additions.compare_with_fit(result, _FIT["result"])
     section = _FIT["result"].to_dict()
     section["additions"] = result.to_dict() | {
-        "points": [{"label": p.label, "injection": p.injection} for p in ADDITION_POINTS],
+        "points": [{"label": p.label, "injection": p.injection}
+                   for p in ADDITION_POINTS + REPEAT_POINTS],
         "transfer_vs_model": models, "versus_fit": routes}
     record.set_section("diagnosis", section)
     print("\n" + result.table())

@@ -74,7 +74,9 @@ motor's terms. They are handled per order:
   rotor-fixed term's does not); otherwise T_d is reported **not separable**.
 
 Uncertainty: every estimate's standard uncertainty is propagated (first order, numerically)
-from the spectra's type-A σ of Re and Im (:func:`.orders.pooled_sigma`) and each addition's own
+from the spectra's type-A σ of Re and Im (:func:`.orders.pooled_sigma`) — with the
+between-capture reproducibility in quadrature where a point's base was captured more than once
+(:mod:`.reproducibility`) — and each addition's own
 relative tolerance (standard uncertainty, independent between captures; default 1 %), and
 scaled by the Birge ratio χ²/ν of the group's residual when that exceeds 1 (as the fit does).
 """
@@ -91,6 +93,7 @@ import numpy as np
 from hil.capture import Capture
 from hil.diagnosis.quantiles import chi2_ppf, norm_ppf
 from hil.diagnosis import parameters as P
+from hil.diagnosis import reproducibility as repro
 from hil.diagnosis import signatures as sig
 from hil.diagnosis.orders import OrderSpectrum, spectrum_from_capture
 from hil.errors import InputError
@@ -493,6 +496,8 @@ class AdditionsDiagnosis:
     notes: list[str]
     tolerance_pu: float
     expansion_k: float = EXPANSION_K
+    #: the between-capture term every capture's σ includes (None: not estimated)
+    reproducibility: repro.Reproducibility | None = None
 
     def estimate(self, name: str) -> dict | None:
         return next((e for e in self.estimates if e["name"] == name), None)
@@ -522,6 +527,8 @@ class AdditionsDiagnosis:
                 "addition_tolerance_pu": self.tolerance_pu,
                 "estimates": plain(self.estimates), "transfers": plain(self.transfers),
                 "linearity": plain(self.linearity), "notes": list(self.notes),
+                "reproducibility": (self.reproducibility.to_dict()
+                                    if self.reproducibility is not None else None),
                 "assumptions": list(ASSUMPTIONS)}
 
     def table(self) -> str:
@@ -544,6 +551,12 @@ class AdditionsDiagnosis:
         for item in self.linearity:
             lines.append(f"  linearity {item['addition']} at {item['point']}: "
                          f"{item['statement']}")
+        if self.reproducibility is not None:
+            r = self.reproducibility
+            lines.append("Between-capture reproducibility s_R (per component; repeated bases at "
+                         f"{'; '.join(r.points)}, {r.dof} dof): " + ", ".join(
+                             f"order {m}: {r.sigma_nm[m]:.2g} N·m (type A {r.type_a_nm[m]:.2g})"
+                             for m in sorted(r.sigma_nm)))
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -575,8 +588,16 @@ def diagnose_by_additions(items: Iterable, *, setup: sig.DriveSetup | None = Non
         raise InputError(f"captures disagree on pole pairs: {sorted(pole_pairs)}")
     p = pole_pairs.pop()
     points = _group(spectra)
+    # the capture-to-capture scatter no single capture's type A holds (.reproducibility): from
+    # the points whose base was captured more than once, applied to every capture
+    repeat = repro.estimate([(pt.label, pt.bases) for pt in points],
+                                      sorted({p * kind.elec_order for kind in KINDS}))
+    if repeat is not None:
+        points = _group([repro.applied(s, repeat) for s in spectra])
     orphans = [pt.label for pt in points if pt.additions and not pt.bases]
-    notes = []
+    notes = [] if repeat is not None else [
+        "between-capture reproducibility NOT estimated (no point's base captured twice): the "
+        "uncertainties hold each capture's revolution scatter only"]
     if orphans:
         notes.append(f"additions without a base capture at the same operating point, unused: "
                      f"{'; '.join(orphans)}")
@@ -632,7 +653,7 @@ def diagnose_by_additions(items: Iterable, *, setup: sig.DriveSetup | None = Non
             notes.append(f"{kind.parameter}: linearity over the addition NOT checked (one "
                          f"addition size of {kind.key}); measure a second size to check it")
     return AdditionsDiagnosis(estimates=estimates, transfers=transfers, linearity=linearity,
-                              notes=notes, tolerance_pu=tolerance_pu)
+                              notes=notes, tolerance_pu=tolerance_pu, reproducibility=repeat)
 
 
 def _estimate_group(group, keys, motor, points, nonlinear, linearity, p, setup, tolerance_pu,

@@ -33,9 +33,10 @@ def test_plan_measures_the_designed_points_and_finds_the_hidden_offset(diagnosis
     assert code == 0
     record = _record(folder)
     points = [t for t in record["tests"] if t.get("kind") == "diagnosis" and t.get("capture")]
-    assert len(points) == 20
+    assert len(points) == 24
     assert all(t["verdict"] is None for t in points)
-    assert sum(t["injection"] == {} for t in points) == 8       # 8 base points, 12 additions
+    # 8 base points, 12 additions, the 4 additions points' bases again (reproducibility)
+    assert sum(t["injection"] == {} for t in points) == 12
     section = record["diagnosis"]
     # standard additions: the hidden offset recovered within U, the transfers calibrated,
     # offsets and gain linear over their additions, both routes agree
@@ -54,6 +55,9 @@ def test_plan_measures_the_designed_points_and_finds_the_hidden_offset(diagnosis
     assert all(c["agrees"] for c in additions["transfer_vs_model"])
     assert all(c["agrees"] for c in additions["versus_fit"] if c["compared"])
     assert {p["injection"].get("ia_offset_a") for p in additions["points"]} >= {0.2, 0.4}
+    repeat = additions["reproducibility"]          # 4 points captured twice: 8 real dof
+    assert repeat["dof"] == 8 and len(repeat["points"]) == 4
+    assert set(repeat["orders"]) == {"2", "4", "12"}            # Table I: p = 2, orders 1, 2, 6
     params = {p["name"]: p for p in section["parameters"]}
     a = params["ia_offset_a"]
     assert abs(a["estimate"] - HIDDEN_OFFSET_A) <= a["expanded_uncertainty"] + 0.002
@@ -67,7 +71,8 @@ def test_hil_diagnose_on_the_recorded_captures(diagnosis_run, capsys):
     # the diagnosis points' captures (the self-check's transducer-dynamics points inject gain
     # errors: a diagnosis refuses captures of different injections, tested below)
     base = {Path(t["capture"]["file"]).name for t in _record(folder)["tests"]
-            if t.get("kind") == "diagnosis" and t.get("capture") and t["injection"] == {}}
+            if t.get("kind") == "diagnosis" and t.get("capture") and t["injection"] == {}
+            and "repeated" not in t["test_id"]}
     captures = sorted(str(p) for p in (folder / "captures").glob("*test_diagnosis*.npz")
                       if p.name in base)
     assert len(captures) == 8
