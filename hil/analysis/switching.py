@@ -23,14 +23,6 @@ The ripple is then split by PWM period and summarised the way eqs 29-31 describe
    period still finds the extremes. The *effective samples per period* is T_s divided by the
    largest gap between the sample phases (modulo T_s) in a window; fewer than
    :data:`MIN_EFFECTIVE_SAMPLES_PER_PERIOD` is refused (InputError).
-1a. **Level wander.** Equivalent time assumes the G periods of a window repeat; the drive's own
-   current loop moves the level from period to period (its current ADC's quantisation through
-   the PI: Table I, 250 rpm, 5 A, 40 kHz, G = 40 read 1.12× the model with the twin's 12-bit
-   ADC and 1.00× with a 20-bit one), and folding adds the wander's span to every window's
-   pk-pk. Each period's level is measured against the *reference shape* of its angle — the
-   windows at that angle in every revolution folded together, where the wander averages
-   out — and removed (:func:`_level_corrected`; the same point reads 1.03× and 0.99×,
-   ``studies/switching_window_wander.py``). A window of one period (G = 1) is kept as it is.
 2. **Envelope.** pk-pk of T̂ within each window → an envelope series at the window centres'
    electrical angles (Fig. 9's pk-pk per PWM period; the paper's envelope repeats every 60°,
    order 6).
@@ -91,9 +83,6 @@ MIN_EFFECTIVE_SAMPLES_PER_PERIOD = 8
 ENVELOPE_ORDER = 6
 #: ``RippleResult.pk_pk_method`` of this analysis.
 PK_PK_METHOD = "max within-PWM-period pk-pk (envelope)"
-#: Neighbours on either side in phase over which the revolutions' reference shape of an angle
-#: is averaged (:func:`_level_corrected`).
-REFERENCE_NEIGHBOURS = 4
 #: Grid points per period of ``max_order`` on which the envelope's maximum is searched.
 PEAK_SEARCH_POINTS_PER_PERIOD = 64
 PHASE_OFFSETS_RAD = (0.0, 2.0 * math.pi / 3.0, -2.0 * math.pi / 3.0)
@@ -156,9 +145,9 @@ def analyze_switching(capture: Capture, *, pwm_frequency_hz: float, motor: Motor
     centres = TravelAngle(travel_rad=centre_travel, direction=travel.direction)
     n_bins = samples_per_revolution(max_order)
     response = interpolation_response(centre_travel, max_order)
-    used = _level_corrected(torque, time_s, windows, centre_travel)
+    used = torque[:windows.stop]
     env_revs, per_rev = _envelope_revolutions(used, windows, centres, n_bins, max_order, response)
-    window_mean_nm = np.add.reduceat(torque[:windows.stop], windows.starts) / np.diff(
+    window_mean_nm = np.add.reduceat(used, windows.starts) / np.diff(
         np.append(windows.starts, windows.stop))
     per_rev_mean = resample_revolutions(centres, window_mean_nm, n_bins).matrix_nm.mean(axis=1)
     coefficients = per_rev.mean(axis=0)
@@ -420,56 +409,6 @@ def _windows(time_s: np.ndarray, travel: TravelAngle, pwm_frequency_hz: float) -
     centre_s = time_s[0] + (np.arange(count) + 0.5) * window_s
     return _Windows(starts, stop, periods, period_s, centre_s, largest_gap,
                     TWO_PI / (speed * window_s))
-
-
-def _level_corrected(torque_nm: np.ndarray, time_s: np.ndarray, windows: _Windows,
-                     centre_travel_rad: np.ndarray) -> np.ndarray:
-    """T̂ over the windows' samples with each PWM period's level wander removed (module
-    docstring, step 1a): the level of period k of a window is the mean, over its samples, of
-    their departure from the *reference shape* of the window's angle — the samples of the
-    windows at that angle in every revolution (equivalent time over the revolutions), each
-    less its window's mean, smoothed over ±:data:`REFERENCE_NEIGHBOURS` neighbours in phase.
-    The levels (mean zero over the window) are subtracted. A window of one period is kept."""
-    out = np.array(torque_nm[:windows.stop], dtype=float)
-    periods = windows.periods
-    groups_per_rev = int(round(windows.per_revolution))
-    if periods < 2 or groups_per_rev < 1:
-        return out
-    bounds = np.append(windows.starts, windows.stop)
-    counts = np.diff(bounds)
-    window_of = np.repeat(np.arange(windows.starts.size), counts)
-    elapsed = time_s[:windows.stop] - time_s[0]
-    period_of = np.clip(np.floor((elapsed - window_of * periods * windows.period_s)
-                                 / windows.period_s + 1e-9).astype(int), 0, periods - 1)
-    phase = np.mod(elapsed, windows.period_s)
-    centred = out - (np.add.reduceat(out, windows.starts) / counts)[window_of]
-    group_of_window = np.mod(np.round(centre_travel_rad / TWO_PI * groups_per_rev).astype(int),
-                             groups_per_rev)
-    group = group_of_window[window_of]
-    # within each angle group, samples sorted by phase; the reference is a circular running
-    # mean over the neighbours (the sample itself included)
-    order = np.lexsort((phase, group))
-    residual = np.empty_like(centred)
-    edges = np.flatnonzero(np.diff(group[order], prepend=-1, append=groups_per_rev + 1))
-    width = 2 * REFERENCE_NEIGHBOURS + 1
-    for first, last in zip(edges[:-1], edges[1:]):
-        members = order[first:last]
-        if members.size < width or np.unique(window_of[members]).size < 2:
-            residual[members] = 0.0           # one revolution's window: no reference
-            continue
-        values = centred[members]
-        padded = np.concatenate([values[-REFERENCE_NEIGHBOURS:], values,
-                                 values[:REFERENCE_NEIGHBOURS]])
-        running = np.convolve(padded, np.ones(width) / width, mode="valid")
-        residual[members] = values - running
-    key = window_of * periods + period_of
-    sums = np.bincount(key, weights=residual, minlength=windows.starts.size * periods)
-    number = np.bincount(key, minlength=windows.starts.size * periods)
-    level = np.divide(sums, number, out=np.zeros_like(sums), where=number > 0).reshape(
-        -1, periods)
-    present = number.reshape(-1, periods) > 0
-    level -= (level.sum(axis=1) / np.maximum(present.sum(axis=1), 1))[:, None]
-    return out - level.reshape(-1)[key]
 
 
 def _largest_phase_gap(phase_s: np.ndarray, window: np.ndarray, period_s: float) -> float:
