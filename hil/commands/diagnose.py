@@ -5,8 +5,9 @@ Each capture's operating point is what is stated for it (``FILE@CURRENT_A[,ANGLE
 (``<record>/captures/``), else its meta (simulated captures), else ``--current-a``; the speed is
 measured from the capture. Foreign files (CSV, ``.npz`` of arrays, MDF4, TDMS) are imported
 with :mod:`hil.capture_import`. The drive's current loop, the transducer's bandwidth and accuracy
-class come from the record's bench as its run characterised it (or ``--bench FILE``), then the
-manifest's [drive]/[motor], then the options. Each capture's angle reference (hil/diagnosis/README.md) is stated
+class come from the record's bench as its run characterised it (or ``--bench FILE``; captures of
+runs whose characterised benches differ are refused), then the manifest's [drive]/[motor], then
+the options. Each capture's angle reference (hil/diagnosis/README.md) is stated
 (``--emf-a-zero-elec-deg``, the manifest), recorded (the capture's meta), measured from its phase
 currents, or unknown (no signed calibration then).
 """
@@ -77,9 +78,15 @@ def _bench_dict(args, records: list[dict | None]) -> dict:
         from hil.config import load_bench
 
         return load_bench(args.bench).to_dict()
-    for record in records:
-        if record and isinstance(record.get("bench"), dict) and record["bench"].get("loaded"):
-            return as_characterised(record["bench"]["loaded"], record.get("characterisation"))
+    benches = [as_characterised(record["bench"]["loaded"], record.get("characterisation"))
+               for record in records if record and isinstance(record.get("bench"), dict)
+               and record["bench"].get("loaded")]
+    if benches:
+        if any(bench != benches[0] for bench in benches[1:]):
+            raise InputError("the captures come from runs whose benches, as characterised, "
+                             "differ (motor, loop or transducer): diagnose one run's captures, "
+                             "or state the bench with --bench FILE")
+        return benches[0]
     from hil.config import default_sim_bench
 
     return {"motor": default_sim_bench().to_dict()["motor"]}

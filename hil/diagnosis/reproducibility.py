@@ -14,6 +14,12 @@ The same point captured twice (or more) measures it: per mechanical order m, the
 variance of the repeated captures' coefficients (each of Re and Im) less their type-A variance
 is the reproducibility variance s_R²(m) (ISO 5725-3: an intermediate precision with one
 factor, the capture). Every capture then carries σ² = σ_A² + s_R² at that order.
+
+Limits (review h-17): the expanded uncertainties keep k = 2 although s_R comes from few degrees
+of freedom (8 in the plan; a simulation of the plan's layout covered 91 % at a nominal 95 %);
+a drift between the first and the repeated captures (the repeat comes after the additions)
+reads as scatter here, shown with its sign in ``last_less_first_nm`` but not tested; the
+factorial fit (``hil.diagnosis.fit``) does not carry s_R (it rescales by its own Birge ratio).
 """
 
 from __future__ import annotations
@@ -35,13 +41,20 @@ class Reproducibility:
     type_a_nm: dict           # mech order -> rms of their type-A σ
     dof: int                  # real degrees of freedom of each order's pooled scatter
     points: list              # labels of the points captured more than once
+    #: mech order -> per point, the last capture less the first (N·m, complex): a drift between
+    #: them (a winding warming through the additions) reads as scatter in s_R; here it shows
+    #: with its sign, for the reader to see (not tested)
+    change_nm: dict | None = None
 
     def to_dict(self) -> dict:
         return {"method": "repeated base captures at the same point: pooled variance of the "
                           "coefficients less their type A (ISO 5725-3, one factor: the capture)",
                 "points": list(self.points), "dof": self.dof,
                 "orders": {str(m): {"s_R_nm": self.sigma_nm[m], "scatter_nm": self.scatter_nm[m],
-                                    "type_a_nm": self.type_a_nm[m]}
+                                    "type_a_nm": self.type_a_nm[m],
+                                    "last_less_first_nm": [
+                                        {"point": label, "re": value.real, "im": value.imag}
+                                        for label, value in (self.change_nm or {}).get(m, [])]}
                            for m in sorted(self.sigma_nm)}}
 
 
@@ -51,7 +64,7 @@ def estimate(groups: list[tuple[str, list[OrderSpectrum]]], orders) -> Reproduci
     repeated = [(label, spectra) for label, spectra in groups if len(spectra) >= 2]
     if not repeated:
         return None
-    sigma, scatter, type_a = {}, {}, {}
+    sigma, scatter, type_a, change = {}, {}, {}, {}
     dof = 2 * sum(len(spectra) - 1 for _, spectra in repeated)
     for m in orders:
         squares, variances = 0.0, []
@@ -63,7 +76,10 @@ def estimate(groups: list[tuple[str, list[OrderSpectrum]]], orders) -> Reproduci
         within = float(np.mean(variances))
         sigma[m] = float(np.sqrt(max(pooled - within, 0.0)))
         scatter[m], type_a[m] = float(np.sqrt(pooled)), float(np.sqrt(within))
-    return Reproducibility(sigma, scatter, type_a, dof, [label for label, _ in repeated])
+        change[m] = [(label, complex(spectra[-1].coefficients_nm[m]
+                                     - spectra[0].coefficients_nm[m]))
+                     for label, spectra in repeated]
+    return Reproducibility(sigma, scatter, type_a, dof, [label for label, _ in repeated], change)
 
 
 def applied(spectrum: OrderSpectrum, reproducibility: Reproducibility | None) -> OrderSpectrum:

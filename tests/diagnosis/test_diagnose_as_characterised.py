@@ -75,3 +75,23 @@ def test_hil_diagnose_models_the_bench_the_plan_judged(deviated_run, capsys):
         plan_setup["current_loop_bandwidth_hz"])
     assert setup["transducer_bandwidth_hz"] == pytest.approx(plan_setup["transducer_bandwidth_hz"])
     assert setup["transducer_bandwidth_hz"] == pytest.approx(1400.0, rel=0.05)
+
+
+def test_captures_of_runs_characterised_differently_are_refused():
+    from types import SimpleNamespace
+
+    from hil.commands.diagnose import _bench_dict
+    from hil.errors import InputError
+
+    loaded = {"motor": {"phase_resistance_ohm": 0.055}, "drive": {}, "torque": {}}
+
+    def record(measured_r):
+        rows = [{"name": "phase_resistance_ohm", "measured": measured_r,
+                 "predictions_use": "measured"}]
+        return {"bench": {"loaded": loaded}, "characterisation": {"stated_vs_measured": rows}}
+
+    args = SimpleNamespace(bench=None)
+    assert _bench_dict(args, [record(0.07), None, record(0.07)])["motor"] == {
+        "phase_resistance_ohm": 0.07}
+    with pytest.raises(InputError, match="differ"):
+        _bench_dict(args, [record(0.07), record(0.06)])
