@@ -136,8 +136,6 @@ def run(args) -> int:
                "current_channel_u_a": args.current_channel_u_a,
                "dead_time_bound_s": args.dead_time_bound_s}
     setup_keys.update({k: v for k, v in options.items() if v is not None})  # options win
-    if bench.get("loop_tuning"):
-        setup_keys["loop_tuning"] = _motor(bench["loop_tuning"])
     setup, class_pct = setup_from_bench_dict(bench, **setup_keys)
     pairs = []
     for (capture, record, op), entry in zip(loaded, entries):
@@ -288,15 +286,6 @@ LOOP_DESIGN_KEYS = ("current_loop_design", "current_loop_decoupling",
                     "current_loop_emf_feedforward", "current_loop_angle_compensation",
                     "current_loop_delay_periods")
 SETUP_DRIVE_KEYS = ("pwm_frequency_hz", "dead_time_bound_s", "current_channel_u_a")
-
-
-def _motor(table: dict):
-    from dataclasses import fields
-
-    from hil.motor import MotorParameters
-
-    names = {f.name for f in fields(MotorParameters)}
-    return MotorParameters(**{k: v for k, v in table.items() if k in names})
 
 
 def _setup_keys(bench: dict, manifest) -> tuple[dict, list[str]]:

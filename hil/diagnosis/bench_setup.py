@@ -17,11 +17,10 @@ DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
 
 def setup_from_bench_dict(bench: dict, **overrides) -> tuple[DriveSetup, float]:
     """(DriveSetup, transducer accuracy class in %) from a bench as ``BenchConfig.to_dict()``
-    writes it (also the ``bench.loaded`` of a record). ``overrides``: DriveSetup fields that are
-    not None replace the bench's."""
-    motor_table = bench.get("motor", {}) or {}
-    names = {f.name for f in fields(MotorParameters)}
-    motor = MotorParameters(**{k: v for k, v in motor_table.items() if k in names})
+    writes it (also the ``bench.loaded`` of a record, or ``hil diagnose``'s bench as
+    characterised, whose ``loop_tuning`` table is the motor the drive's gains came from).
+    ``overrides``: DriveSetup fields that are not None replace the bench's."""
+    motor = _motor(bench.get("motor", {}) or {})
     drive = bench.get("drive", {}) or {}
     torque = bench.get("torque", {}) or {}
     values = {"motor": motor,
@@ -37,6 +36,8 @@ def setup_from_bench_dict(bench: dict, **overrides) -> tuple[DriveSetup, float]:
     # family of plausible loops, not the first-order PI (issue 23: a 2-DOF loop read as a PI
     # biased the offsets beyond U)
     values.setdefault("current_loop_design", "unknown")
+    if bench.get("loop_tuning"):            # the motor the drive's PI gains were set from
+        values["loop_tuning"] = _motor(bench["loop_tuning"])
     values.update({k: v for k, v in overrides.items() if v is not None})
     class_pct = 0.0
     for entry in bench.get("instrument", []) or []:
@@ -47,6 +48,11 @@ def setup_from_bench_dict(bench: dict, **overrides) -> tuple[DriveSetup, float]:
             except ValueError:
                 class_pct = 0.0
     return DriveSetup(**values), class_pct
+
+
+def _motor(table: dict) -> MotorParameters:
+    names = {f.name for f in fields(MotorParameters)}
+    return MotorParameters(**{k: v for k, v in table.items() if k in names})
 
 
 def find_record(capture_path: Path) -> dict | None:
