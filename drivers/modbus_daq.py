@@ -535,7 +535,7 @@ class ModbusDaq:
             word += count
         return out
 
-    def _pipelined(self, address: int, counts: list[int], depth: int) -> list[list[int]]:
+    def _pipelined(self, address: int, counts: list[int], depth: int) -> list[np.ndarray]:
         """Buffer windows with ``depth`` reads in flight on the TCP connection."""
         action = f"read capture buffer ({len(counts)} windows, {depth} in flight)"
         with self._lock:

@@ -19,6 +19,8 @@ import socket
 import struct
 import time
 
+import numpy as np
+
 READ_INPUT_REGISTERS = 4
 _MBAP = struct.Struct(">HHHB")          # transaction id, protocol id (0), length, unit id
 
@@ -39,28 +41,33 @@ class ExceptionAnswer(Exception):
 
 def read_input_registers_pipelined(sock: socket.socket, unit_id: int, address: int,
                                    counts: list[int], *, depth: int, timeout_s: float,
-                                   first_tid: int = 1) -> list[list[int]]:
-    """Read ``counts[i]`` input registers from ``address`` for every i, ``depth`` in flight.
+                                   first_tid: int = 1) -> list[np.ndarray]:
+    """Read ``counts[i]`` input registers from ``address`` for every i, ``depth`` in flight;
+    each answer's words as a ``uint16`` array.
 
     Each request is answered in full before its words are used; the server must answer in
     request order only as far as the *data* it returns depends on order (an auto-increment
-    buffer window does): the caller checks the data (the DAQ's sample counter does).
+    buffer window does): the caller checks the data (the DAQ's sample counter does). The
+    requests that fit in the window are sent together, in one write (each its own ADU).
     """
     if depth < 1:
         raise ValueError(f"depth={depth} must be >= 1")
-    answers: list[list[int] | None] = [None] * len(counts)
+    answers: list[np.ndarray | None] = [None] * len(counts)
     outstanding: dict[int, int] = {}            # transaction id -> request index
     buffer = bytearray()
     sent = 0
     deadline = time.monotonic() + timeout_s
     sock.setblocking(False)
     while sent < len(counts) or outstanding:
+        requests = []
         while sent < len(counts) and len(outstanding) < depth:
             tid = (first_tid + sent) & 0xFFFF
             pdu = struct.pack(">BHH", READ_INPUT_REGISTERS, address, counts[sent])
-            _send_all(sock, _MBAP.pack(tid, 0, len(pdu) + 1, unit_id) + pdu, deadline)
+            requests.append(_MBAP.pack(tid, 0, len(pdu) + 1, unit_id) + pdu)
             outstanding[tid] = sent
             sent += 1
+        if requests:
+            _send_all(sock, b"".join(requests), deadline)
         buffer += _receive_some(sock, deadline)
         while len(buffer) >= _MBAP.size:
             tid, protocol, length, unit = _MBAP.unpack_from(buffer)
@@ -77,7 +84,7 @@ def read_input_registers_pipelined(sock: socket.socket, unit_id: int, address: i
     return answers  # type: ignore[return-value]
 
 
-def _decode_read_answer(index: int, pdu: bytes, count: int) -> list[int]:
+def _decode_read_answer(index: int, pdu: bytes, count: int) -> np.ndarray:
     if not pdu:
         raise UnexpectedAnswer(f"request {index}: empty answer")
     if pdu[0] == READ_INPUT_REGISTERS | 0x80:
@@ -86,7 +93,7 @@ def _decode_read_answer(index: int, pdu: bytes, count: int) -> list[int]:
             or len(pdu) != 2 + 2 * count:
         raise UnexpectedAnswer(f"request {index}: malformed answer {pdu[:8].hex()}… "
                               f"({len(pdu)} bytes for {count} registers)")
-    return list(struct.unpack(f">{count}H", pdu[2:]))
+    return np.frombuffer(pdu, dtype=">u2", offset=2).astype(np.uint16)
 
 
 def _send_all(sock: socket.socket, data: bytes, deadline: float) -> None:
