@@ -283,7 +283,10 @@ def _clamping_prediction(op: OperatingPoint, t_d: float, f_sw: float,
     coefficients = coefficients * transducer_response(orders * elec_hz, transducer_bandwidth_hz)
     theta = angle_grid()
     mean = float(coefficients[0].real)
-    torque = np.real(np.exp(1j * np.outer(theta, orders[1:])) @ coefficients[1:]) + mean
+    # θ_k = 2πk/N: Re Σ_{n≥1} c_n·e^{jnθ_k} is an inverse real DFT (same value, fast)
+    line = np.zeros(theta.size // 2 + 1, dtype=complex)
+    line[1:coefficients.size] = coefficients[1:] * (theta.size / 2)
+    torque = np.fft.irfft(line, n=theta.size) + mean
     waveform = (torque - mean) / mean
     order6 = coefficients[6] / mean
     return Prediction(
