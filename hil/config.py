@@ -28,12 +28,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, NoReturn
 
-import can
-
 from hil import plausibility
 from hil.current_loop import LOOP_DESIGNS, pi_equivalent_bandwidth_hz
 from hil.errors import InputError
 from hil.motor import KE_DEFINITIONS, MotorParameters
+from hil.python_can import can
 
 #: python-can interface names accepted in ``drive.interface``.
 CAN_INTERFACES: tuple[str, ...] = tuple(sorted(can.interfaces.VALID_INTERFACES))
