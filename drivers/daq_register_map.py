@@ -269,8 +269,13 @@ def load_register_map(path: str | Path | None = None) -> RegisterMap:
                 raise InputError(f"register map {path}: registers.{name}.table="
                                  f"{entry['table']!r}; allowed 'input' or 'holding'")
             words = int(entry.get("words", _WORDS.get(kind, 1)))
+            address = int(entry["address"])
+            if not 0 <= address <= address + words - 1 <= 0xFFFF or words < 1:
+                raise InputError(f"register map {path}: registers.{name} spans addresses "
+                                 f"{address}..{address + words - 1}; Modbus addresses are "
+                                 f"0..65535 (16 bit)")
             role = roles.get(name, name)
-            registers[role] = Register(role, entry["table"], int(entry["address"]), kind, words,
+            registers[role] = Register(role, entry["table"], address, kind, words,
                                        entry.get("min"), entry.get("max"),
                                        name if role != name else "")
         channels = tuple(Channel(c["name"], int(c["bit"]), c["type"], float(c["scale"]),

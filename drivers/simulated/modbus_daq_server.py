@@ -55,6 +55,7 @@ import math
 import os
 import select
 import struct
+import sys
 import threading
 import time
 import tty
@@ -79,9 +80,8 @@ from ripple_hil_drivers.serial_line import PARITIES, STOPBITS, bits_per_char, li
 log = logging.getLogger(__name__)
 
 FAIL_KINDS = ("exception", "timeout", "disconnect")
-#: Received bytes a connection holds before it decodes them: 64 requests in flight (the
-#: driver's limit) of the longest ADU (260 bytes) fit.
-PIPELINE_BUFFER_BYTES = 64 * 260
+#: The longest Modbus TCP ADU, bytes (MBAP header 7 + PDU 253; Messaging on TCP/IP §4.1).
+MAX_ADU_BYTES = 260
 #: How long a speed-setpoint write waits for the twin (a transducer reading holds it briefly).
 SPEED_APPLY_WAIT_S = 0.05
 _INPUT_FC = 4
@@ -202,8 +202,9 @@ class DaqDevice:
         for reg in register_map.registers.values():
             words = reg.encode(values[reg.name]) if reg.name in values else [0] * reg.words
             self._image[reg.table].define(reg.address, words)
-        #: input registers refreshed from the device's state when a read covers them
-        self._live_inputs = [register_map[name] for name in (
+        #: registers refreshed from the device's state on an input read (input registers
+        #: only where the read covers them; a map may put them in the holding table)
+        self._live_registers = [register_map[name] for name in (
             "state", "status_flags", "samples_captured", "words_per_sample")]
         self.fail_next_kind: str | None = None
         self.traffic = Traffic()
@@ -303,9 +304,10 @@ class DaqDevice:
         """The device's state into the input registers a read of ``address``, ``count``
         covers (the others are not looked at before the next read refreshes them)."""
         values = (self._state, self._flags, self._samples_captured, self._words_per_sample)
-        for reg, value in zip(self._live_inputs, values):
-            if reg.address < address + count and address < reg.address + reg.words:
-                self._image["input"].write(reg.address, reg.encode(value))
+        for reg, value in zip(self._live_registers, values):
+            if reg.table != "input" or (reg.address < address + count
+                                        and address < reg.address + reg.words):
+                self._image[reg.table].write(reg.address, reg.encode(value))
         for name, value in self._first_values.items():
             self._set(name, value)
         window = self.map.registers.get("buffer_window")
@@ -761,10 +763,11 @@ class _InOrderRequestHandler(ServerRequestHandler):
         super().__init__(*args)
         self._queue: collections.deque = collections.deque()
         self._draining = False
-        # pymodbus drops the whole receive buffer, silently, once it holds more than one ADU's
-        # worth (260 bytes): 22 pipelined 12-byte requests arriving together were lost and the
-        # client waited for answers that never came. This handler decodes every frame it gets.
-        self.max_buffer_size = PIPELINE_BUFFER_BYTES
+        # pymodbus drops the whole receive buffer, silently, once it holds more than one ADU
+        # (260 bytes): 22 pipelined 12-byte requests arriving together were lost and the client
+        # waited for answers that never came. This handler takes every complete frame out of
+        # what it receives, so only bytes it cannot frame can pile up (dropped below).
+        self.max_buffer_size = sys.maxsize
 
     def callback_data(self, data: bytes, addr: tuple | None = None) -> int:
         used = 0
@@ -772,14 +775,20 @@ class _InOrderRequestHandler(ServerRequestHandler):
             try:
                 cut = TransactionManager.callback_data(self, data[used:], addr)
             except ModbusIOException as exc:
+                # a malformed quantity: its exception answer goes out in its turn, and the
+                # frames after it are still answered
                 frame = self.framer.decode(data[used:])[3]
                 function_code = frame[0] if frame else 0
                 code = EXC_ILLEGAL_VALUE if function_code in _REGISTER_FCS else \
                     EXC_ILLEGAL_FUNCTION
-                self.server_send(ExceptionResponse(function_code, exception_code=ExcCodes(code),
-                                                   device_id=exc.dev_id,
-                                                   transaction=exc.transaction_id), addr)
-                return len(data)
+                self._queue.append((ExceptionResponse(function_code,
+                                                      exception_code=ExcCodes(code),
+                                                      device_id=exc.dev_id,
+                                                      transaction=exc.transaction_id), addr))
+                cut = _adu_length(data, used)
+                if cut is None:
+                    used = len(data)                # cannot be delimited: the rest is lost
+                    break
             used += cut
             if self.last_pdu is not None:
                 self._queue.append((self.last_pdu, addr))
@@ -788,13 +797,17 @@ class _InOrderRequestHandler(ServerRequestHandler):
         if self._queue and not self._draining:
             self._draining = True
             self.loop.create_task(self._drain())
+        if used == 0 and len(data) > MAX_ADU_BYTES:
+            return len(data)    # more than an ADU and no frame in it: not Modbus, dropped
         return used
 
     async def _drain(self) -> None:
         try:
             while self._queue:
                 self.last_pdu, self.last_addr = self._queue.popleft()
-                if self._is_register_read(self.last_pdu):
+                if isinstance(self.last_pdu, ExceptionResponse):    # refused when received
+                    self.server_send(self.last_pdu, self.last_addr)
+                elif self._is_register_read(self.last_pdu):
                     self.server_send(self._register_read(self.last_pdu), self.last_addr)
                 elif self.last_pdu.function_code in _DATASTORE_FCS:
                     await self.handle_request()
@@ -856,6 +869,15 @@ class _InOrderRequestHandler(ServerRequestHandler):
         answer.transaction_id = request.transaction_id
         answer.dev_id = request.dev_id
         return answer
+
+
+def _adu_length(data: bytes, start: int) -> int | None:
+    """Bytes of the Modbus TCP ADU at ``start`` by its MBAP length field, None if ``data``
+    does not hold it whole."""
+    if len(data) < start + 6:
+        return None
+    length = 6 + int.from_bytes(data[start + 4:start + 6], "big")
+    return length if length > 6 and start + length <= len(data) else None
 
 
 #: Read File Record's reference type (spec v1.1b3 §6.14: "must be specified as 6").

@@ -119,7 +119,8 @@ def modbus_tk_tcp(device: DaqDevice, unit_id: int = 1):
     server = modbus_tcp.TcpServer(port=0, address="127.0.0.1")
     with _serving(server, device, unit_id):
         deadline = time.monotonic() + 5.0
-        while getattr(server, "_sock", None) is None:      # bound in the server's thread
+        # created, then bound, in the server's thread: a socket not yet bound reads 0.0.0.0:0
+        while getattr(server, "_sock", None) is None or server._sock.getsockname()[1] == 0:
             if time.monotonic() > deadline:
                 raise RuntimeError("modbus-tk TCP server did not start")
             time.sleep(0.01)
