@@ -768,6 +768,18 @@ class _InOrderRequestHandler(ServerRequestHandler):
         # waited for answers that never came. This handler takes every complete frame out of
         # what it receives, so only bytes it cannot frame can pile up (dropped below).
         self.max_buffer_size = sys.maxsize
+        # pymodbus's send() also empties the receive buffer, so the first part of a pipelined
+        # request that came in behind the one being answered was lost; answers go out here
+        self.low_level_send = self._write_answer
+        self._gathered: list[bytes] | None = None
+
+    def _write_answer(self, data: bytes, addr: tuple | None = None) -> None:
+        """Write one answer ADU; while a batch drains, gather it and write the batch at once
+        (one write per batch instead of one per answer)."""
+        if self._gathered is not None:
+            self._gathered.append(data)
+        elif self.transport:
+            self.transport.write(data)
 
     def callback_data(self, data: bytes, addr: tuple | None = None) -> int:
         used = 0
@@ -802,6 +814,7 @@ class _InOrderRequestHandler(ServerRequestHandler):
         return used
 
     async def _drain(self) -> None:
+        self._gathered = []
         try:
             while self._queue:
                 self.last_pdu, self.last_addr = self._queue.popleft()
@@ -821,6 +834,9 @@ class _InOrderRequestHandler(ServerRequestHandler):
                     self.server_send(refusal, self.last_addr)
         finally:
             self._draining = False
+            answers, self._gathered = b"".join(self._gathered), None
+            if answers and self.transport:
+                self.transport.write(answers)
 
 
     def _is_register_read(self, request) -> bool:
