@@ -7,6 +7,9 @@ asammdf itself only where it reads or writes MDF captures (``hil/capture_mdf.py`
 ``hil/record_export.py``). So python-can is imported here with asammdf hidden from it, and
 asammdf is importable again right after; in this process python-can's own MF4 reader and writer
 then say asammdf is missing. A process that imported can or asammdf before is left as it is.
+The hiding holds for the whole process while ``import can`` runs: another thread importing
+asammdf at that moment would be refused (ripple-hil reads its bench file before it starts
+threads).
 """
 
 from __future__ import annotations

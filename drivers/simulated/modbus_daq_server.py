@@ -65,6 +65,7 @@ from typing import NamedTuple
 import numpy as np
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ModbusIOException
+from pymodbus.framer import FramerSocket
 from pymodbus.pdu import ExceptionResponse
 from pymodbus.pdu.file_message import FileRecord, ReadFileRecordRequest, ReadFileRecordResponse
 from pymodbus.pdu.register_message import ReadHoldingRegistersResponse, ReadInputRegistersResponse
@@ -82,6 +83,10 @@ log = logging.getLogger(__name__)
 FAIL_KINDS = ("exception", "timeout", "disconnect")
 #: The longest Modbus TCP ADU, bytes (MBAP header 7 + PDU 253; Messaging on TCP/IP §4.1).
 MAX_ADU_BYTES = 260
+#: The longest frame a client can send that still reads as a request: MBAP 7 + a write's
+#: 6-byte header + the 255 bytes its byte count allows (past the spec's ADU: answered with
+#: exception 3, as pymodbus does, not dropped).
+LONGEST_REQUEST_BYTES = 7 + 6 + 255
 #: How long a speed-setpoint write waits for the twin (a transducer reading holds it briefly).
 SPEED_APPLY_WAIT_S = 0.05
 _INPUT_FC = 4
@@ -668,7 +673,9 @@ class SimulatedDaq:
         return self._bridge.client_port
 
     def fail_next(self, kind: str = "exception") -> None:
-        """Make the next request fail: "exception", "timeout" or "disconnect"."""
+        """Make the next request fail: "exception", "timeout" or "disconnect" (TCP: the
+        connection closed after the unanswered request; RTU has no connection to drop: the
+        request goes unanswered, as "timeout")."""
         if kind not in FAIL_KINDS:
             raise ValueError(f"fail_next kind={kind!r}; allowed {FAIL_KINDS}")
         self.device.fail_next_kind = kind
@@ -679,7 +686,8 @@ class SimulatedDaq:
         if not sending or kind not in ("timeout", "disconnect"):
             return data
         self.device.fail_next_kind = None
-        if kind == "disconnect" and self._server is not None:
+        # a closed serial handler is never reopened: on RTU the line stays up (review h-19)
+        if kind == "disconnect" and self._server is not None and self._bridge is None:
             self._loop.call_soon(self._close_connections)
         return b""
 
@@ -783,29 +791,43 @@ class _InOrderRequestHandler(ServerRequestHandler):
 
     def callback_data(self, data: bytes, addr: tuple | None = None) -> int:
         used = 0
+        tcp = isinstance(self.framer, FramerSocket)
         while used < len(data):
+            frame = data[used:]
+            if tcp:     # one ADU at a time, delimited by its MBAP header (review h-19)
+                size = _mbap_size(frame)
+                if size is None:
+                    break                           # an incomplete frame: wait for more data
+                if size == 0:
+                    log.warning("simulated DAQ: %d bytes that are not Modbus TCP dropped",
+                                len(frame))
+                    used = len(data)
+                    break
+                frame = frame[:size]
+                if frame[2:4] != b"\0\0":           # protocol id 0 is Modbus (spec §4.1)
+                    log.warning("simulated DAQ: a frame of protocol id %d skipped",
+                                int.from_bytes(frame[2:4], "big"))
+                    used += size
+                    continue
             try:
-                cut = TransactionManager.callback_data(self, data[used:], addr)
+                cut = TransactionManager.callback_data(self, frame, addr)
             except ModbusIOException as exc:
-                # a malformed quantity: its exception answer goes out in its turn, and the
-                # frames after it are still answered
-                frame = self.framer.decode(data[used:])[3]
-                function_code = frame[0] if frame else 0
+                # a malformed quantity: its exception answer goes out in its turn, and (TCP)
+                # the frames after it are still answered
+                decoded = self.framer.decode(frame)[3]
+                function_code = decoded[0] if decoded else 0
                 code = EXC_ILLEGAL_VALUE if function_code in _REGISTER_FCS else \
                     EXC_ILLEGAL_FUNCTION
                 self._queue.append((ExceptionResponse(function_code,
                                                       exception_code=ExcCodes(code),
                                                       device_id=exc.dev_id,
                                                       transaction=exc.transaction_id), addr))
-                cut = _adu_length(data, used)
-                if cut is None:
-                    used = len(data)                # cannot be delimited: the rest is lost
-                    break
-            used += cut
+                cut = len(frame)                    # RTU: the rest of the segment with it
             if self.last_pdu is not None:
                 self._queue.append((self.last_pdu, addr))
-            elif cut == 0:
+            elif cut == 0 and not tcp:
                 break                               # an incomplete frame: wait for more data
+            used += len(frame) if tcp else cut
         if self._queue and not self._draining:
             self._draining = True
             self.loop.create_task(self._drain())
@@ -887,13 +909,15 @@ class _InOrderRequestHandler(ServerRequestHandler):
         return answer
 
 
-def _adu_length(data: bytes, start: int) -> int | None:
-    """Bytes of the Modbus TCP ADU at ``start`` by its MBAP length field, None if ``data``
-    does not hold it whole."""
-    if len(data) < start + 6:
+def _mbap_size(data: bytes) -> int | None:
+    """Bytes of the Modbus TCP ADU ``data`` starts with, by its MBAP length field: None while
+    ``data`` does not hold it whole, 0 if the field cannot be a request's."""
+    if len(data) < 6:
         return None
-    length = 6 + int.from_bytes(data[start + 4:start + 6], "big")
-    return length if length > 6 and start + length <= len(data) else None
+    size = 6 + int.from_bytes(data[4:6], "big")
+    if not 8 <= size <= LONGEST_REQUEST_BYTES:
+        return 0
+    return size if size <= len(data) else None
 
 
 #: Read File Record's reference type (spec v1.1b3 §6.14: "must be specified as 6").

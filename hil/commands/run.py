@@ -215,6 +215,7 @@ def unrelated_plugins() -> list[str]:
 
 
 def run(args) -> int:
+    import gc
     import signal
 
     import pytest
@@ -224,7 +225,10 @@ def run(args) -> int:
     # the record closed as interrupted.
     signal.signal(signal.SIGTERM, lambda signum, frame: signal.raise_signal(signal.SIGINT))
     try:
-        code = pytest.main(pytest_args)
+        try:
+            code = pytest.main(pytest_args)
+        finally:
+            gc.unfreeze()           # the plugin froze the run's heap (fixtures/plugin.py)
     except Exception as exc:
         if not isinstance(exc.__context__, KeyboardInterrupt):
             raise

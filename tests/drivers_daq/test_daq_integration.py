@@ -144,6 +144,18 @@ def test_injected_transport_faults_raise_typed_errors_and_the_link_recovers(
         assert daq.identity()["model"] == "RHIL-DAQ16"
 
 
+@pytest.mark.parametrize("kind", ["timeout", "disconnect"])
+def test_an_unanswered_request_over_rtu_leaves_the_line_usable(kind):
+    """RTU has no connection to drop: "disconnect" closed pymodbus's serial handler, which is
+    never reopened, and every later request timed out (review h-19)."""
+    with SimulatedDaq.rtu(make_twin()) as server, \
+            ModbusDaq(ModbusRtuSettings(server.port), timeout_s=0.3) as daq:
+        server.fail_next(kind)
+        with pytest.raises(InstrumentTimeout):
+            daq.identity()
+        assert daq.identity()["model"] == "RHIL-DAQ16"
+
+
 def test_a_fault_during_capture_leaves_the_daq_disarmed(daq, daq_server):
     daq.identity()
     daq_server.fail_next("exception")           # refuses the configuration write

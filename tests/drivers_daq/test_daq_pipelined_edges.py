@@ -94,3 +94,22 @@ def test_a_request_that_arrives_in_two_parts_behind_another_is_answered(daq_serv
         sock.sendall(second[5:])
         rest = answers(sock, 1)
     assert [tid for tid, _ in first + rest] == [1, 2]
+
+
+def test_frames_are_delimited_by_their_mbap_length(daq_server):
+    """A frame of protocol id 1 is skipped and the reads behind it answered (they waited
+    forever); an 8-byte request followed by one byte of the next keeps that byte (pymodbus's
+    framer took a 9th byte into an 8-byte frame)."""
+    with socket.create_connection(daq_server.address) as sock:
+        sock.sendall(struct.pack(">HHHB", 1, 1, len(READ_STATE) + 1, 1) + READ_STATE
+                     + adu(2, READ_STATE) + adu(3, READ_STATE))
+        assert [tid for tid, _ in answers(sock, 2)] == [2, 3]
+    second = adu(2, READ_STATE)
+    with socket.create_connection(daq_server.address) as sock:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        sock.sendall(adu(1, bytes([17])) + second[:1])          # report server id: 8 bytes
+        first = answers(sock, 1)
+        time.sleep(0.05)
+        sock.sendall(second[1:])
+        got = first + answers(sock, 1)
+    assert [tid for tid, _ in got] == [1, 2] and got[0][1].startswith("91")
