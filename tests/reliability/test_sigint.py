@@ -45,10 +45,12 @@ def wait_for(condition, timeout_s: float, what: str, process=None):
 
 def recorded_points(records) -> int:
     """Tests finished so far (record.json holds the header; load_record replays the journal;
-    the selected tests are listed as "not run" until they run)."""
+    the selected tests are listed as "not run" until they run). A point's entry appears when
+    it is measured, mid-call, without a ``phase``: only the outcome at the test's end sets one
+    (a Ctrl-C in the rest of that test makes it "not run", and the run had finished none)."""
     for path in records.glob("*/record.json"):
         try:
-            return sum(t["outcome"] in ("passed", "failed")
+            return sum(t["outcome"] in ("passed", "failed") and bool(t.get("phase"))
                        for t in load_record(path.parent)["tests"])
         except Exception:  # noqa: BLE001 - a record being created
             return 0
