@@ -281,7 +281,7 @@ class Bench:
             *(("oscilloscope stop", scope.disarm) for scope in self._scope()),
             ("dyno speed reference 0 rpm", lambda: self.daq.set_dyno_speed_rpm(0.0)),
         )
-        interrupted = None
+        interrupted = first_error = None
         for name, action in steps:
             try:
                 action()
@@ -290,6 +290,7 @@ class Bench:
                 interrupted = exc
                 report.failures.append(f"{name}: interrupted by Ctrl-C")
             except Exception as exc:  # noqa: BLE001 - keep going: the next step may still help
+                first_error = first_error or exc
                 report.failures.append(f"{name}: {exc}")
         self.safe_state_reports.append(report)
         if interrupted is not None:
@@ -297,7 +298,9 @@ class Bench:
         if report.failures:
             logger.error("safe state incomplete: %s", report.failures)
             if raise_on_failure:
-                raise SafeStateError(report.failures)
+                # the first step's own error as the cause: a lost transport stays typed, so
+                # the run reports the bench lost in one line (it read as a drive failure)
+                raise SafeStateError(report.failures) from first_error
         return report
 
 

@@ -138,3 +138,23 @@ def test_speed_over_its_limit_in_the_data(sim_bench, run_record, monkeypatch):
     with pytest.raises(LimitError, match="speed_rpm"):
         measure_point(sim_bench, run_record, "speed-over-limit", plan(speed_rpm=700.0))
     assert_safe(sim_bench)
+
+
+def test_a_safe_state_failure_keeps_the_transport_error_as_its_cause(sim_bench, monkeypatch):
+    """A bench killed during the safe state at a point's end: the SafeStateError carries the
+    driver's typed error, so the run reports the bench lost in one line (it failed the point
+    with a traceback, and only the next point named the lost bench; CI at bc689f5)."""
+    from hil.bench import SafeStateError
+    from ripple_hil_drivers.errors import TransportLost
+
+    lost = TransportLost("drive", "quick stop", "[Errno 104] Connection reset by peer")
+
+    def gone(*args, **kwargs):
+        raise lost
+
+    monkeypatch.setattr(sim_bench.drive, "quick_stop", gone)
+    with pytest.raises(SafeStateError) as caught:
+        sim_bench.make_safe("point finished")
+    monkeypatch.undo()
+    assert caught.value.__cause__ is lost
+    assert_safe(sim_bench)
