@@ -124,10 +124,33 @@ def dispose_all() -> None:
 
 
 def head_revision() -> str:
-    """The newest migration's revision id."""
-    from alembic.script import ScriptDirectory
+    """The newest migration's revision id: the one no migration revises.
 
-    return ScriptDirectory(str(MIGRATIONS)).get_current_head()
+    Read from the migration files' ``revision`` / ``down_revision`` assignments with ``ast``, not
+    through alembic's ``ScriptDirectory`` (importing alembic costs ~0.2 s of every ``hil run``
+    that indexes its record into a database already at head); a test holds it equal to
+    alembic's own answer. More than one head (a branch) is refused, as alembic's ``upgrade
+    head`` would.
+    """
+    import ast
+
+    revisions: dict[str, object] = {}
+    for path in sorted((MIGRATIONS / "versions").glob("*.py")):
+        found = {}
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.Assign) and len(node.targets) == 1 \
+                    and isinstance(node.targets[0], ast.Name) \
+                    and node.targets[0].id in ("revision", "down_revision"):
+                found[node.targets[0].id] = ast.literal_eval(node.value)
+        if "revision" in found:
+            revisions[found["revision"]] = found.get("down_revision")
+    revised = set()
+    for down in revisions.values():
+        revised.update(down if isinstance(down, (tuple, list)) else (down,))
+    heads = sorted(set(revisions) - revised)
+    if len(heads) != 1:
+        raise RuntimeError(f"the results migrations have {len(heads)} heads {heads}, not one")
+    return heads[0]
 
 
 def current_revision(connection) -> str | None:

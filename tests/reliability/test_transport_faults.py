@@ -233,7 +233,8 @@ def test_transducer_line_noise_and_partial_lines_are_tolerated(sim_bench):
 @pytest.fixture
 def rtu_bench():
     """The simulated bench with its DAQ on Modbus RTU over a pty pair."""
-    bench = Bench.open(default_sim_bench().with_overrides({"daq": {"transport": "rtu"}}), seed=4)
+    bench = Bench.open(default_sim_bench().with_overrides(
+        {"daq": {"transport": "rtu", "requests_in_flight": 8}}), seed=4)   # 8: the default (TCP only)
     yield bench
     bench.close()
 
