@@ -16,6 +16,7 @@ Keys are named as the tables they override (None: as stated there):
 | ``bandwidth_hz`` | ``[torque]``: the transducer's first-order bandwidth | Hz |
 | ``saturation_current_a`` | new: L(|i|) = L/(1 + (|i|/i_sat)²), |i| the current vector's magnitude (peak phase A) | A |
 | ``winding_time_constant_s``, ``winding_rise_pu_per_a2`` | new: the winding warms with its copper loss, R = R·(1 + w), τ·dw/dt = k·|i|² − w, w = 0 when the bench starts | s, 1/A² |
+| ``daq_voltage_gain`` | new: the DAQ's line-voltage channel ``vab_v`` reads this × the true voltage (a gain error within the accuracy class the DAQ's ``[[instrument]]`` states) | 1 |
 
 Not a defect: a correct drive on such a bench must pass (the characterisation measures it).
 """
@@ -43,6 +44,7 @@ class ActualPlant:
     saturation_current_a: float | None = _key(None, "float", lo=0.1, hi=1e4)
     winding_time_constant_s: float | None = _key(None, "float", lo=1e-3, hi=1e5)
     winding_rise_pu_per_a2: float | None = _key(None, "float", lo=0.0, hi=1.0)
+    daq_voltage_gain: float | None = _key(None, "float", lo=0.9, hi=1.1)
 
     def _check(self, path: str, ctx) -> None:
         if (self.winding_time_constant_s is None) != (self.winding_rise_pu_per_a2 is None):

@@ -508,6 +508,15 @@ class BenchConfig:
                 "transducer_full_scale_nm": self.torque.full_scale_nm,
                 "daq_lsb_nm": resolution}
 
+    def daq_gain_u_rel(self) -> float:
+        """Relative standard uncertainty of a DAQ channel's gain (type B): the accuracy class
+        ``a`` (% FS) of the ``[[instrument]]`` with ``role = "daq"`` bounds the reading's error by
+        a·FS everywhere on the range, so a pure gain error by ``a`` (at full scale); rectangular,
+        a/100/√3. 0 where no accuracy class is stated in % FS (the record's method says which)."""
+        daq = self.instrument("daq")
+        accuracy = daq.accuracy_pct_fs() if daq is not None else None
+        return (accuracy or 0.0) / 100.0 / math.sqrt(3.0)
+
     def instrument_uncertainty(self):
         """``hil.analysis.InstrumentUncertainty`` built from :meth:`uncertainty_inputs`."""
         from hil.analysis import InstrumentUncertainty  # analysis never imports config

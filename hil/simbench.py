@@ -213,15 +213,18 @@ class SimulatedBench:
 
     def _start_daq(self, simulated_daq_class) -> dict:
         daq = self.config.daq
+        gain = self.config.sim_actual.get("daq_voltage_gain")
+        gains = {"channel_gains": {"vab_v": gain}} if gain is not None else {}
         if daq.transport == "rtu":
             self.daq = simulated_daq_class.rtu(self.twin, unit_id=daq.unit_id, parity=daq.parity,
                                                stopbits=daq.stopbits,
-                                               register_map=daq.register_map)
+                                               register_map=daq.register_map, **gains)
             self.daq.start()
             self._started.append(self.daq)
             return {"serial_port": self.daq.port, "baudrate": daq.baudrate or 115200}
         self.daq = simulated_daq_class(self.twin, host="127.0.0.1", port=daq.port or 0,
-                                       unit_id=daq.unit_id, register_map=daq.register_map)
+                                       unit_id=daq.unit_id, register_map=daq.register_map,
+                                       **gains)
         self.daq.start()
         self._started.append(self.daq)
         host, port = self.daq.address

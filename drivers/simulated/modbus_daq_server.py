@@ -166,9 +166,12 @@ class DaqDevice:
     """
 
     def __init__(self, twin, register_map: RegisterMap, serial_number: str, *,
-                 pwm_synchronous: bool = True) -> None:
+                 pwm_synchronous: bool = True, channel_gains: dict | None = None) -> None:
         self.twin = twin
         self.pwm_synchronous = bool(pwm_synchronous)
+        #: channel -> the gain its input reads the true signal with (an instrument's gain error,
+        #: ``[simulation.actual] daq_voltage_gain``); 1 where not listed
+        self.channel_gains = dict(channel_gains or {})
         self.map = register_map
         self.device = register_map.device
         self._lock = threading.Lock()
@@ -471,7 +474,7 @@ class DaqDevice:
                     except Refusal:
                         log.error("dyno speed setpoint %s rpm refused by the twin",
                                   self._speed_setpoint_rpm)
-            data = _daq_view(self.twin, data, asked)
+            data = _daq_view(self.twin, data, asked, self.channel_gains)
             columns, first_values = [], {}
             for channel in channels:
                 values = ticks if counter is not None and channel.name == counter.name \
@@ -510,10 +513,11 @@ def _twin_channels(asked: list[str]) -> list[str]:
     return out
 
 
-def _daq_view(twin, data, asked: list[str]) -> dict:
+def _daq_view(twin, data, asked: list[str], gains: dict | None = None) -> dict:
     """The twin's channels as the DAQ's inputs see them: the differential voltage v_ab, and the
     encoder counter with the test-only ``encoder_commutation_offset_elec_deg`` defect (the
-    counter's zero that far, in electrical degrees, ahead of the rotor's electrical zero)."""
+    counter's zero that far, in electrical degrees, ahead of the rotor's electrical zero), each
+    channel of ``gains`` read with its gain error."""
     view = {name: data[name] for name in asked if name in data}
     if "va_v" in view and "vb_v" in view:
         view["vab_v"] = np.asarray(data["va_v"]) - np.asarray(data["vb_v"])
@@ -525,6 +529,9 @@ def _daq_view(twin, data, asked: list[str]) -> dict:
         if counts and pole_pairs:
             shift = int(round(offset_deg / 360.0 / pole_pairs * counts))
             view["encoder_counts"] = np.asarray(data["encoder_counts"]) + shift
+    for name, gain in (gains or {}).items():
+        if name in view:
+            view[name] = np.asarray(view[name]) * gain
     return view
 
 
@@ -591,11 +598,12 @@ class SimulatedDaq:
 
     def __init__(self, twin, host: str = "127.0.0.1", port: int = 0, *, unit_id: int = 1,
                  register_map=None, serial_number: str = "SIM-DAQ-0001",
-                 pwm_synchronous: bool = True) -> None:
+                 pwm_synchronous: bool = True, channel_gains: dict | None = None) -> None:
         self.twin = twin
         self.map = register_map if isinstance(register_map, RegisterMap) \
             else load_register_map(register_map)
-        self.device = DaqDevice(twin, self.map, serial_number, pwm_synchronous=pwm_synchronous)
+        self.device = DaqDevice(twin, self.map, serial_number, pwm_synchronous=pwm_synchronous,
+                                channel_gains=channel_gains)
         self.unit_id = unit_id
         self._host, self._port = host, port
         self._serial: dict | None = None
@@ -611,14 +619,15 @@ class SimulatedDaq:
     @classmethod
     def rtu(cls, twin, *, baudrate: int = 115200, parity: str = "E", stopbits: int = 1,
             pace_baud: bool = False, unit_id: int = 1, register_map=None,
-            serial_number: str = "SIM-DAQ-0001") -> "SimulatedDaq":
+            serial_number: str = "SIM-DAQ-0001",
+            channel_gains: dict | None = None) -> "SimulatedDaq":
         """An RTU DAQ on a pseudo-terminal (8 data bits, ``parity``, ``stopbits``; default 8E1);
         after ``start()`` the client opens ``sim.port``."""
         if parity not in PARITIES or stopbits not in STOPBITS:
             raise ValueError(f"simulated DAQ line parity={parity!r} stopbits={stopbits!r}; "
                              f"allowed parity {PARITIES}, stopbits {STOPBITS}")
         sim = cls(twin, unit_id=unit_id, register_map=register_map,
-                  serial_number=serial_number)
+                  serial_number=serial_number, channel_gains=channel_gains)
         sim._serial = {"baudrate": baudrate, "parity": parity, "stopbits": stopbits,
                        "pace_baud": pace_baud}
         return sim

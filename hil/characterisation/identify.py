@@ -18,7 +18,11 @@ V = Z·I + E with Z = R + j·ωe·L (ωe signed), whatever the direction of rota
 Type-B terms: the voltage channel's quantisation (its LSB/√12 per sample, averaged over the
 revolution), the uncertainty of the EMF propagated into Z, and the time skew between the voltage
 and current channels (bounded by ``skew_bound_s``, rectangular): a skew δt turns the voltage
-measured in both captures by ωe·δt, so δZ = j·ωe·δt·Z — it moves mostly ωe·L (δL ≈ δt·R).
+measured in both captures by ωe·δt, so δZ = j·ωe·δt·Z — it moves mostly ωe·L (δL ≈ δt·R); and
+the DAQ channels' gain (``gain_u_rel``, from the DAQ's stated accuracy class:
+``hil.config.BenchConfig.daq_gain_u_rel``): a voltage channel reading g× the truth gives ψ g×
+the truth, and Z = (V − E)/I, whose V and E come through that same channel, (g_v/g_i)× — so in
+Z the voltage gain enters once, not again through E's U.
 """
 
 from __future__ import annotations
@@ -118,10 +122,14 @@ class BackEmf:
 
     phasor_per_rad_s: complex      # E_an / ω_m (V·s/rad), in the angle channel's frame
     psi: Identified                # peak phase EMF per mechanical rad/s (V·s/rad)
+    #: ψ's standard uncertainty without the voltage channel's gain term (V·s/rad): what
+    #: propagates into Z, where that gain enters through V − E as a whole
+    u_without_gain: float = 0.0
 
 
-def back_emf(capture: Capture, pole_pairs: int) -> BackEmf:
-    """ψ from a capture with the drive disabled (``vab_v`` and the angle channel)."""
+def back_emf(capture: Capture, pole_pairs: int, *, gain_u_rel: float = 0.0) -> BackEmf:
+    """ψ from a capture with the drive disabled (``vab_v`` and the angle channel);
+    ``gain_u_rel``: the voltage channel's relative gain uncertainty (module docstring)."""
     theta = electrical_angle_abs(capture, pole_pairs)
     omega_m = speed_rad_s(capture)
     values = phasors_per_revolution(capture["vab_v"], theta) * LINE_TO_NEUTRAL / omega_m
@@ -129,18 +137,30 @@ def back_emf(capture: Capture, pole_pairs: int) -> BackEmf:
     magnitude = abs(mean)
     u_a = math.hypot(u_re * mean.real, u_im * mean.imag) / magnitude
     u_q = _lsb_u(capture, "vab_v") / math.sqrt(3.0) / abs(omega_m)
-    psi = Identified("emf_peak_v_s_per_rad", magnitude, math.hypot(u_a, u_q), "V*s/rad",
+    u_channel = math.hypot(u_a, u_q)
+    psi = Identified("emf_peak_v_s_per_rad", magnitude,
+                     math.hypot(u_channel, gain_u_rel * magnitude), "V*s/rad",
                      f"back EMF: fundamental of vab_v (÷√3∠30°) over {values.size} electrical "
                      f"revolutions per rad/s of the angle channel's speed, drive disabled, the "
-                     f"dyno turning the motor at {omega_m * 60 / (2 * math.pi):.4g} rpm")
-    return BackEmf(mean, psi)
+                     f"dyno turning the motor at {omega_m * 60 / (2 * math.pi):.4g} rpm; "
+                     + _gain_note(gain_u_rel))
+    return BackEmf(mean, psi, u_channel)
 
 
-def winding(capture: Capture, emf: BackEmf, pole_pairs: int, *, skew_bound_s: float
-            ) -> tuple[Identified, Identified]:
+def _gain_note(gain_u_rel: float) -> str:
+    if gain_u_rel <= 0:
+        return "no DAQ gain uncertainty (no accuracy class stated for the DAQ)"
+    return (f"DAQ channel gain u = {gain_u_rel * 100:.3g} % (its stated accuracy class, "
+            f"rectangular)")
+
+
+def winding(capture: Capture, emf: BackEmf, pole_pairs: int, *, skew_bound_s: float,
+            gain_u_rel: float = 0.0) -> tuple[Identified, Identified]:
     """(R in Ω, L in H) from a capture with the drive regulating current: Z = (V_an − E_an)/I_a.
 
-    ``skew_bound_s``: bound of the time skew between the voltage and the current channels."""
+    ``skew_bound_s``: bound of the time skew between the voltage and the current channels;
+    ``gain_u_rel``: each DAQ channel's relative gain uncertainty (voltage and current channels
+    independent: Z's relative u from them is √2 × it)."""
     theta = electrical_angle_abs(capture, pole_pairs)
     omega_m = speed_rad_s(capture)
     omega_e = pole_pairs * omega_m
@@ -153,21 +173,25 @@ def winding(capture: Capture, emf: BackEmf, pole_pairs: int, *, skew_bound_s: fl
     z, u_re, u_im = _mean_and_u(values)
     i_mean = complex(amps.mean())
     # EMF: δZ = −δE/I, δE = ω_m·δψ along E's direction
-    dz_emf = abs(omega_m) * emf.psi.u / abs(i_mean)
+    dz_emf = abs(omega_m) * emf.u_without_gain / abs(i_mean)
+    dz_gain = math.sqrt(2.0) * gain_u_rel * z          # g_v/g_i: the two channels' gains
     e_dir = e_an / abs(e_an) / (i_mean / abs(i_mean))
     # skew: the channel's δt turns V and the EMF measured through it alike, so V − E by ωe·δt:
     # δZ = j·ωe·δt·Z (δL ≈ δt·R), δt rectangular in ±skew_bound_s
     dz_skew = abs(omega_e) * skew_bound_s / math.sqrt(3.0) * z * 1j
     u_q = math.hypot(_lsb_u(capture, "vab_v") / math.sqrt(3.0),
                      _lsb_u(capture, "ia_a") * abs(z)) / abs(i_mean)
-    u_r = math.sqrt(u_re ** 2 + (dz_emf * e_dir.real) ** 2 + dz_skew.real ** 2 + u_q ** 2)
-    u_x = math.sqrt(u_im ** 2 + (dz_emf * e_dir.imag) ** 2 + dz_skew.imag ** 2 + u_q ** 2)
+    u_r = math.sqrt(u_re ** 2 + (dz_emf * e_dir.real) ** 2 + dz_skew.real ** 2 + u_q ** 2
+                    + dz_gain.real ** 2)
+    u_x = math.sqrt(u_im ** 2 + (dz_emf * e_dir.imag) ** 2 + dz_skew.imag ** 2 + u_q ** 2
+                    + dz_gain.imag ** 2)
     where = (f"at {abs(i_mean):.4g} A peak, {omega_m * 60 / (2 * math.pi):.4g} rpm, over {count} "
              f"electrical revolutions")
     method = ("terminal voltage vab_v (÷√3∠30°) less the back EMF measured with the drive "
               "disabled, over the phase current ia_a: Z = (V − E)/I = R + jωe·L, {part}; "
-              + where + f"; voltage/current skew bound {skew_bound_s * 1e6:.3g} µs; the dead "
-              "time's voltage error is in the measured terminal voltage, not in R")
+              + where + f"; voltage/current skew bound {skew_bound_s * 1e6:.3g} µs; "
+              + _gain_note(gain_u_rel) + "; the dead time's voltage error is in the measured "
+              "terminal voltage, not in R")
     resistance = Identified("phase_resistance_ohm", z.real, u_r, "ohm",
                             method.format(part="R = Re Z"))
     inductance = Identified("phase_inductance_h", z.imag / omega_e, u_x / abs(omega_e), "H",

@@ -70,7 +70,8 @@ def characterise(bench, record, op=None) -> Characterisation:
         return Characterisation(not_identified={key: emf_capture for key in (
             "ke_v_s_per_rad", "phase_resistance_ohm", "phase_inductance_h",
             "current_loop_bandwidth_hz", "bandwidth_hz")})
-    emf = back_emf(emf_capture, pole_pairs)
+    gain_u_rel = config.daq_gain_u_rel()
+    emf = back_emf(emf_capture, pole_pairs, gain_u_rel=gain_u_rel)
     identified = [ke_from_psi(emf.psi, config.motor.ke_definition)]
     not_identified = {}
     winding_capture = (_voltage_capture(bench, record, "characterisation-winding",
@@ -78,7 +79,7 @@ def characterise(bench, record, op=None) -> Characterisation:
                        if op.current_a > 0 else "the operating point's current is 0 A")
     if not isinstance(winding_capture, str):
         identified += winding(winding_capture, emf, pole_pairs,
-                              skew_bound_s=VOLTAGE_SKEW_BOUND_S)
+                              skew_bound_s=VOLTAGE_SKEW_BOUND_S, gain_u_rel=gain_u_rel)
     else:
         for key in ("phase_resistance_ohm", "phase_inductance_h"):
             not_identified[key] = winding_capture

@@ -61,3 +61,25 @@ def test_a_channel_skew_moves_l_and_the_stated_bound_covers_it():
     assert abs(off.value - L) > off.expanded
     _, bounded = winding(_capture(20.0, skew_s=20e-6), emf, POLE_PAIRS, skew_bound_s=25e-6)
     assert abs(bounded.value - L) <= bounded.expanded
+
+
+def test_a_daq_voltage_gain_error_is_covered_by_its_stated_accuracy_class():
+    """A voltage channel reading 0.4 % high makes ψ and Z 0.4 % high (E and V come through the
+    same channel): beyond the U of quantisation and scatter alone, within the U once the DAQ's
+    0.5 % FS accuracy class is a type-B gain term (0.5 %/√3; Z: the voltage and current
+    channels' gains, √2 × it)."""
+    def high(capture):
+        return Capture(capture.channels | {"vab_v": capture["vab_v"] * 1.004})
+
+    gain_u = 0.005 / math.sqrt(3.0)
+    for u_rel, covered in ((0.0, False), (gain_u, True)):
+        emf = back_emf(high(_capture(0.0)), POLE_PAIRS, gain_u_rel=u_rel)
+        assert emf.psi.value == pytest.approx(PSI * 1.004, rel=1e-9)
+        assert (abs(emf.psi.value - PSI) <= emf.psi.expanded) is covered
+        resistance, inductance = winding(high(_capture(20.0)), emf, POLE_PAIRS, skew_bound_s=0.0,
+                                         gain_u_rel=u_rel)
+        for item, truth in ((resistance, R), (inductance, L)):
+            assert item.value == pytest.approx(truth * 1.004, rel=1e-9)
+            assert (abs(item.value - truth) <= item.expanded) is covered
+    assert emf.u_without_gain < 0.1 * emf.psi.u          # Z takes the gain once, not via E
+    assert "accuracy class" in emf.psi.method and "accuracy class" in resistance.method

@@ -78,6 +78,36 @@ def test_a_bench_as_stated_keeps_its_nameplate(tmp_path):
         bench.close()
 
 
+@pytest.mark.parametrize("accuracy, claims_the_motor_is_off", [(None, True), ("0.5 % FS", False)])
+def test_a_daq_reading_the_voltage_high_is_not_a_motor_off_its_nameplate(
+        tmp_path, accuracy, claims_the_motor_is_off):
+    """The motor is its nameplate; the DAQ's voltage channel reads 0.4 % high. With no accuracy
+    class stated for the DAQ, the characterisation reports Ke 0.4 % off its nameplate (and the
+    predictions take it); with the DAQ's 0.5 % FS stated, that gain is in Ke's U and the
+    nameplate is confirmed."""
+    raw = default_sim_bench().raw
+    instruments = [dict(entry) for entry in raw["instrument"]]
+    for entry in instruments:
+        if entry["role"] == "daq" and accuracy is not None:
+            entry["accuracy_class"] = accuracy
+    config = default_sim_bench().with_overrides(
+        {"instrument": instruments, "simulation": {"actual": {"daq_voltage_gain": 1.004}}})
+    bench = Bench.open(config, seed=1)
+    record = RunRecord.create(tmp_path, config, bench.identities())
+    try:
+        run_stage(bench, record)
+        ke = bench.characterisation.get("ke_v_s_per_rad")
+        assert ke.value == pytest.approx(0.023 * 1.004, rel=5e-4)     # what the channel reads
+        row = next(r for r in record.data["characterisation"]["stated_vs_measured"]
+                   if r["name"] == "ke_v_s_per_rad")
+        assert row["disagrees"] is claims_the_motor_is_off
+        assert (bench.config.motor.ke_v_s_per_rad != 0.023) is claims_the_motor_is_off
+        assert ("no DAQ gain uncertainty" in ke.method) is (accuracy is None)
+    finally:
+        record.finish("complete")
+        bench.close()
+
+
 @pytest.mark.parametrize("scale, passes", [(1.0, True), (1.02, False), (1.05, False)])
 def test_torque_scale_against_the_measured_kt(tmp_path, scale, passes):
     """On the warm bench (Ke 4 % below the nameplate: the nameplate check failed it, 3 % band),
