@@ -230,25 +230,56 @@ def injected_or_default(plan, config: BenchConfig, knob: str) -> float:
     return float(profile_for(config.drive).value_si(knob))
 
 
+#: Injections whose current the loop drives on top of the commanded one (``hil.model.voltage``).
+SENSOR_ERROR_KNOBS = ("ia_offset_a", "ib_offset_a", "ia_gain_error_pu", "ib_gain_error_pu")
+
+
 def voltage_problems(plan, config: BenchConfig) -> list[str]:
-    """The inverter's peak phase voltage against V_dc/√3 (``hil.model.voltage``)."""
+    """The inverter's peak phase voltage against V_dc/√3 (``hil.model.voltage``), the current
+    the point's injected sensor errors make the loop drive included."""
     from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
 
     motor = config.motor
     dead_time_s = injected_or_default(plan, config, "dead_time_s")
     pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
+    sensor_errors = {knob: float(plan.injection[knob]) for knob in SENSOR_ERROR_KNOBS
+                     if knob in plan.injection}
     needed = inverter_voltage_needed_v(
         motor, plan.speed_rpm, plan.current_a, plan.current_angle_rad, dead_time_s=dead_time_s,
-        pwm_frequency_hz=pwm_hz)
+        pwm_frequency_hz=pwm_hz, sensor_errors=sensor_errors)
     available = linear_limit_v(motor.dc_bus_v, dead_time_s, pwm_hz)
     if needed <= available:
         return []
     limit = ("V_dc/√3, SVPWM" if dead_time_s == 0 else
              f"V_dc/√3·(1 − 4·T_d·f_pwm), SVPWM whose every edge keeps its "
              f"{dead_time_s * 1e6:g} us dead time within the period")
+    with_errors = " and the injected sensor errors' current" if sensor_errors else ""
     return [f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
-            f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us included) vs "
+            f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us{with_errors} included) vs "
             f"{available:.2f} V ({limit})"]
+
+
+def guarded_voltage_problems(plan, config: BenchConfig, bounds: dict) -> list[str]:
+    """The voltage headroom (:func:`voltage_problems`) at the corners of the characterisation's
+    bounds (``Characterisation.motor_bounds``: R, L, Ke each low or high within its U, k = 2):
+    a point that keeps its headroom with the values the predictions use but not at some corner
+    may be beyond the limit on this motor, and is refused with the corner's figures (a guard
+    band of the measured parameters' U; docstring 3). Empty where every corner keeps it."""
+    from dataclasses import replace
+    from itertools import product
+
+    names = [name for name in ("phase_resistance_ohm", "phase_inductance_h", "ke_v_s_per_rad")
+             if name in bounds]
+    if not names or voltage_problems(plan, config):
+        return []
+    for corner in product(*(bounds[name] for name in names)):
+        changed = dict(zip(names, corner))
+        found = voltage_problems(plan, replace(config, motor=replace(config.motor, **changed)))
+        if found:
+            where = ", ".join(f"{name} = {value:.4g}" for name, value in changed.items())
+            return [f"voltage headroom within the characterisation's uncertainty: at {where} "
+                    f"(the measured values ± U, k = 2) it " + found[0].split(": ", 1)[1]]
+    return []
 
 
 def capture_problems(plan, config: BenchConfig) -> list[str]:

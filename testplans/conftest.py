@@ -33,11 +33,14 @@ def not_determinable_here(request, agreed_decision_rules, bench):
     """Skip a point outside its plan's validity region (hil.validity), with its reason, after the
     decision rules are in the record; nothing is sent to the drive. The region is that of the
     bench as characterised (``bench.config``) where the characterisation changed it, else the
-    pre-flight's decision on the file as stated (fixtures/preflight.py ``refusal_on_bench``)."""
+    pre-flight's decision on the file as stated; either way the voltage headroom must hold
+    within the measured motor's U (fixtures/preflight.py ``refusal_on_bench``)."""
     from hil.outcome_kinds import not_determinable
     from ripple_hil_fixtures.preflight import refusal_on_bench
 
     stated = getattr(bench, "stated_config", None) or bench.config
-    reason = refusal_on_bench(request.node, stated, bench.config)
+    characterisation = getattr(bench, "characterisation", None)
+    bounds = characterisation.motor_bounds(stated) if characterisation is not None else None
+    reason = refusal_on_bench(request.node, stated, bench.config, bounds)
     if reason is not None:
         pytest.skip(not_determinable(reason))

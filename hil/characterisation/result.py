@@ -76,6 +76,20 @@ class Characterisation:
                 "predictions_use": "measured" if abs(gain.value - 1.0) > gain.expanded
                 else "stated (the measurement confirms it within U)"}
 
+    def motor_bounds(self, stated) -> dict:
+        """Per identified motor parameter, (low, high): where its truth may lie — the measured
+        value ± U (k = 2), widened to take in the value the predictions use (a stated value the
+        measurement confirms may sit anywhere within U of it). The validity regions' guard
+        (``hil.validity.guarded_voltage_problems``) decides at these bounds."""
+        bounds = {}
+        for name, used in self.used(stated).items():
+            item = self.get(name)
+            if item is None:
+                continue
+            bounds[name] = (min(used, item.value - item.expanded),
+                            max(used, item.value + item.expanded))
+        return bounds
+
     def stated_vs_measured(self, stated) -> list[dict]:
         """Per identified parameter: stated, measured, U (k = 2), and whether they disagree
         beyond U (a note about the motor: it is not the drive under test)."""

@@ -4,6 +4,8 @@ designed from (the drive was configured from it; issue 29)."""
 
 from dataclasses import replace
 
+import pytest
+
 from hil.characterisation.identify import Identified
 from hil.characterisation.result import Characterisation
 from hil.config import default_sim_bench
@@ -42,3 +44,15 @@ def test_an_already_tuned_bench_keeps_its_tuning():
     result = Characterisation(identified=(
         _identified("phase_resistance_ohm", stated.motor.phase_resistance_ohm * 1.3, 1e-4),))
     assert result.measured_config(tuned).loop_tuning == nameplate
+
+
+def test_motor_bounds_span_the_measured_u_and_the_value_used():
+    stated = default_sim_bench()
+    r, ke = stated.motor.phase_resistance_ohm, stated.motor.ke_v_s_per_rad
+    result = Characterisation(identified=(
+        _identified("phase_resistance_ohm", r * 1.3, r * 0.01),      # disagrees: measured used
+        _identified("ke_v_s_per_rad", ke * 1.001, ke * 0.002)))       # confirms: stated used
+    bounds = result.motor_bounds(stated)
+    assert bounds["phase_resistance_ohm"] == pytest.approx((r * 1.28, r * 1.32))
+    assert bounds["ke_v_s_per_rad"] == pytest.approx((ke * 0.997, ke * 1.005))
+    assert "phase_inductance_h" not in bounds                          # not measured

@@ -188,3 +188,39 @@ def test_a_2dof_loop_is_judged_by_the_dead_time_model_and_refused_by_the_pi_only
         found = validity.problems(module.plan(two_dof, injection), two_dof)
         assert any("current loop design outside" in p and "'2dof'" in p for p in found), found
         assert validity.loop_design_problems(module.plan(pi, injection), pi) == []
+
+
+def test_sensor_errors_current_splits_into_dc_forward_and_backward():
+    from hil.model.voltage import sensor_error_current_components_a as components
+
+    dc, forward, backward = components(20.0, ia_offset_a=0.3)
+    assert dc == pytest.approx(0.3 * 2 / math.sqrt(3)) and forward < 1e-12 and backward < 1e-12
+    dc, forward, backward = components(20.0, ia_gain_error_pu=0.05, ib_gain_error_pu=0.05)
+    assert forward == pytest.approx(20.0 * (1 - 1 / 1.05)) and dc < 1e-12 and backward < 1e-12
+    _, forward, backward = components(20.0, ia_gain_error_pu=0.05, ib_gain_error_pu=-0.05)
+    assert backward > forward > 0          # a mismatch is mostly the backward (order 2) vector
+
+
+def test_a_gain_mismatch_point_near_the_voltage_limit_is_refused_for_its_test_current():
+    """Table I at 1700 rpm / 20 A needs 6.90 V of 6.93 V: the baseline point is judged, the
+    same point with ±5 % gain errors (the self-check's dynamics signal) needs ≈ 0.1 V more."""
+    config = default_sim_bench()
+    op = OperatingPoint(1700.0, 20.0, 0.0)
+    assert validity.voltage_problems(c.point(op, "baseline", {}, None), config) == []
+    found = validity.voltage_problems(
+        c.point(op, "gain_mismatch", {"ia_gain_error_pu": 0.05, "ib_gain_error_pu": -0.05},
+                None), config)
+    assert found and "sensor errors' current included" in found[0], found
+    needed = float(found[0].split("needs ")[1].split(" V")[0])
+    assert 6.98 < needed < 7.03
+
+
+def test_the_guard_band_decides_at_the_measured_motors_bounds():
+    config = default_sim_bench()
+    point = c.point(OperatingPoint(1700.0, 20.0, 0.0), "baseline", {}, None)
+    ke = config.motor.ke_v_s_per_rad
+    assert validity.guarded_voltage_problems(point, config, {"ke_v_s_per_rad": (ke, ke)}) == []
+    found = validity.guarded_voltage_problems(
+        point, config, {"ke_v_s_per_rad": (ke * 0.99, ke * 1.006)})
+    assert found and found[0].startswith("voltage headroom within the characterisation's "
+                                         "uncertainty: at ke_v_s_per_rad = 0.02314")
