@@ -16,7 +16,7 @@ Keys are named as the tables they override (None: as stated there):
 | ``bandwidth_hz`` | ``[torque]``: the transducer's first-order bandwidth | Hz |
 | ``saturation_current_a`` | new: L(|i|) = L/(1 + (|i|/i_sat)²), |i| the current vector's magnitude (peak phase A) | A |
 | ``winding_time_constant_s``, ``winding_rise_pu_per_a2`` | new: the winding warms with its copper loss, R = R·(1 + w), τ·dw/dt = k·|i|² − w, w = 0 when the bench starts | s, 1/A² |
-| ``daq_voltage_gain`` | new: the DAQ's line-voltage channel ``vab_v`` reads this × the true voltage (a gain error within the accuracy class the DAQ's ``[[instrument]]`` states) | 1 |
+| ``daq_voltage_gain`` | new: the Modbus DAQ's line-voltage channel ``vab_v`` reads this × the true voltage: a bench instrument's gain error, which the characterisation's U covers only where the DAQ's ``[[instrument]]`` states an accuracy class that allows it | 1 |
 
 Not a defect: a correct drive on such a bench must pass (the characterisation measures it).
 """

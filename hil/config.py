@@ -308,15 +308,33 @@ class InstrumentEntry:
                 and self.accuracy_pct_fs() is None:
             ctx.fail(f"{path}.accuracy_class = {self.accuracy_class!r} is not a percentage of "
                      f"full scale; write it like \"0.1 % FS\"")
+        if self.accuracy_class is not None and self.role in ("daq", "acquisition") \
+                and self.gain_bound_pct() is None:
+            ctx.fail(f"{path}.accuracy_class = {self.accuracy_class!r} is not a percentage of "
+                     f"full scale or of reading; write it like \"0.05 % FS\" or \"0.1 % of "
+                     f"reading\" (it bounds the channels' gain in the characterisation's U)")
         if self.calibration_date and self.calibration_due \
                 and self.calibration_due < self.calibration_date:
             ctx.fail(f"{path}.calibration_due = {self.calibration_due} is before "
                      f"calibration_date = {self.calibration_date}")
 
     def accuracy_pct_fs(self) -> float | None:
-        """The accuracy class as a percentage of full scale, or None if not written that way."""
-        match = re.fullmatch(r"\s*(?:class\s*)?(\d+(?:\.\d*)?|\.\d+)\s*%\s*"
-                             r"(?:FS|F\.S\.|of full scale|full scale)?\s*",
+        """The accuracy class as a percentage of full scale (``"0.1 % FS"``, ``"±0.1 %FSR"``),
+        or None if not written that way."""
+        match = re.fullmatch(r"\s*(?:class\s*)?(?:±|\+/-|\+-)?\s*(\d+(?:\.\d*)?|\.\d+)\s*%\s*"
+                             r"(?:FSR?|F\.S\.|of full scale|full scale)?\s*",
+                             self.accuracy_class or "", flags=re.IGNORECASE)
+        return float(match.group(1)) if match else None
+
+    def gain_bound_pct(self) -> float | None:
+        """The largest gain error the accuracy class allows, % (None: not stated or not
+        readable): a % FS class a bounds the error by a·FS over the range, so a pure gain error
+        by a (at full scale); a % of reading class is a gain bound itself."""
+        fs = self.accuracy_pct_fs()
+        if fs is not None:
+            return fs
+        match = re.fullmatch(r"\s*(?:±|\+/-|\+-)?\s*(\d+(?:\.\d*)?|\.\d+)\s*%\s*"
+                             r"(?:of reading|of rdg|rdg|reading)\s*",
                              self.accuracy_class or "", flags=re.IGNORECASE)
         return float(match.group(1)) if match else None
 
@@ -509,13 +527,16 @@ class BenchConfig:
                 "daq_lsb_nm": resolution}
 
     def daq_gain_u_rel(self) -> float:
-        """Relative standard uncertainty of a DAQ channel's gain (type B): the accuracy class
-        ``a`` (% FS) of the ``[[instrument]]`` with ``role = "daq"`` bounds the reading's error by
-        a·FS everywhere on the range, so a pure gain error by ``a`` (at full scale); rectangular,
-        a/100/√3. 0 where no accuracy class is stated in % FS (the record's method says which)."""
-        daq = self.instrument("daq")
-        accuracy = daq.accuracy_pct_fs() if daq is not None else None
-        return (accuracy or 0.0) / 100.0 / math.sqrt(3.0)
+        """Relative standard uncertainty of the voltage and current channels' gain (type B),
+        from the accuracy class of the ``[[instrument]]`` that acquires them — ``role = "daq"``,
+        or ``role = "acquisition"`` on a bench whose ``[acquisition]`` is another instrument:
+        its gain bound ``a`` (:meth:`InstrumentEntry.gain_bound_pct`), rectangular, a/100/√3.
+        The class must cover the whole channel chain (probe or sensor and input). 0 where none
+        is stated (the record's method says so)."""
+        role = "daq" if self.acquisition.kind == "modbus-daq" else "acquisition"
+        entry = self.instrument(role)
+        bound = entry.gain_bound_pct() if entry is not None else None
+        return (bound or 0.0) / 100.0 / math.sqrt(3.0)
 
     def instrument_uncertainty(self):
         """``hil.analysis.InstrumentUncertainty`` built from :meth:`uncertainty_inputs`."""

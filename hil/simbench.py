@@ -86,10 +86,17 @@ def check_fixed_addresses(config: BenchConfig) -> None:
     was silently ignored). A fixed TCP ``daq.port`` is honoured (the DAQ binds 127.0.0.1 on it);
     a non-loopback ``daq.host``, a ``daq.serial_port`` (the pty path is the system's choice),
     a ``drive.channel`` or a ``torque.serial_port`` without the full set of addresses (with all
-    of them, ``hil run`` connects to instruments served elsewhere and starts none) are refused.
+    of them, ``hil run`` connects to instruments served elsewhere and starts none) are refused;
+    so is a ``[simulation.actual] daq_voltage_gain`` on a bench that does not acquire with the
+    Modbus DAQ (the simulated scope would silently not apply it).
     """
     daq = config.daq
     where = f"{config.source}: " if getattr(config, "source", None) else ""
+    if config.sim_actual.get("daq_voltage_gain") is not None \
+            and config.acquisition.kind != "modbus-daq":
+        raise InputError(f"{where}simulation.actual.daq_voltage_gain is the Modbus DAQ's voltage "
+                         f"channel; this bench acquires with [acquisition] kind = "
+                         f"{config.acquisition.kind!r}, which the simulated scope does not skew")
     if daq.transport == "tcp" and daq.host not in LOOPBACK_HOSTS:
         raise InputError(f"{where}daq.host = {daq.host!r}: the simulated DAQ serves only on "
                          f"127.0.0.1; leave daq.host out (daq.port may be fixed)")

@@ -15,7 +15,10 @@ What a region checks, in the order a refusal names it:
    current — within the SVPWM limit less the dead times every edge must keep inside the period,
    (V_dc/√3)·(1 − 4·T_d·f_pwm) (``hil.model.voltage.linear_limit_v``, the one limit, its reason
    there); beyond it the current is not regulated or the highest leg clips and its dead-time
-   error vanishes, and no model of the paper applies.
+   error vanishes, and no model of the paper applies. An injected sensor offset or gain error
+   makes the loop drive a current of its own on top (its voltage is added,
+   ``hil.model.voltage``), and on the bench as characterised the headroom must hold at every
+   corner of the measured R, L and Ke ± U (k = 2) (:func:`guarded_voltage_problems`).
 4. **Capture.** The DAQ's rate and buffer, the Nyquist order of the analysed band
    (rate / (2·f_e) ≥ max_order). The PWM-switching plan adapts its capture instead: its DAQ rate
    and revolutions are derived from the speed and PWM frequency
@@ -237,34 +240,18 @@ SENSOR_ERROR_KNOBS = ("ia_offset_a", "ib_offset_a", "ia_gain_error_pu", "ib_gain
 def voltage_problems(plan, config: BenchConfig) -> list[str]:
     """The inverter's peak phase voltage against V_dc/√3 (``hil.model.voltage``), the current
     the point's injected sensor errors make the loop drive included."""
-    from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
-
-    motor = config.motor
-    dead_time_s = injected_or_default(plan, config, "dead_time_s")
-    pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
-    sensor_errors = {knob: float(plan.injection[knob]) for knob in SENSOR_ERROR_KNOBS
-                     if knob in plan.injection}
-    needed = inverter_voltage_needed_v(
-        motor, plan.speed_rpm, plan.current_a, plan.current_angle_rad, dead_time_s=dead_time_s,
-        pwm_frequency_hz=pwm_hz, sensor_errors=sensor_errors)
-    available = linear_limit_v(motor.dc_bus_v, dead_time_s, pwm_hz)
-    if needed <= available:
-        return []
-    limit = ("V_dc/√3, SVPWM" if dead_time_s == 0 else
-             f"V_dc/√3·(1 − 4·T_d·f_pwm), SVPWM whose every edge keeps its "
-             f"{dead_time_s * 1e6:g} us dead time within the period")
-    with_errors = " and the injected sensor errors' current" if sensor_errors else ""
-    return [f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} rpm, "
-            f"{plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us{with_errors} included) vs "
-            f"{available:.2f} V ({limit})"]
+    needed, available = _voltage_needed_and_available(plan, config)
+    return [] if needed <= available else [_voltage_reason(plan, config, needed, available)]
 
 
 def guarded_voltage_problems(plan, config: BenchConfig, bounds: dict) -> list[str]:
     """The voltage headroom (:func:`voltage_problems`) at the corners of the characterisation's
-    bounds (``Characterisation.motor_bounds``: R, L, Ke each low or high within its U, k = 2):
-    a point that keeps its headroom with the values the predictions use but not at some corner
-    may be beyond the limit on this motor, and is refused with the corner's figures (a guard
-    band of the measured parameters' U; docstring 3). Empty where every corner keeps it."""
+    bounds (``Characterisation.motor_bounds``: R, L, Ke each low or high within its U, k = 2,
+    taken together: conservative where their errors are independent): a point that keeps its
+    headroom with the values the predictions use but not at some corner may be beyond the limit
+    on this motor, and is refused with the figures of the corner that needs most (a guard band
+    of the measured parameters' U; docstring 3). Empty where every corner keeps it, or where
+    the point is refused without the guard (:func:`voltage_problems` names that)."""
     from dataclasses import replace
     from itertools import product
 
@@ -272,14 +259,45 @@ def guarded_voltage_problems(plan, config: BenchConfig, bounds: dict) -> list[st
              if name in bounds]
     if not names or voltage_problems(plan, config):
         return []
+    corners = []
     for corner in product(*(bounds[name] for name in names)):
-        changed = dict(zip(names, corner))
-        found = voltage_problems(plan, replace(config, motor=replace(config.motor, **changed)))
-        if found:
-            where = ", ".join(f"{name} = {value:.4g}" for name, value in changed.items())
-            return [f"voltage headroom within the characterisation's uncertainty: at {where} "
-                    f"(the measured values ± U, k = 2) it " + found[0].split(": ", 1)[1]]
-    return []
+        motor = replace(config.motor, **dict(zip(names, corner)))
+        needed, available = _voltage_needed_and_available(plan, replace(config, motor=motor))
+        corners.append((needed, available, corner))
+    needed, available, corner = max(corners, key=lambda c: c[0] - c[1])
+    if needed <= available:
+        return []
+    where = ", ".join(f"{name} = {value:.4g}" for name, value in zip(names, corner))
+    return [f"voltage headroom within the characterisation's uncertainty: at {where} (the "
+            f"measured values ± U, k = 2) it "
+            + _voltage_reason(plan, config, needed, available).split(": ", 1)[1]]
+
+
+def _voltage_needed_and_available(plan, config: BenchConfig) -> tuple[float, float]:
+    from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
+
+    dead_time_s = injected_or_default(plan, config, "dead_time_s")
+    pwm_hz = injected_or_default(plan, config, "pwm_frequency_hz")
+    needed = inverter_voltage_needed_v(
+        config.motor, plan.speed_rpm, plan.current_a, plan.current_angle_rad,
+        dead_time_s=dead_time_s, pwm_frequency_hz=pwm_hz, sensor_errors=_sensor_errors(plan))
+    return needed, linear_limit_v(config.motor.dc_bus_v, dead_time_s, pwm_hz)
+
+
+def _sensor_errors(plan) -> dict:
+    return {knob: float(plan.injection[knob]) for knob in SENSOR_ERROR_KNOBS
+            if knob in plan.injection}
+
+
+def _voltage_reason(plan, config: BenchConfig, needed: float, available: float) -> str:
+    dead_time_s = injected_or_default(plan, config, "dead_time_s")
+    limit = ("V_dc/√3, SVPWM" if dead_time_s == 0 else
+             f"V_dc/√3·(1 − 4·T_d·f_pwm), SVPWM whose every edge keeps its "
+             f"{dead_time_s * 1e6:g} us dead time within the period")
+    with_errors = " and the injected sensor errors' current" if _sensor_errors(plan) else ""
+    return (f"voltage headroom: needs {needed:.2f} V peak phase voltage at {plan.speed_rpm:g} "
+            f"rpm, {plan.current_a:g} A (dead time {dead_time_s * 1e6:g} us{with_errors} "
+            f"included) vs {available:.2f} V ({limit})")
 
 
 def capture_problems(plan, config: BenchConfig) -> list[str]:

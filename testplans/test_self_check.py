@@ -42,20 +42,20 @@ def dynamics_point(op, speed_rpm, checks):
                    speed_rpm=speed_rpm, checks=checks)
 
 
-def dynamics_headroom_problems(point, bench) -> list[str]:
-    """The dynamics point's voltage headroom, its test signal's current included, on the bench
-    as characterised and within the measured motor's U (hil.validity): near the voltage limit
-    the loop cannot drive the signal and the transducer's amplitude reads low (Table I at
-    1700 rpm / 20 A: 0.73 against 0.99 ± 0.13 on a correct drive)."""
-    from hil.validity import guarded_voltage_problems, voltage_problems
+def dynamics_region_problems(point, bench) -> list[str]:
+    """The dynamics point's validity region (hil.validity) on the bench as characterised, its
+    voltage headroom with the test signal's current and within the measured motor's U: near
+    the voltage limit the loop cannot drive the signal and the transducer's amplitude reads low
+    (Table I at 1700 rpm / 20 A: 0.73 against 0.99 ± 0.13 on a correct drive)."""
+    from hil.validity import guarded_voltage_problems, problems
 
     characterisation = getattr(bench, "characterisation", None)
     stated = getattr(bench, "stated_config", None) or bench.config
     bounds = characterisation.motor_bounds(stated) if characterisation is not None else {}
-    return voltage_problems(point, bench.config) or \
-        guarded_voltage_problems(point, bench.config, bounds)
+    return problems(point, bench.config) or guarded_voltage_problems(point, bench.config, bounds)
 
 
+@pytest.mark.own_point      # its ±5 % gain-error points: dynamics_region_problems
 def test_transducer_dynamics(request, measure, bench, record):
     """The transducer's amplitude/phase response against the bench file's stated bandwidth."""
     from hil.model.order_phase import chain_phase
@@ -70,9 +70,9 @@ def test_transducer_dynamics(request, measure, bench, record):
     if lacking is not None:
         pytest.skip(not_determinable(f"transducer dynamics: {lacking}, which gives its known "
                                      "test ripple (a gain mismatch's order 2)"))
-    headroom = dynamics_headroom_problems(dynamics_point(op, op.speed_rpm, None), bench)
-    if headroom:
-        pytest.skip(not_determinable(f"transducer dynamics: {headroom[0]}"))
+    refused = dynamics_region_problems(dynamics_point(op, op.speed_rpm, None), bench)
+    if refused:
+        pytest.skip(not_determinable(f"transducer dynamics: {refused[0]}"))
     pole_pairs = config.motor.pole_pairs
     reference_rpm = op.speed_rpm * DYNAMICS_REFERENCE_SPEED_FRACTION
 

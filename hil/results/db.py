@@ -136,14 +136,21 @@ def head_revision() -> str:
 
     revisions: dict[str, object] = {}
     for path in sorted((MIGRATIONS / "versions").glob("*.py")):
+        if path.name.startswith((".", "_")):         # __init__.py, an editor's lock file
+            continue
         found = {}
         for node in ast.parse(path.read_text(encoding="utf-8")).body:
-            if isinstance(node, ast.Assign) and len(node.targets) == 1 \
-                    and isinstance(node.targets[0], ast.Name) \
-                    and node.targets[0].id in ("revision", "down_revision"):
-                found[node.targets[0].id] = ast.literal_eval(node.value)
-        if "revision" in found:
-            revisions[found["revision"]] = found.get("down_revision")
+            if isinstance(node, ast.AnnAssign):       # revision: str = "…" (alembic's template)
+                target, value = node.target, node.value
+            elif isinstance(node, ast.Assign) and len(node.targets) == 1:
+                target, value = node.targets[0], node.value
+            else:
+                continue
+            if isinstance(target, ast.Name) and target.id in ("revision", "down_revision"):
+                found[target.id] = ast.literal_eval(value)
+        if not isinstance(found.get("revision"), str):
+            raise RuntimeError(f"results migration {path.name} states no literal revision id")
+        revisions[found["revision"]] = found.get("down_revision")
     revised = set()
     for down in revisions.values():
         revised.update(down if isinstance(down, (tuple, list)) else (down,))

@@ -27,6 +27,20 @@ def test_a_migration_added_on_top_becomes_the_head(tmp_path, monkeypatch):
     assert db.head_revision() == "9999" == ScriptDirectory(str(copy)).get_current_head()
 
 
+def test_annotated_assignments_and_editor_files(tmp_path, monkeypatch):
+    copy = tmp_path / "migrations"
+    shutil.copytree(db.MIGRATIONS, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    head = db.head_revision()
+    (copy / "versions" / "9999_next.py").write_text(
+        f'"""next"""\nrevision: str = "9999"\ndown_revision: str | None = "{head}"\n')
+    (copy / "versions" / ".#9999_next.py").symlink_to(tmp_path / "no-such-file")
+    monkeypatch.setattr(db, "MIGRATIONS", copy)
+    assert db.head_revision() == "9999" == ScriptDirectory(str(copy)).get_current_head()
+    (copy / "versions" / "9998_broken.py").write_text('"""no id"""\nrevision = make_id()\n')
+    with pytest.raises(ValueError):
+        db.head_revision()
+
+
 def test_two_heads_are_refused(tmp_path, monkeypatch):
     copy = tmp_path / "migrations"
     shutil.copytree(db.MIGRATIONS, copy, ignore=shutil.ignore_patterns("__pycache__"))
