@@ -32,7 +32,9 @@ NOT_CARRIED_OVER = (
     "current_loop_delay_s (the documented delay is held by the loop fit)",
     "the saturation curve L(|i|): the twin's L is the one measured at the operating point's "
     "current, at every current",
-    "the winding's warming: the twin's R is the one measured by the characterisation")
+    "the winding's warming: the twin's R is the one measured by the characterisation",
+    "the acquiring instrument's gain error: the twin's channels read true (the measured values "
+    "carry that gain; their U covers it where the instrument's accuracy class is stated)")
 
 #: Bench-file keys of the tables the simulated instruments choose themselves.
 _ADDRESS_KEYS = ("channel", "host", "port", "serial_port", "interface")
