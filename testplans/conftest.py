@@ -38,9 +38,9 @@ def not_determinable_here(request, agreed_decision_rules, bench):
     from hil.outcome_kinds import not_determinable
     from ripple_hil_fixtures.preflight import refusal_on_bench
 
+    from hil.characterisation.stage import motor_bounds_of
+
     stated = getattr(bench, "stated_config", None) or bench.config
-    characterisation = getattr(bench, "characterisation", None)
-    bounds = characterisation.motor_bounds(stated) if characterisation is not None else None
-    reason = refusal_on_bench(request.node, stated, bench.config, bounds)
+    reason = refusal_on_bench(request.node, stated, bench.config, motor_bounds_of(bench))
     if reason is not None:
         pytest.skip(not_determinable(reason))

@@ -30,6 +30,7 @@ import math
 import pytest
 
 from hil.capture import Capture
+from hil.characterisation.stage import motor_bounds_of
 from hil.diagnosis import diagnose, spectra_from_captures
 from hil.diagnosis import additions
 from hil.diagnosis.bench_setup import check_setup_known, setup_from_bench_dict
@@ -102,13 +103,14 @@ ADDITION_SOURCES = {"addition_ia_offset_a": "dc_offset", "addition_ib_offset_a":
                     "addition_gain_a_pu": "gain_mismatch", "addition_dead_time_s": "dead_time"}
 
 
-def model_refusal(config):
+def model_refusal(config, bounds=None):
     """``refusal(transfer)`` for :func:`additions.compare_transfers_with_models`: why the
     addition's plan's validity region (hil.validity: direction, speed, voltage headroom with the
-    largest addition applied — the pre-flight's limits) refuses its model at the transfer's
-    point, or None. The bench-floor limit is not applied: it bounds a pk-pk verdict, while a
-    transfer carries its own measured uncertainty."""
-    from hil.validity import problems
+    largest addition applied and its current — the pre-flight's limits — and within the measured
+    motor's ``bounds``, ``hil.characterisation.stage.motor_bounds_of``) refuses its model at the
+    transfer's point, or None. The bench-floor limit is not applied: it bounds a pk-pk verdict,
+    while a transfer carries its own measured uncertainty."""
+    from hil.validity import guarded_voltage_problems, problems
 
     def refusal(transfer):
         plan = PointPlan(source=ADDITION_SOURCES[transfer["addition"]],
@@ -119,7 +121,7 @@ def model_refusal(config):
                          revolutions=design.REVOLUTIONS_ELEC, max_order=64,
                          sample_rate_hz=design.SAMPLE_RATE_HZ, settle_s=design.SETTLE_S,
                          rule=None, kind="diagnosis")
-        found = problems(plan, config)
+        found = problems(plan, config) or guarded_voltage_problems(plan, config, bounds or {})
         return (f"the {plan.source} model's validity region refuses the point: "
                 f"{'; '.join(found)}") if found else None
     return refusal
@@ -140,8 +142,9 @@ def test_diagnosis_by_additions(bench, record):
              if (point.speed_rpm, point.current_a) in points]
     added = additions.spectra_with_additions(pairs, max_mech_order=design.MAX_MECH_ORDER)
     result = additions.diagnose_by_additions(bases + added, setup=_FIT["setup"])
+    refusal = model_refusal(bench.config, motor_bounds_of(bench))
     models = additions.compare_transfers_with_models(result, _FIT["setup"], _FIT["class_pct"],
-                                                     refusal=model_refusal(bench.config))
+                                                     refusal=refusal)
     routes = additions.compare_with_fit(result, _FIT["result"])
     section = _FIT["result"].to_dict()
     section["additions"] = result.to_dict() | {

@@ -47,12 +47,11 @@ def dynamics_region_problems(point, bench) -> list[str]:
     voltage headroom with the test signal's current and within the measured motor's U: near
     the voltage limit the loop cannot drive the signal and the transducer's amplitude reads low
     (Table I at 1700 rpm / 20 A: 0.73 against 0.99 ± 0.13 on a correct drive)."""
+    from hil.characterisation.stage import motor_bounds_of
     from hil.validity import guarded_voltage_problems, problems
 
-    characterisation = getattr(bench, "characterisation", None)
-    stated = getattr(bench, "stated_config", None) or bench.config
-    bounds = characterisation.motor_bounds(stated) if characterisation is not None else {}
-    return problems(point, bench.config) or guarded_voltage_problems(point, bench.config, bounds)
+    return problems(point, bench.config) or \
+        guarded_voltage_problems(point, bench.config, motor_bounds_of(bench))
 
 
 @pytest.mark.own_point      # its ±5 % gain-error points: dynamics_region_problems

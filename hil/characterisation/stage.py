@@ -239,3 +239,13 @@ def run_stage(bench, record) -> Characterisation:
     bench.characterisation = result
     bench.config = result.measured_config(stated)
     return result
+
+
+def motor_bounds_of(bench) -> dict:
+    """Where the characterised motor's R, L and Ke may lie (``Characterisation.motor_bounds``,
+    each ± U, k = 2) on ``bench``; empty where the stage did not run. The validity regions'
+    guard band decides at them (``hil.validity.guarded_voltage_problems``)."""
+    result = getattr(bench, "characterisation", None)
+    if result is None:
+        return {}
+    return result.motor_bounds(getattr(bench, "stated_config", None) or bench.config)
