@@ -25,6 +25,11 @@ def agreed_decision_rules(record):
         "validity_floor": f"{validity.FLOOR_COUNTS:g} counts of the torque reading's resolution "
                           f"may take at most {validity.FLOOR_FRACTION:g} of a rule's acceptance "
                           "half-width; a point outside its region is not determinable",
+        "validity_voltage_headroom": "the peak phase voltage a point needs (steady phasor at the "
+                                     "signed speed, the dead time's loss, the current injected "
+                                     "sensor errors make the loop drive) within (V_dc/√3)·(1 − "
+                                     "4·T_d·f_pwm), also at every corner of the characterised "
+                                     "R, L, Ke ± U (k = 2)",
     })
 
 
