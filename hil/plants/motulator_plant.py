@@ -51,9 +51,14 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from hil.errors import InputError
 from hil.plants.capabilities import UNSUPPORTED_KNOBS, defect_problems, knob_refusal
 from hil.sim.defects import DriveDefects
 from hil.sim.injection import Injection
+
+#: ``[simulation.actual]`` keys a motulator bench honours: they belong to the simulated DAQ, not
+#: to the plant (``hil.actual``).
+PLANT_INDEPENDENT_ACTUAL = frozenset({"daq_voltage_gain"})
 
 PLANT = "motulator"
 #: the channels ``advance`` can return (the same names as the ripple-hil twin's)
@@ -108,7 +113,14 @@ class MotulatorPlant:
     @classmethod
     def from_bench(cls, bench, *, seed: int = 0) -> "MotulatorPlant":
         """The plant a simulated bench file describes: its ``[motor]``, its ``[drive]`` loop
-        bandwidth and design, its ``[torque]`` bandwidth, its test-only defects."""
+        bandwidth and design, its ``[torque]`` bandwidth, its test-only defects. A
+        ``[simulation.actual]`` physics other than the DAQ's own gain is refused: this plant runs
+        the ``[motor]`` it is given, and would silently run the nameplate instead."""
+        ignored = sorted(set(bench.sim_actual) - PLANT_INDEPENDENT_ACTUAL)
+        if ignored:
+            raise InputError(f"{bench.source}: [simulation.actual] {', '.join(ignored)} is the "
+                             f"ripple-hil twin's physics; [simulation] plant = \"motulator\" "
+                             f"runs the [motor] table as its motor (state it there)")
         drive = bench.drive
         return cls(bench.motor, bandwidth_hz=drive.current_loop_bandwidth_hz or 1000.0,
                    design=drive.current_loop_design,

@@ -84,6 +84,20 @@ def test_plant_key_values_and_round_trip():
         BenchConfig.from_dict(table)
 
 
+def test_a_motor_off_its_nameplate_is_refused_not_ignored_on_the_motulator_plant():
+    """motulator runs the [motor] table it is given: a [simulation.actual] motor would silently
+    be the nameplate there; the DAQ's own gain error is the DAQ's and is kept."""
+    from hil.plants.motulator_plant import MotulatorPlant
+
+    table = foreign_table()
+    table["simulation"]["actual"] = {"phase_resistance_ohm": 0.05, "daq_voltage_gain": 1.002}
+    with pytest.raises(InputError, match=r"\[simulation.actual\] phase_resistance_ohm is the "
+                                         r"ripple-hil twin's physics"):
+        MotulatorPlant.from_bench(BenchConfig.from_dict(table, base_dir=FOREIGN.parent))
+    table["simulation"]["actual"] = {"daq_voltage_gain": 1.002}
+    MotulatorPlant.from_bench(BenchConfig.from_dict(table, base_dir=FOREIGN.parent))
+
+
 def test_plant_key_refused_on_a_real_bench():
     table = tomllib.loads((REPO / "hil" / "examples" / "real-bench.toml").read_text())
     table["simulation"] = {"plant": "motulator"}
