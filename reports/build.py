@@ -25,6 +25,7 @@ from hil.errors import InputError
 from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_record
 from ripple_hil_reports import figures, revisions
 from ripple_hil_reports.angle_view import angle_view
+from ripple_hil_reports import bench_as_measured
 from ripple_hil_reports.bench_kind import bench_text
 from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
 from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
@@ -223,6 +224,7 @@ def _summary_page(pdf: ReportPDF, content: ReportContent) -> None:
          if lab.get("operator") else "not given"),
         ("Environment", environment_text(record, lab)),
         ("Bench", bench_text(record)),
+        ("Bench as measured", bench_as_measured.summary_text(record)),
         ("Run", f"{run_status_text(record)}; exit status "
                 f"{fmt(run.get('exit_status'))}; tests: "
                 + (", ".join(f"{n} {o}" for o, n in _outcome_counts(record).items() if n)
@@ -459,6 +461,20 @@ def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> N
     if identities:
         pdf.para("Identities as queried from the instruments: " + "; ".join(
             f"{role}: {fmt(identity)}" for role, identity in identities), size=7)
+
+    pdf.heading("Bench as measured (characterisation before the plans)", 2)
+    rows = bench_as_measured.table_rows(record)
+    if rows:
+        pdf.grid(["parameter", "stated", "measured ± U (k = 2)", "unit", "predictions use"], rows,
+                 widths=(34, 20, 36, 16, 0))
+    else:
+        pdf.para(bench_as_measured.summary_text(record), size=7.5)
+    rechecks = bench_as_measured.recheck_rows(record)
+    if rechecks:
+        pdf.para("The winding measured again before each plan (R in Ω, L in H: held → measured "
+                 "± U, k = 2); where it drifted beyond U the characterisation was repeated and "
+                 "the plan's predictions read the new values:", size=7.5)
+        pdf.grid(["before plan", "R", "L", "decision"], rechecks, widths=(30, 50, 60, 0))
 
     pdf.heading("Signal chain", 2)
     pdf.grid(["test", "samples", "sample rate (Hz)", "encoder counts/rev", "revolutions",

@@ -91,7 +91,10 @@ RUN_TIMEOUT_S = 1200.0
 #: multiple of ``SATURATION_REFERENCE_A`` (L(|i|) = L/(1 + (|i|/i_sat)²): 2 → L × 0.8 at 20 A,
 #: × 0.985 at 5 A; relative to the point's current it made a 5 A point's motor saturate to
 #: L × 0.2 at the 20 A other plans use, and its loop, tuned on the nameplate, went unstable);
-#: ``warming_pu``: the winding's steady rise at the point's current (τ = ``WARMING_TAU_S``).
+#: ``warming_pu``: the winding's steady rise at ``SATURATION_REFERENCE_A`` (τ = ``WARMING_TAU_S``;
+#: copper loss ∝ I², so a 5 A point's winding warms 1.25 % by itself and 20 % while the plans
+#: drive 20 A — set at the point's current, a 5 A point's winding rose 320 % (R × 4.2, some
+#: +800 K) while the diagnosis plan drove 20 A: not a motor).
 DEVIATIONS: dict[str, dict] = {
     "warm_saturated": {"r": 1.30, "l": 1.00, "l_sat_at": 2.0, "ke": 0.96},
     "hot_slow": {"r": 1.45, "l": 0.70, "ke": 0.92, "loop": 0.80, "transducer": 0.70},
@@ -142,9 +145,9 @@ def deviation_grid(name: str) -> list[tuple[float, float]]:
     return DEVIATION_POINTS + near
 
 
-def actual_table(table: dict, deviation: str, current_a: float) -> dict:
+def actual_table(table: dict, deviation: str) -> dict:
     """``[simulation.actual]`` of ``DEVIATIONS[deviation]`` on the bench ``table`` (its stated
-    [motor], [drive], [torque]) at a point of ``current_a`` (peak phase A)."""
+    [motor], [drive], [torque]); the same at every operating point of the motor."""
     dev = DEVIATIONS[deviation]
     motor, drive, torque = table["motor"], table["drive"], table["torque"]
     actual = {"phase_resistance_ohm": motor["phase_resistance_ohm"] * dev["r"],
@@ -158,7 +161,7 @@ def actual_table(table: dict, deviation: str, current_a: float) -> dict:
         actual["bandwidth_hz"] = torque["bandwidth_hz"] * dev["transducer"]
     if "warming_pu" in dev:
         actual["winding_time_constant_s"] = WARMING_TAU_S
-        actual["winding_rise_pu_per_a2"] = dev["warming_pu"] / current_a ** 2
+        actual["winding_rise_pu_per_a2"] = dev["warming_pu"] / SATURATION_REFERENCE_A ** 2
     return actual
 
 
@@ -176,7 +179,7 @@ def bench_table(name: str, speed_rpm: float, current_a: float,
                                 "current_angle_deg": 0.0}
     if deviation is not None:
         simulation = table.setdefault("simulation", {})
-        simulation["actual"] = actual_table(table, deviation, current_a)
+        simulation["actual"] = actual_table(table, deviation)
     return table
 
 

@@ -21,6 +21,16 @@ class Characterisation:
     identified: tuple[Identified, ...] = ()
     not_identified: dict = field(default_factory=dict)     # key -> reason
     note: str = ""                                         # e.g. where it was characterised
+    #: what a recheck of the winding needs (``hil.characterisation.recheck``): the back EMF
+    #: measured with the drive disabled and the operating point the winding was measured at
+    emf: object | None = field(default=None, compare=False, repr=False)
+    point: object | None = field(default=None, compare=False, repr=False)
+
+    def with_winding(self, resistance: Identified, inductance: Identified) -> "Characterisation":
+        """This result with R and L measured again (a winding that warmed, ``recheck``)."""
+        fresh = {resistance.name: resistance, inductance.name: inductance}
+        return replace(self, identified=tuple(fresh.get(item.name, item)
+                                              for item in self.identified))
 
     def get(self, name: str) -> Identified | None:
         return next((item for item in self.identified if item.name == name), None)

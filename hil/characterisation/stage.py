@@ -29,14 +29,14 @@ VOLTAGE_SKEW_BOUND_S = 0.5 / 20_000.0
 SECTION = "characterisation"
 
 
-def _plan(op, *, enabled: bool):
+def _plan(op, *, enabled: bool, revolutions: int = REVOLUTIONS):
     from hil.measurement import PointPlan
 
     return PointPlan(source="characterisation", injection={}, speed_rpm=op.speed_rpm,
                      current_a=op.current_a if enabled else 0.0,
                      current_angle_rad=op.current_angle_rad, kind="self_check", rule=None,
                      drive_enabled=enabled, extra_channels=(VOLTAGE_CHANNEL,),
-                     sample_rate_hz=SAMPLE_RATE_HZ, revolutions=REVOLUTIONS)
+                     sample_rate_hz=SAMPLE_RATE_HZ, revolutions=revolutions)
 
 
 def has_voltage_channel(bench) -> bool:
@@ -93,7 +93,7 @@ def characterise(bench, record, op=None) -> Characterisation:
     if not any(item.name == "bandwidth_hz" for item in identified):
         not_identified.setdefault("bandwidth_hz", "no loop test-signal captures to measure the "
                                   "transducer's response from (the motor was not identified)")
-    return Characterisation(tuple(identified), not_identified, note)
+    return Characterisation(tuple(identified), not_identified, note, emf=emf, point=op)
 
 
 #: Where the terminal voltage at the operating point is beyond the DAQ's voltage channel, the

@@ -1,0 +1,75 @@
+"""Is the characterisation still the bench? The winding measured again before each plan
+(issue 29 Build 4: a characterisation that goes stale during the run is repeated).
+
+Copper's resistance rises about 0.39 %/K: a winding that warms through a run drifts away from
+the R the stage measured at its start, and every prediction that reads R (the loop's response,
+the dead time's current clamping, the validity regions' voltage) with it. Before each plan the
+winding capture of the stage (``hil.characterisation.stage``: the drive regulating the same
+operating point's current, the terminal voltage, the back EMF measured at the start) is taken
+again and R and L identified from it (``identify.winding``). Where the new R or L differs from
+the one the characterisation holds by more than their combined U (k = 2, in quadrature: the
+shared DAQ gain term counted twice, so the test is conservative), the characterisation is
+repeated for the winding — R and L replaced, the bench as measured (``bench.config``) built
+again — before the plan's predictions and validity regions are decided. ψ, the loop and the
+transducer are not measured again (the magnet's EMF moves −0.1 %/K, ten times less).
+
+Every recheck is in the record's ``characterisation_rechecks`` section (the plan it preceded,
+both values, the decision), its capture saved raw as ``characterisation-recheck-<n>-<plan>``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from hil.characterisation.identify import Identified, winding
+
+#: The record section listing the rechecks.
+SECTION = "characterisation_rechecks"
+_KEYS = ("phase_resistance_ohm", "phase_inductance_h")
+
+
+def drifted(before: Identified, now: Identified) -> bool:
+    """``now`` differs from ``before`` beyond their combined U (k = 2)."""
+    return abs(now.value - before.value) > math.hypot(before.expanded, now.expanded)
+
+
+def recheck_winding(bench, record, plan: str, history: list) -> dict | None:
+    """Measure R and L again before ``plan``; replace them (and ``bench.config``) where they
+    drifted. Returns the recorded entry (also appended to ``history`` and written to the record's
+    section), or None where the stage identified no winding to recheck."""
+    from hil.characterisation.stage import (VOLTAGE_SKEW_BOUND_S, _plan, _voltage_capture)
+
+    result = getattr(bench, "characterisation", None)
+    stated = getattr(bench, "stated_config", None)
+    if result is None or stated is None or result.emf is None or result.point is None \
+            or any(result.get(key) is None for key in _KEYS):
+        return None
+    pole_pairs = bench.config.motor.pole_pairs
+    capture = _voltage_capture(bench, record,
+                               f"characterisation-recheck-{len(history) + 1}-{plan}",
+                               _plan(result.point, enabled=True), pole_pairs)
+    entry = {"before_plan": plan}
+    if isinstance(capture, str):
+        entry.update(decision="not rechecked", reason=capture)
+    else:
+        fresh = winding(capture, result.emf, pole_pairs, skew_bound_s=VOLTAGE_SKEW_BOUND_S,
+                        gain_u_rel=stated.daq_gain_u_rel())
+        moved = [item.name for item in fresh if drifted(result.get(item.name), item)]
+        entry.update({item.name: {"unit": item.unit, "held": _value(result.get(item.name)),
+                                  "measured": _value(item)} for item in fresh})
+        entry["method"] = "the stage's winding capture again (identify.winding), same point"
+        if moved:
+            result = result.with_winding(*fresh)
+            bench.characterisation = result
+            bench.config = result.measured_config(stated)
+            entry.update(decision="re-characterised", drifted=moved,
+                         predictions_use=result.used(stated))
+        else:
+            entry.update(decision="confirmed")
+    history.append(entry)
+    record.set_section(SECTION, {"rechecks": history})
+    return entry
+
+
+def _value(item: Identified) -> dict:
+    return {"value": item.value, "U_k2": item.expanded}

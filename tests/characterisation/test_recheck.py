@@ -1,0 +1,82 @@
+"""A characterisation that goes stale is repeated (issue 29 Build 4): the winding measured again
+before a plan, on a simulated bench whose winding warms (``[simulation.actual]``) and on one that
+does not."""
+
+from hil.bench import Bench
+from hil.characterisation.identify import Identified
+from hil.characterisation.recheck import SECTION, drifted, recheck_winding
+from hil.characterisation.stage import run_stage
+from hil.config import default_sim_bench
+from hil.measurement import PointPlan, _acquire
+from hil.record import RunRecord
+
+#: the winding's steady rise at 20 A: +64 % (τ = 0.5 s: it warms within a few captures)
+WARMING = {"winding_time_constant_s": 0.5, "winding_rise_pu_per_a2": 0.0016}
+
+
+def _r(value, u):
+    return Identified("phase_resistance_ohm", value, u, "ohm", "test")
+
+
+def test_drift_is_judged_against_both_uncertainties():
+    assert not drifted(_r(0.055, 0.001), _r(0.0578, 0.001))      # 2.8 mΩ ≤ √8 mΩ
+    assert drifted(_r(0.055, 0.001), _r(0.0579, 0.001))
+    assert drifted(_r(0.055, 0.0), _r(0.0549, 0.0))             # no U: any change
+
+
+def _opened(tmp_path, actual=None):
+    config = default_sim_bench()
+    if actual:
+        config = config.with_overrides({"simulation": {"actual": actual}})
+    bench = Bench.open(config, seed=3)
+    record = RunRecord.create(tmp_path, config, bench.identities())
+    run_stage(bench, record)
+    return bench, record
+
+
+def _heat(bench, record, current_a, seconds):
+    """Drive ``current_a`` for about ``seconds`` (a plan at a higher current than the stage's)."""
+    op = bench.config.operating_point
+    plan = PointPlan(source="characterisation", injection={}, speed_rpm=op.speed_rpm,
+                     current_a=current_a, current_angle_rad=0.0, kind="self_check", rule=None,
+                     drive_enabled=True, sample_rate_hz=2000.0,
+                     revolutions=max(2, round(seconds * abs(op.speed_rpm) / 60
+                                              * bench.config.motor.pole_pairs)))
+    _acquire(bench, record, f"heat-{current_a:g}A", plan, bench.config.motor.pole_pairs)
+
+
+def test_a_warmed_winding_is_characterised_again_and_the_plans_read_it(tmp_path):
+    bench, record = _opened(tmp_path, WARMING)
+    try:
+        held = bench.characterisation.get("phase_resistance_ohm")
+        history = []
+        _heat(bench, record, 20.0, 2.0)
+        entry = recheck_winding(bench, record, "dead_time", history)
+        assert entry["decision"] == "re-characterised", entry
+        assert "phase_resistance_ohm" in entry["drifted"]
+        now = bench.characterisation.get("phase_resistance_ohm")
+        assert now.value > held.value + held.expanded + now.expanded     # it warmed
+        assert bench.config.motor.phase_resistance_ohm == now.value      # what the plans read
+        assert bench.stated_config.motor == default_sim_bench().motor    # the file is kept
+        assert bench.characterisation.get("ke_v_s_per_rad") is not None  # ψ kept
+        assert record.data[SECTION]["rechecks"] == history
+        assert (record.path / "captures" / "characterisation-recheck-1-dead_time.npz").exists()
+    finally:
+        record.finish("complete")
+        bench.close()
+
+
+def test_a_winding_that_stays_as_characterised_is_confirmed(tmp_path):
+    bench, record = _opened(tmp_path)
+    try:
+        before = bench.config
+        history = []
+        for plan in ("dc_offset", "encoder"):
+            entry = recheck_winding(bench, record, plan, history)
+            assert entry["decision"] == "confirmed", entry
+        assert bench.config == before
+        assert [e["before_plan"] for e in record.data[SECTION]["rechecks"]] == ["dc_offset",
+                                                                               "encoder"]
+    finally:
+        record.finish("complete")
+        bench.close()
