@@ -25,6 +25,9 @@ from hil.characterisation.identify import Identified, winding
 
 #: The record section listing the rechecks.
 SECTION = "characterisation_rechecks"
+#: Electrical revolutions of a recheck's capture (the stage's 16 halved: a run checks before
+#: every plan; the type-A u of R grows by √2, from ~0.1 % of R at the shipped bench's point)
+REVOLUTIONS = 8
 _KEYS = ("phase_resistance_ohm", "phase_inductance_h")
 
 
@@ -47,7 +50,8 @@ def recheck_winding(bench, record, plan: str, history: list) -> dict | None:
     pole_pairs = bench.config.motor.pole_pairs
     capture = _voltage_capture(bench, record,
                                f"characterisation-recheck-{len(history) + 1}-{plan}",
-                               _plan(result.point, enabled=True), pole_pairs)
+                               _plan(result.point, enabled=True, revolutions=REVOLUTIONS),
+                               pole_pairs)
     entry = {"before_plan": plan}
     if isinstance(capture, str):
         entry.update(decision="not rechecked", reason=capture)
