@@ -50,8 +50,8 @@ def recheck_winding(bench, record, plan: str, history: list) -> dict | None:
     pole_pairs = bench.config.motor.pole_pairs
     capture = _voltage_capture(bench, record,
                                f"characterisation-recheck-{len(history) + 1}-{plan}",
-                               _plan(result.point, enabled=True, revolutions=REVOLUTIONS),
-                               pole_pairs)
+                               _plan(result.point, pole_pairs, enabled=True,
+                                     revolutions=REVOLUTIONS), pole_pairs)
     entry = {"before_plan": plan}
     if isinstance(capture, str):
         entry.update(decision="not rechecked", reason=capture)

@@ -80,3 +80,18 @@ def test_a_winding_that_stays_as_characterised_is_confirmed(tmp_path):
     finally:
         record.finish("complete")
         bench.close()
+
+
+def test_the_capture_rate_keeps_the_samples_off_whole_revolutions():
+    from hil.characterisation.stage import (SAMPLE_RATE_HZ, WHOLE_REVOLUTION_CLEARANCE,
+                                            sample_rate_hz)
+
+    assert sample_rate_hz(1200.0, 2) != SAMPLE_RATE_HZ      # 7919 Hz: 197.975 per revolution
+    for speed_rpm in (-2475.0, -500.0, 37.0, 250.0, 1200.0, 1600.0):
+        for pole_pairs in (1, 2, 4, 5, 7):
+            rate = sample_rate_hz(speed_rpm, pole_pairs)
+            per_rev = rate * 60.0 / (abs(speed_rpm) * pole_pairs)
+            assert abs(per_rev - round(per_rev)) >= WHOLE_REVOLUTION_CLEARANCE
+            assert abs(rate - SAMPLE_RATE_HZ) < 100 and rate == int(rate)
+            assert all(int(rate) % k for k in range(2, 90))       # prime
+    assert sample_rate_hz(0.0, 4) == SAMPLE_RATE_HZ
