@@ -253,10 +253,19 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         entry["prediction"] = _thinned(prediction.to_dict()) | {
             "pk_pk_pu_of_nameplate_mean": predicted_pu,
             "nameplate_mean_torque_nm": nameplate_nm,
-            "pk_pk_pu_of_measured_mean": prediction.pk_pk_nm / abs(result.mean_torque_nm)}
+            "pk_pk_pu_of_measured_mean": prediction.pk_pk_nm / abs(result.mean_torque_nm),
+            "motor_used": motor_used(bench.config)}
     record.add_test(entry)
     return PointOutcome(test_id, result, prediction, verdict, predicted_pu, entry, judged,
                         checks or [], phase_verdict)
+
+
+def motor_used(config) -> dict:
+    """The motor parameters a prediction read (the bench as characterised when the run measured
+    it, ``hil.characterisation``; else the bench file's nameplate)."""
+    motor = config.motor
+    return {name: getattr(motor, name) for name in
+            ("phase_resistance_ohm", "phase_inductance_h", "ke_v_s_per_rad")}
 
 
 def _torque_accuracy_nm(bench: Bench) -> float | None:

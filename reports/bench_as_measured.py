@@ -9,6 +9,8 @@ under test); the drive's loop against its documentation is judged by the charact
 
 from __future__ import annotations
 
+from hil.characterisation.recheck import CONFIRMED, RECHARACTERISED
+
 NAMES = {"phase_resistance_ohm": "R", "phase_inductance_h": "L", "ke_v_s_per_rad": "Ke",
          "current_loop_bandwidth_hz": "current loop bandwidth",
          "bandwidth_hz": "torque transducer bandwidth"}
@@ -39,24 +41,32 @@ def summary_text(record: dict) -> str:
     rows = section.get("stated_vs_measured") or []
     off = [f"{NAMES.get(r['name'], r['name'])} {_measured(r)} {UNITS.get(r['unit'], r['unit'])} "
            f"(stated {_num(r['stated'])})" for r in rows if r.get("disagrees")]
-    text = ("measured beyond U (k = 2) from the bench file, the predictions use the measured: "
-            + "; ".join(off) if off else
-            "every measured value confirms the bench file within U (k = 2)" if rows else
-            "nothing identified: the predictions use the bench file as stated")
+    text = "at the start of the run, " + (
+        "measured beyond U (k = 2) from the bench file, the predictions use the measured: "
+        + "; ".join(off) if off else
+        "every measured value confirms the bench file within U (k = 2)" if rows else
+        "nothing identified: the predictions use the bench file as stated")
     missing = sorted(section.get("not_identified") or {})
     if missing:
         text += "; not identified (bench file used): " + ", ".join(
             NAMES.get(name, name) for name in missing)
     rechecks = _rechecks(record)
-    again = [entry for entry in rechecks if entry.get("decision") == "re-characterised"]
-    if rechecks:
-        text += (f"; winding measured again before {len(rechecks)} plan(s), re-characterised "
-                 f"before {len(again)}" + (_drift(again) if again else ""))
+    measured = [entry for entry in rechecks if entry.get("decision") in (CONFIRMED,
+                                                                         RECHARACTERISED)]
+    again = [entry for entry in measured if entry.get("decision") == RECHARACTERISED]
+    if measured:
+        text += (f"; the winding measured again before {len(measured)} plan(s), "
+                 f"re-characterised before {len(again)}" + (_drift(again) if again else ""))
+    missed = [entry.get("before_plan") or "?" for entry in rechecks
+              if entry.get("decision") not in (CONFIRMED, RECHARACTERISED)]
+    if missed:
+        text += (f"; NOT measured again before {', '.join(missed)} (the voltage was beyond the "
+                 f"DAQ's range: those plans' predictions use the R and L held before them)")
     return text + " (motor values are notes about the motor, not the drive under test)"
 
 
 def _drift(entries: list[dict]) -> str:
-    """" (R between a and b Ω ...)": the range the re-characterisations measured."""
+    """The range of R the re-characterisations measured, as " (R measured between a and b Ω…)"."""
     values = [((entry.get("phase_resistance_ohm") or {}).get("measured") or {}).get("value")
               for entry in entries]
     values = [value for value in values if value is not None]

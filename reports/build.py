@@ -23,9 +23,8 @@ from pathlib import Path
 from hil.capture import Capture, atomic_write_bytes
 from hil.errors import InputError
 from hil.record import RECORD_FILE, capture_path, load_record, utc_now, verify_record
-from ripple_hil_reports import figures, revisions
+from ripple_hil_reports import bench_as_measured, figures, revisions
 from ripple_hil_reports.angle_view import angle_view
-from ripple_hil_reports import bench_as_measured
 from ripple_hil_reports.bench_kind import bench_text
 from hil.outcome_kinds import MEASURED, NOT_DETERMINABLE
 from ripple_hil_reports.content import (DECISIONS, NO_VERDICT, NOT_DETERMINED, RIPPLE_DEFINITION,
@@ -472,8 +471,9 @@ def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> N
     rechecks = bench_as_measured.recheck_rows(record)
     if rechecks:
         pdf.para("The winding measured again before each plan (R in Ω, L in H: held → measured "
-                 "± U, k = 2); where it drifted beyond U the characterisation was repeated and "
-                 "the plan's predictions read the new values:", size=7.5)
+                 "± U, k = 2); where it drifted beyond U the characterisation was repeated, and "
+                 "the plan's predictions read the new values where they differ from the bench "
+                 "file beyond U (the stated ones where they confirm it):", size=7.5)
         pdf.grid(["before plan", "R", "L", "decision"], rechecks, widths=(30, 50, 60, 0))
 
     pdf.heading("Signal chain", 2)

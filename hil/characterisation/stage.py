@@ -15,38 +15,10 @@ from dataclasses import replace
 
 from hil.characterisation.identify import back_emf, winding
 from hil.characterisation.result import Characterisation, ke_from_psi
+from hil.characterisation.sampling import sample_rate_hz
 
 #: The DAQ's line-to-line terminal voltage channel (drivers/data/daq_registers.toml).
 VOLTAGE_CHANNEL = "vab_v"
-#: A prime sample rate (as the self-check's): no PWM harmonic aliases onto a steady line and the
-#: samples fall at every phase of the PWM period. ``sample_rate_hz`` moves it to a nearby prime
-#: where the samples per electrical revolution are close to whole.
-SAMPLE_RATE_HZ = 7919.0
-#: The fractional part of the samples per electrical revolution a capture's rate must have (its
-#: distance from a whole number at least this): with a whole number the samples fall at the same
-#: angles in every revolution, the per-revolution scatter hides what the sampling phase does, and
-#: the type-A u of R understated the capture-to-capture scatter about 1.9× (Table I, 1200 rpm,
-#: 10 A, 7919 Hz = 197.975 samples per revolution; 0.25× at 7901 Hz = 197.525).
-WHOLE_REVOLUTION_CLEARANCE = 0.25
-
-
-def _is_prime(n: int) -> bool:
-    return n > 1 and all(n % k for k in range(2, math.isqrt(n) + 1))
-
-
-def sample_rate_hz(speed_rpm: float, pole_pairs: int) -> float:
-    """The prime nearest ``SAMPLE_RATE_HZ`` whose samples per electrical revolution at this
-    speed are at least ``WHOLE_REVOLUTION_CLEARANCE`` from a whole number."""
-    f_e = abs(speed_rpm) / 60.0 * pole_pairs
-    if f_e == 0.0:
-        return SAMPLE_RATE_HZ
-    base = int(SAMPLE_RATE_HZ)
-    for step in range(2000):
-        for rate in (base - step, base + step) if step else (base,):
-            per_rev = rate / f_e
-            if _is_prime(rate) and abs(per_rev - round(per_rev)) >= WHOLE_REVOLUTION_CLEARANCE:
-                return float(rate)
-    return SAMPLE_RATE_HZ
 #: Electrical revolutions per capture (the type-A scatter needs several).
 REVOLUTIONS = 16
 #: The simulated DAQ's voltage channel is the mean over the PWM period a sample falls in: its
@@ -55,14 +27,16 @@ VOLTAGE_SKEW_BOUND_S = 0.5 / 20_000.0
 SECTION = "characterisation"
 
 
-def _plan(op, pole_pairs: int, *, enabled: bool, revolutions: int = REVOLUTIONS):
+def capture_plan(op, pole_pairs: int, *, enabled: bool, revolutions: int = REVOLUTIONS):
+    """The point of a voltage capture at ``op``: the drive disabled (the back EMF) or regulating
+    ``op``'s current (the winding), at ``sampling.sample_rate_hz`` for those revolutions."""
     from hil.measurement import PointPlan
 
     return PointPlan(source="characterisation", injection={}, speed_rpm=op.speed_rpm,
                      current_a=op.current_a if enabled else 0.0,
                      current_angle_rad=op.current_angle_rad, kind="self_check", rule=None,
                      drive_enabled=enabled, extra_channels=(VOLTAGE_CHANNEL,),
-                     sample_rate_hz=sample_rate_hz(op.speed_rpm, pole_pairs),
+                     sample_rate_hz=sample_rate_hz(op.speed_rpm, pole_pairs, revolutions),
                      revolutions=revolutions)
 
 
@@ -85,8 +59,8 @@ def characterise(bench, record, op=None) -> Characterisation:
     pole_pairs = config.motor.pole_pairs
     note = ""
     for attempt in range(len(SLOWER_SPEED_FACTORS) + 1):
-        emf_capture = _voltage_capture(bench, record, "characterisation-emf",
-                                       _plan(op, pole_pairs, enabled=False), pole_pairs)
+        emf_capture = voltage_capture(bench, record, "characterisation-emf",
+                                      capture_plan(op, pole_pairs, enabled=False), pole_pairs)
         if not isinstance(emf_capture, str) or attempt == len(SLOWER_SPEED_FACTORS):
             break
         slower = replace(op, speed_rpm=op.speed_rpm * SLOWER_SPEED_FACTORS[attempt])
@@ -101,8 +75,8 @@ def characterise(bench, record, op=None) -> Characterisation:
     emf = back_emf(emf_capture, pole_pairs, gain_u_rel=gain_u_rel)
     identified = [ke_from_psi(emf.psi, config.motor.ke_definition)]
     not_identified = {}
-    winding_capture = (_voltage_capture(bench, record, "characterisation-winding",
-                                        _plan(op, pole_pairs, enabled=True), pole_pairs)
+    winding_capture = (voltage_capture(bench, record, "characterisation-winding",
+                                       capture_plan(op, pole_pairs, enabled=True), pole_pairs)
                        if op.current_a > 0 else "the operating point's current is 0 A")
     if not isinstance(winding_capture, str):
         identified += winding(winding_capture, emf, pole_pairs,
@@ -129,7 +103,7 @@ def characterise(bench, record, op=None) -> Characterisation:
 SLOWER_SPEED_FACTORS = (0.6, 0.35)
 
 
-def _voltage_capture(bench, record, name, plan, pole_pairs):
+def voltage_capture(bench, record, name, plan, pole_pairs):
     """A capture with the terminal voltage, or the reason there is none: a ``vab_v`` beyond the
     DAQ's range (e.g. a 48 V bus at speed on a ±32.8 V channel) identifies nothing, and the
     plans run on the nameplate; any other clipped channel is the bench's failure."""
@@ -206,7 +180,7 @@ def _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad):
                      for share in LOOP_TEST_FREQUENCIES_PU})
     points, transducer_points, count_elec_rad = [], [], 0.0
     for order in orders:
-        plan = replace(_plan(op, pole_pairs, enabled=True),
+        plan = replace(capture_plan(op, pole_pairs, enabled=True),
                        injection={"loop_test_amplitude_a": amplitude, "loop_test_order": order},
                        extra_channels=(), sample_rate_hz=LOOP_SAMPLE_RATE_HZ,
                        revolutions=LOOP_REVOLUTIONS)

@@ -46,7 +46,9 @@ def test_the_rechecks_are_counted_and_the_drift_stated():
                   _entry("dead_time", 0.0716, 0.0801, "re-characterised"),
                   _entry("encoder", 0.0801, 0.0745, "re-characterised")]}}
     text = summary_text(record)
-    assert "measured again before 3 plan(s), re-characterised before 2" in text
+    assert text.startswith("at the start of the run, measured beyond U")
+    assert "the winding measured again before 3 plan(s), re-characterised before 2" in text
+    assert "NOT measured again" not in text
     assert "R measured between 0.0745 and 0.0801 Ω" in text
     rows = recheck_rows(record)
     assert rows[1] == ["dead_time", "0.0716 → 0.0801 ± 0.0001", "— → — ± —", "re-characterised"]
@@ -54,3 +56,7 @@ def test_the_rechecks_are_counted_and_the_drift_stated():
                      "reason": "the terminal voltage is beyond the DAQ's vab_v range"}
     assert recheck_rows({"characterisation_rechecks": {"rechecks": [not_rechecked]}})[0][3] \
         == "not rechecked: the terminal voltage is beyond the DAQ's vab_v range"
+    record["characterisation_rechecks"]["rechecks"].append(not_rechecked)
+    text = summary_text(record)
+    assert "measured again before 3 plan(s)" in text          # not 4: one was not measured
+    assert "NOT measured again before encoder" in text
