@@ -178,6 +178,19 @@ def _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad):
     high = int(Injection.ranges()["loop_test_order"].max)
     orders = sorted({min(high, max(2, round(share * drive.current_loop_bandwidth_hz / f_e)))
                      for share in LOOP_TEST_FREQUENCIES_PU})
+    by_name = {item.name: item for item in identified}
+    plant = (by_name["phase_resistance_ohm"].value, by_name["phase_inductance_h"].value)
+    beyond = {order: needed for order in orders
+              if (needed := loop_test_voltage_v(op, pole_pairs, order, amplitude, plant,
+                                                psi_v_s_per_rad)) > _loop_voltage_limit_v(config)}
+    orders = [order for order in orders if order not in beyond]
+    if len(orders) < 2:
+        reason = (f"the loop test signal ({amplitude:g} A at orders "
+                  + ", ".join(f"{k} (needs {v:.3g} V)" for k, v in beyond.items())
+                  + f") would take the drive beyond its linear voltage "
+                  f"{_loop_voltage_limit_v(config):.3g} V (peak phase) at this point: a "
+                  f"saturated loop reads slow; fewer than two orders remain")
+        return reason, f"no loop test-signal captures ({reason})"
     points, transducer_points, count_elec_rad = [], [], 0.0
     for order in orders:
         plan = replace(capture_plan(op, pole_pairs, enabled=True),
@@ -193,8 +206,6 @@ def _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad):
                   if config.torque.bandwidth_hz is not None
                   else "the bench file states no [torque] bandwidth_hz (no first-order model)")
     transducer = transducer if isinstance(transducer, str) else [transducer]
-    by_name = {item.name: item for item in identified}
-    plant = (by_name["phase_resistance_ohm"].value, by_name["phase_inductance_h"].value)
     setup = _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad)
     gain = fit_loop(points, setup, plant, by_name["phase_inductance_h"].u)
     if gain.expanded >= LOOP_GAIN_RESOLVABLE_U_PU * min(1.0, gain.value):   # absolute or of g
@@ -204,6 +215,29 @@ def _loop_captures(bench, record, op, identified, config, psi_v_s_per_rad):
                 f"refute the documentation (e.g. a loop delay or a design other than the "
                 f"documented one)"), transducer
     return [gain], transducer
+
+
+def loop_test_voltage_v(op, pole_pairs, order, amplitude_a, plant, psi_v_s_per_rad) -> float:
+    """Peak phase voltage (V) the loop test signal needs at ``op``, bounded above: the operating
+    point's steady voltage on the measured motor (``plant`` = (R Ω, L H), E = ψ·ω_m) plus the test
+    current's (``amplitude_a`` peak at rotor-frame order ``order``, which the stator sees at
+    (order ± 1)·ωe) through |R + j·(order + 1)·ωe·L|."""
+    from hil.characterisation.loop import phase_voltage_peak_v
+
+    omega_m = op.speed_rpm * 2 * math.pi / 60.0
+    omega_e = pole_pairs * omega_m
+    steady = phase_voltage_peak_v(op.current_a, op.current_angle_rad, omega_e,
+                                  psi_v_s_per_rad * omega_m, plant)
+    resistance, inductance = plant
+    return steady + amplitude_a * abs(complex(resistance, (order + 1) * abs(omega_e) * inductance))
+
+
+def _loop_voltage_limit_v(config) -> float:
+    """The linear SVPWM limit (peak phase V) of the drive as characterised (EDS defaults: no
+    injected dead time, ``PWM_HZ``)."""
+    from hil.model.voltage import linear_limit_v
+
+    return linear_limit_v(config.motor.dc_bus_v, pwm_frequency_hz=PWM_HZ)
 
 
 def _loop_setup(op, config, plant, psi_v_s_per_rad, count_elec_rad):
