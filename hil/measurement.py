@@ -263,9 +263,9 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
 def motor_used(config) -> dict:
     """The motor parameters a prediction read (the bench as characterised when the run measured
     it, ``hil.characterisation``; else the bench file's nameplate)."""
-    motor = config.motor
-    return {name: getattr(motor, name) for name in
-            ("phase_resistance_ohm", "phase_inductance_h", "ke_v_s_per_rad")}
+    from hil.characterisation.result import MOTOR_KEYS
+
+    return {name: getattr(config.motor, name) for name in MOTOR_KEYS}
 
 
 def _torque_accuracy_nm(bench: Bench) -> float | None:
