@@ -203,8 +203,10 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     prediction = verdict = predicted_pu = nameplate_nm = phase_verdict = None
     try:
         check_unique(chosen)
-        bench.check_command(current_a=plan.current_a, speed_rpm=plan.speed_rpm)
+        bench.check_command(current_a=plan.current_a,
+                            speed_rpm=dyno_speed_rpm(plan, pole_pairs))
         capture = _acquire(bench, record, test_id, plan, pole_pairs)
+        entry["operating_point"]["dyno_speed_rpm"] = capture.meta.get("dyno_speed_rpm")
         settings = analysis_settings(plan, bench)
         result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
         if plan.rule is not None:
@@ -297,13 +299,24 @@ def analysis_settings(plan: PointPlan, bench: Bench) -> dict:
 DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
 
 
+def dyno_speed_rpm(plan: PointPlan, pole_pairs: int) -> float:
+    """The speed the dyno is given for ``plan``: its own, moved by at most 0.5 % where the PWM
+    carrier would be locked to the rotor (``hil.carrier_lock``)."""
+    from hil.carrier_lock import unlocked_speed_rpm
+
+    return unlocked_speed_rpm(plan.speed_rpm, pole_pairs,
+                              plan.injection.get("pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ),
+                              plan.revolutions * plan.period_revolutions)
+
+
 def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pole_pairs: int):
     """Inject, operate, capture and persist the raw data, inside the safety guard."""
     duration_s = plan.capture_duration_s(pole_pairs)
     rate_hz = plan.capture_rate_hz(pole_pairs)
+    dyno_rpm = dyno_speed_rpm(plan, pole_pairs)
     with bench.guard(f"{test_id}: acquire"):
         bench.drive.set_injection(**plan.injection, current_angle_rad=plan.current_angle_rad)
-        bench.daq.set_dyno_speed_rpm(plan.speed_rpm)
+        bench.daq.set_dyno_speed_rpm(dyno_rpm)
         bench.drive.set_current_command_a(plan.current_a)
         if plan.drive_enabled:
             bench.drive.enable()
@@ -320,7 +333,7 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
             if getattr(exc, "capture", None) is None:
                 raise
             capture, failure = exc.capture, exc
-        capture.meta.update(test_id=test_id, source=plan.source,
+        capture.meta.update(test_id=test_id, source=plan.source, dyno_speed_rpm=dyno_rpm,
                             injection=dict(plan.injection), captured_utc=utc_now(),
                             wall_time_unix_s=time.time(),
                             **getattr(bench, "angle_reference_meta", {}))

@@ -448,6 +448,14 @@ def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> N
               "temperature (°C)"], [list(c) for c in conditions])
     pdf.para("A dash means the value was not recorded (temperature is recorded only where the "
              "bench measures it).", size=7, style="I")
+    moved = [op for op in (t.get("operating_point") or {} for t in tests)
+             if op.get("dyno_speed_rpm") not in (None, op.get("speed_rpm"))]
+    if moved:
+        largest = max(abs(op["dyno_speed_rpm"] / op["speed_rpm"] - 1.0) for op in moved)
+        pdf.para(f"At {len(moved)} point(s) the dyno ran off the nominal speed by at most "
+                 f"{largest:.3%}, where the drive's PWM carrier would have been locked to the "
+                 f"rotor (the same carrier phase every revolution; hil.carrier_lock): each "
+                 f"point's dyno speed is in the record.", size=7, style="I")
 
     pdf.heading("Instruments", 2)
     pdf.grid(["role", "model", "serial number", "range", "accuracy class", "calibrated", "due"],
