@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hil.analysis import InstrumentUncertainty, analyze_torque
+from hil.carrier_lock import unlocked_speed_rpm
 from hil.errors import InputError
 from hil.measurement import PointPlan
 from hil.model import OperatingPoint, predict
@@ -100,13 +101,16 @@ def holdout_set() -> list[Point]:
 def capture(point: Point, plan: PointPlan, transducer_bandwidth_hz: float = 1000.0):
     """The twin's transducer torque captured as the plan would (see the module docstring);
     ``transducer_bandwidth_hz`` the simulated transducer's first-order bandwidth (the bench
-    file's 1 kHz unless a test makes it lag more)."""
+    file's 1 kHz unless a test makes it lag more). The dyno runs where the plan runs it: off a
+    PWM carrier locked to the rotor (``hil.carrier_lock``)."""
     motor = MOTORS[point.motor]
     config = DriveConfig(motor=MotorModel(parameters=motor),
                          transducer=TransducerModel(bandwidth_hz=transducer_bandwidth_hz))
     twin = DriveTwin(config, seed=point.seed)
     twin.set_injection(dead_time_s=point.dead_time_s)
-    twin.speed_rpm, twin.current_command_a = point.speed_rpm, point.current_a
+    twin.speed_rpm = unlocked_speed_rpm(point.speed_rpm, motor.pole_pairs, PWM_HZ,
+                                        plan.revolutions * plan.period_revolutions)
+    twin.current_command_a = point.current_a
     twin.enable()
     rate = plan.capture_rate_hz(motor.pole_pairs)
     twin.advance(plan.settle_s, rate)
