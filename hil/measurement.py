@@ -301,9 +301,12 @@ DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
 
 def dyno_speed_rpm(plan: PointPlan, pole_pairs: int) -> float:
     """The speed the dyno is given for ``plan``: its own, moved by at most 0.5 % where the PWM
-    carrier would be locked to the rotor (``hil.carrier_lock``)."""
+    carrier would be locked to the rotor (``hil.carrier_lock``); its own with the drive disabled
+    (no carrier). Checks against the dyno's setpoint read this (meta ``dyno_speed_rpm``)."""
     from hil.carrier_lock import unlocked_speed_rpm
 
+    if not plan.drive_enabled:
+        return plan.speed_rpm
     return unlocked_speed_rpm(plan.speed_rpm, pole_pairs,
                               plan.injection.get("pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ),
                               plan.revolutions * plan.period_revolutions)

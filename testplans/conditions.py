@@ -166,7 +166,8 @@ def self_check_point(op):
         return [selfcheck.torque_scale(capture, nameplate, tolerance, basis=basis),
                 *selfcheck.current_channels(capture, plan.current_a, pole_pairs,
                                             SELF_CHECK_CURRENT_TOL_PU),
-                selfcheck.speed(capture, plan.speed_rpm, SELF_CHECK_SPEED_TOL_PU),
+                selfcheck.speed(capture, capture.meta.get("dyno_speed_rpm", plan.speed_rpm),
+                                SELF_CHECK_SPEED_TOL_PU),
                 selfcheck.sampling(capture, plan.capture_duration_s(pole_pairs),
                                    plan.capture_rate_hz(pole_pairs)),
                 *daq_timebase.pwm_line_checks(

@@ -66,3 +66,34 @@ def test_the_record_keeps_the_nominal_speed_and_the_dyno_speed(tmp_path):
     pole_pairs = config.motor.pole_pairs
     assert carrier_phase_gap(20_000.0 / (dyno / 60 * pole_pairs), plan.revolutions) \
         <= MAX_PHASE_GAP
+
+
+def test_the_self_check_judges_the_speed_against_the_dyno_setpoint_it_was_given(tmp_path):
+    """The speed check compares the encoder's speed with the speed the dyno was commanded (moved
+    off the lock), not the nominal one: a 0.5 % DAQ clock error must not hide behind a nudge of
+    the same size. With the drive disabled there is no carrier and the dyno is not moved."""
+    from hil.bench import Bench
+    from hil.config import default_sim_bench
+    from hil.measurement import measure_point
+    from hil.record import RunRecord
+    from ripple_hil_testplans import conditions as c
+
+    config = default_sim_bench()
+    op = config.operating_point
+    bench = Bench.open(config, seed=1)
+    record = RunRecord.create(tmp_path, config, bench.identities())
+    try:
+        measure_point(bench, record, "self-check", c.self_check_point(op))
+        disabled = c.point(op, "self_check", {}, None, kind="self_check", current_a=0.0,
+                           drive_enabled=False)
+        measure_point(bench, record, "disabled", disabled)
+    finally:
+        record.finish("complete")
+        bench.close()
+    entry = record.test("self-check")
+    dyno = entry["operating_point"]["dyno_speed_rpm"]
+    assert dyno != op.speed_rpm
+    speed_check = next(ch for ch in entry["checks"] if ch["name"] == "speed")
+    assert speed_check["expected"] == dyno and speed_check["passed"]
+    assert abs(speed_check["measured"] - dyno) < abs(speed_check["measured"] - op.speed_rpm)
+    assert record.test("disabled")["operating_point"]["dyno_speed_rpm"] == op.speed_rpm
