@@ -148,3 +148,29 @@ def test_no_rate_whose_sample_grid_is_synchronous_with_the_rotor():
         assert not synchronous_grid(settings.sample_rate_hz, pwm_hz, settings.window_periods,
                                     per_revolution)
         assert settings.effective_samples_per_period >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD
+
+
+@pytest.mark.parametrize("speed_rpm, current_a, refused", [(-500.0, 20.0, True),
+                                                           (-250.0, 10.0, True),
+                                                           (500.0, 20.0, False),
+                                                           (-800.0, 15.0, False)])
+def test_a_point_below_the_validated_modulation_index_is_refused_with_the_reason(
+        speed_rpm, current_a, refused):
+    """Braking, where i·R and the EMF nearly cancel, the drive needs a few per cent of V_dc:
+    below M = 0.08 the plan read 0.4-0.8x the model (sampling the short active states) or the
+    model 1.2-2.7x low (40 kHz), studies/switching_modulation.py: refused, not judged. Table I at
+    -500 rpm / 20 A needs M = 0.051; at -800 rpm / 15 A 0.159."""
+    import dataclasses
+
+    from hil.config import default_sim_bench
+    from hil.model.pwm_resolution import forward_phasor_peak_v
+    from ripple_hil_testplans.test_pwm_switching import MIN_MODULATION_INDEX, modulation_problem
+
+    base = default_sim_bench()
+    config = dataclasses.replace(base, operating_point=dataclasses.replace(
+        base.operating_point, speed_rpm=speed_rpm, current_a=current_a))
+    index = abs(forward_phasor_peak_v(config.model_point(speed_rpm, current_a))) / 12.0
+    reason = modulation_problem(config)
+    assert (reason is not None) == refused == (index < MIN_MODULATION_INDEX)
+    if refused:
+        assert f"modulation index {index:.3f}" in reason and "0.08" in reason
