@@ -16,7 +16,8 @@ twin's own ripple, sampled at 4 MHz, is 1.01-1.04 of it).
 
 A second effect grows as M falls: the twin's own within-period ripple departs from the
 switched-torque model (ideal switches, duties held over the period) by up to 1.5-2.7x at 40 kHz
-and M ≤ 0.05, with the DAQ's sampling out of the question (reference below).
+and M ≤ 0.05, with the DAQ's sampling out of the question (reference below): the drive's 12-bit
+current ADC makes its loop move the duties from period to period (hil/model/README.md).
 
 For each point: the plan's capture settings at the DAQ's 200 kS/s (``capture_settings``); the
 twin's currents captured there, ideal (no ADC step) and analysed by ``analyze_switching``; the
