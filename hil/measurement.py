@@ -203,10 +203,10 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
     prediction = verdict = predicted_pu = nameplate_nm = phase_verdict = None
     try:
         check_unique(chosen)
-        bench.check_command(current_a=plan.current_a,
-                            speed_rpm=dyno_speed_rpm(plan, pole_pairs))
-        capture = _acquire(bench, record, test_id, plan, pole_pairs)
-        entry["operating_point"]["dyno_speed_rpm"] = capture.meta.get("dyno_speed_rpm")
+        entry["operating_point"].update(carrier_fields(plan, bench, pole_pairs))
+        dyno_rpm = entry["operating_point"]["dyno_speed_setpoint_rpm"]
+        bench.check_command(current_a=plan.current_a, speed_rpm=dyno_rpm)
+        capture = _acquire(bench, record, test_id, plan, pole_pairs, dyno_rpm)
         settings = analysis_settings(plan, bench)
         result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
         if plan.rule is not None:
@@ -299,24 +299,42 @@ def analysis_settings(plan: PointPlan, bench: Bench) -> dict:
 DEFAULT_PWM_FREQUENCY_HZ = 20_000.0
 
 
-def dyno_speed_rpm(plan: PointPlan, pole_pairs: int) -> float:
-    """The speed the dyno is given for ``plan``: its own, moved by at most 0.5 % where the PWM
-    carrier would be locked to the rotor (``hil.carrier_lock``); its own with the drive disabled
-    (no carrier). Checks against the dyno's setpoint read this (meta ``dyno_speed_rpm``)."""
+def dyno_speed_setpoint_rpm(plan: PointPlan, pole_pairs: int, pwm_frequency_hz: float) -> float:
+    """The speed the dyno is given for ``plan``: its own, moved by at most 0.5 % where the drive's
+    PWM carrier (``pwm_frequency_hz``) would be locked to the rotor (``hil.carrier_lock``); its
+    own with the drive disabled (no carrier). Checks against the dyno's setpoint read this
+    (capture meta and the entry's ``operating_point.dyno_speed_setpoint_rpm``)."""
     from hil.carrier_lock import unlocked_speed_rpm
 
     if not plan.drive_enabled:
         return plan.speed_rpm
-    return unlocked_speed_rpm(plan.speed_rpm, pole_pairs,
-                              plan.injection.get("pwm_frequency_hz", DEFAULT_PWM_FREQUENCY_HZ),
-                              plan.revolutions * plan.period_revolutions)
+    return unlocked_speed_rpm(plan.speed_rpm, pole_pairs, pwm_frequency_hz, plan.revolutions,
+                              plan.period_revolutions)
 
 
-def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pole_pairs: int):
-    """Inject, operate, capture and persist the raw data, inside the safety guard."""
+def carrier_fields(plan: PointPlan, bench: Bench, pole_pairs: int) -> dict:
+    """The entry's ``operating_point`` fields of the carrier lock: the dyno's setpoint and, where
+    no move within 0.5 % unlocks the carrier, ``carrier_locked`` True."""
+    from hil.carrier_lock import carrier_locked
+    from hil.validity import injected_or_default
+
+    pwm_hz = injected_or_default(plan, bench.config, "pwm_frequency_hz")
+    setpoint = dyno_speed_setpoint_rpm(plan, pole_pairs, pwm_hz)
+    fields = {"dyno_speed_setpoint_rpm": setpoint}
+    if plan.drive_enabled and carrier_locked(setpoint, pole_pairs, pwm_hz, plan.revolutions,
+                                             plan.period_revolutions):
+        fields["carrier_locked"] = True
+    return fields
+
+
+def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pole_pairs: int,
+             dyno_rpm: float | None = None):
+    """Inject, operate (the dyno at ``dyno_rpm``, default the plan's own speed: the
+    characterisation's captures, whose fits read it), capture and persist the raw data, inside
+    the safety guard."""
+    dyno_rpm = plan.speed_rpm if dyno_rpm is None else dyno_rpm
     duration_s = plan.capture_duration_s(pole_pairs)
     rate_hz = plan.capture_rate_hz(pole_pairs)
-    dyno_rpm = dyno_speed_rpm(plan, pole_pairs)
     with bench.guard(f"{test_id}: acquire"):
         bench.drive.set_injection(**plan.injection, current_angle_rad=plan.current_angle_rad)
         bench.daq.set_dyno_speed_rpm(dyno_rpm)
@@ -336,7 +354,8 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
             if getattr(exc, "capture", None) is None:
                 raise
             capture, failure = exc.capture, exc
-        capture.meta.update(test_id=test_id, source=plan.source, dyno_speed_rpm=dyno_rpm,
+        capture.meta.update(test_id=test_id, source=plan.source,
+                            dyno_speed_setpoint_rpm=dyno_rpm,
                             injection=dict(plan.injection), captured_utc=utc_now(),
                             wall_time_unix_s=time.time(),
                             **getattr(bench, "angle_reference_meta", {}))

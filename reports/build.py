@@ -448,14 +448,21 @@ def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> N
               "temperature (°C)"], [list(c) for c in conditions])
     pdf.para("A dash means the value was not recorded (temperature is recorded only where the "
              "bench measures it).", size=7, style="I")
-    moved = [op for op in (t.get("operating_point") or {} for t in tests)
-             if op.get("dyno_speed_rpm") not in (None, op.get("speed_rpm"))]
+    points = [t.get("operating_point") or {} for t in tests]
+    moved = [op for op in points
+             if op.get("dyno_speed_setpoint_rpm") not in (None, op.get("speed_rpm"))]
     if moved:
-        largest = max(abs(op["dyno_speed_rpm"] / op["speed_rpm"] - 1.0) for op in moved)
+        largest = max(abs(op["dyno_speed_setpoint_rpm"] / op["speed_rpm"] - 1.0) for op in moved)
         pdf.para(f"At {len(moved)} point(s) the dyno ran off the nominal speed by at most "
                  f"{largest:.3%}, where the drive's PWM carrier would have been locked to the "
                  f"rotor (the same carrier phase every revolution; hil.carrier_lock): each "
-                 f"point's dyno speed is in the record.", size=7, style="I")
+                 f"point's dyno setpoint is in the record.", size=7, style="I")
+    locked = sum(bool(op.get("carrier_locked")) for op in points)
+    if locked:
+        pdf.para(f"At {locked} point(s) no speed within 0.5 % unlocked the PWM carrier from the "
+                 "rotor: their per-period patterns (word length, PWM resolution, dead time) "
+                 "depend on the carrier's phase when the drive was enabled (record: "
+                 "operating_point.carrier_locked).", size=7, style="I")
 
     pdf.heading("Instruments", 2)
     pdf.grid(["role", "model", "serial number", "range", "accuracy class", "calibrated", "due"],

@@ -68,31 +68,37 @@ EXPECTATION = ("judged against the switched-circuit torque ripple of the drive's
                "envelope varies enough to be resolved (hil/model/README.md)")
 
 
-#: The smallest modulation index M = V_pk/V_dc (forward-equivalent phasor, braking included) at
-#: which the switched-torque model and the plan's measurement are validated: on the calibration
-#: set (Table I and the 8-pole 48 V motor, both directions, 10/20/40 kHz) every point read within
-#: ±20 % of the model above M = 0.072 and points at M <= 0.072 did not (1.21-1.95x at 40 kHz);
-#: the holdout motors (10 and 14 poles) read within ±20 % at every point above 0.08 and down to
-#: 0.42x below it (``studies/switching_modulation.py``; hil/model/README.md, "PWM switching at a
-#: small modulation index"). Braking, where i·R and the EMF nearly cancel, is where M is small.
-MIN_MODULATION_INDEX = 0.08
+#: The fewest sample phases the DAQ puts on the active states of a PWM period (the steep segments
+#: whose ends are the within-period extremes) for the measurement to find those extremes: the
+#: model's ``active_fraction_at_peak`` × the capture's effective samples per period. Braking,
+#: where the drive needs a few per cent of V_dc, the plan read 0.41-0.76 of the twin's own ripple
+#: while the model held it (the 14-pole 48 V motor at -500 rpm / 20 A, 10/20 kHz; -800 rpm /
+#: 15 A, 20 kHz). Set on the plan's own decisions over a calibration set (Table I, 8- and 14-pole
+#: 48 V motors): its wrong rejections had at most 1.74 phases there, rounded up; the holdout
+#: (10- and 12-pole) had none at any count (``studies/switching_sampling.py``; hil/model/README.md,
+#: "PWM switching: active states the DAQ cannot sample").
+MIN_ACTIVE_SAMPLES = 1.8
 
 
-def modulation_problem(config) -> str | None:
-    """Why the bench's operating point is below the plan's validated modulation index, or None."""
-    from hil.model.pwm_resolution import forward_phasor_peak_v
+def active_state_problem(config, injection, settings) -> str | None:
+    """Why the DAQ's sample phases cannot find this point's within-period extremes, or None."""
+    from hil.model import predict
 
     op = config.operating_point
     point = config.model_point(op.speed_rpm, op.current_a, op.current_angle_rad)
-    index = abs(forward_phasor_peak_v(point)) / point.dc_bus_v
-    if index >= MIN_MODULATION_INDEX:
+    prediction = predict("pwm_switching", point, pwm_frequency_hz=injection["pwm_frequency_hz"],
+                         **PREDICTION)
+    fraction = prediction.extras["active_fraction_at_peak"]
+    samples = fraction * settings.effective_samples_per_period
+    if samples >= MIN_ACTIVE_SAMPLES:
         return None
-    return (f"modulation index {index:.3f} at {op.speed_rpm:g} rpm / {op.current_a:g} A (the "
-            f"{'braking ' if op.speed_rpm < 0 else ''}drive needs {index * point.dc_bus_v:.2f} V "
-            f"peak of {point.dc_bus_v:g} V) is below {MIN_MODULATION_INDEX:g}, the smallest at "
-            "which the switched-torque model and this measurement were validated: the switching "
-            "ripple there is a few per cent of the current ripple's usual size and the twin read "
-            "0.4-1.9x the model (studies/switching_modulation.py)")
+    period_us = 1e6 / injection["pwm_frequency_hz"]
+    return (f"the active states last {fraction * period_us:.2g} µs of the {period_us:.3g} µs PWM "
+            f"period at the ripple's largest angle ({op.speed_rpm:g} rpm / {op.current_a:g} A, "
+            f"modulation index {prediction.extras['modulation_index']:.3f}) and the DAQ's "
+            f"{settings.effective_samples_per_period:.3g} effective samples per period put "
+            f"{samples:.2f} sample phases on them, fewer than {MIN_ACTIVE_SAMPLES:g}: the "
+            "within-period extremes fall between the samples and the ripple reads low")
 
 
 def capture(config, injection):
@@ -137,9 +143,9 @@ def test_pwm_switching(measure, bench, injection):
     settings = capture(bench.config, injection)
     if isinstance(settings, str):
         pytest.skip(not_determinable(f"pwm_switching: {settings}"))
-    too_small = modulation_problem(bench.config)
-    if too_small:
-        pytest.skip(not_determinable(f"pwm_switching: {too_small}"))
+    unsampled = active_state_problem(bench.config, injection, settings)
+    if unsampled:
+        pytest.skip(not_determinable(f"pwm_switching: {unsampled}"))
     outcome = measure(plan(bench.config, injection))
     reason = unresolved(outcome.verdict)
     if reason:

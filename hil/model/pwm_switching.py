@@ -23,7 +23,10 @@ zero. So a second form is offered (``model="switched_torque"``, not in the paper
 ripple within a period is piecewise linear, slope (E/ω_m)·Σ_x sin(θ − o_x)·(v_xn,k − v_x*)/L_s in
 switching state k, over the centre-aligned sequence 000, 100, 110, 111, 110, 100, 000 (sorted
 legs; ``modulation`` svpwm or sine sets the zero-vector split); its pk-pk per period, per unit of
-the mean torque, and its order-6 envelope.
+the mean torque, and its order-6 envelope. ``extras["active_fraction_at_peak"]``: the share of
+the period spent in the two active states at the envelope's largest angle (d_max − d_min): the
+steep segments whose ends are the path's extremes, 1.5·M to √3·M of the period — a few per cent when
+braking, where i·R and the EMF nearly cancel.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import numpy as np
 from hil.errors import InputError
 from hil.model.core import (MEAN_TORQUE_BASE, PHASE_OFFSETS_RAD, OperatingPoint, Prediction,
                             angle_grid, check_range)
-from hil.model.pwm_resolution import forward_phasor_peak_v
+from hil.model.pwm_resolution import forward_phasor_peak_v, leg_references_pu
 
 PWM_FREQUENCY_RANGE_HZ = (2000.0, 50000.0)
 #: The switched-torque form names the envelope's order 6 only where its envelope varies by at
@@ -153,6 +156,9 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
         equations = "switching-state torque slopes (not in the paper; eqs 29-31 for the paper's)"
         envelope = switched_torque_ripple_pu(theta, op, period, modulation)
         pk_pk = float(np.max(envelope))
+        peak_angle = theta[[int(np.argmax(envelope))]]
+        extras["active_fraction_at_peak"] = float(np.ptp(
+            leg_references_pu(peak_angle, op, modulation)[:, 0]))
         variation = float(np.ptp(envelope)) / pk_pk
         extras["envelope_variation_pu"] = variation
         if variation < ENVELOPE_ORDER_MIN_VARIATION \

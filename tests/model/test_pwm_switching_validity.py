@@ -150,27 +150,36 @@ def test_no_rate_whose_sample_grid_is_synchronous_with_the_rotor():
         assert settings.effective_samples_per_period >= MIN_EFFECTIVE_SAMPLES_PER_PERIOD
 
 
-@pytest.mark.parametrize("speed_rpm, current_a, refused", [(-500.0, 20.0, True),
-                                                           (-250.0, 10.0, True),
-                                                           (500.0, 20.0, False),
-                                                           (-800.0, 15.0, False)])
-def test_a_point_below_the_validated_modulation_index_is_refused_with_the_reason(
-        speed_rpm, current_a, refused):
-    """Braking, where i·R and the EMF nearly cancel, the drive needs a few per cent of V_dc:
-    below M = 0.08 the plan read 0.4-0.8x the model (sampling the short active states) or the
-    model 1.2-2.7x low (40 kHz), studies/switching_modulation.py: refused, not judged. Table I at
-    -500 rpm / 20 A needs M = 0.051; at -800 rpm / 15 A 0.159."""
+def test_a_point_whose_active_states_the_daq_cannot_sample_is_refused_with_the_reason():
+    """Braking at -500 rpm / 20 A the 14-pole 48 V motor's drive needs M = 0.046: at 10 kHz the
+    active states last ≈ 7 µs of the 100 µs period and the DAQ's phases are ≈ 5.4 µs apart, too
+    few on them to find the extremes (the plan read 0.41 of the twin's ripple,
+    studies/switching_sampling.py): refused, not judged. Motoring at +500 rpm it is judged, and
+    so is Table I's default point at every PWM frequency of the sweep."""
     import dataclasses
 
     from hil.config import default_sim_bench
-    from hil.model.pwm_resolution import forward_phasor_peak_v
-    from ripple_hil_testplans.test_pwm_switching import MIN_MODULATION_INDEX, modulation_problem
+    from ripple_hil_testplans.conditions import PWM_SWITCHING_SWEEP
+    from ripple_hil_testplans.test_pwm_switching import (MIN_ACTIVE_SAMPLES,
+                                                         active_state_problem, capture)
 
-    base = default_sim_bench()
-    config = dataclasses.replace(base, operating_point=dataclasses.replace(
-        base.operating_point, speed_rpm=speed_rpm, current_a=current_a))
-    index = abs(forward_phasor_peak_v(config.model_point(speed_rpm, current_a))) / 12.0
-    reason = modulation_problem(config)
-    assert (reason is not None) == refused == (index < MIN_MODULATION_INDEX)
-    if refused:
-        assert f"modulation index {index:.3f}" in reason and "0.08" in reason
+    def config_at(speed_rpm, current_a, motor=None):
+        base = default_sim_bench()
+        return dataclasses.replace(
+            base, motor=motor or base.motor,
+            operating_point=dataclasses.replace(base.operating_point, speed_rpm=speed_rpm,
+                                                current_a=current_a))
+
+    p14 = MotorParameters(pole_count=14, dc_bus_v=48.0, phase_resistance_ohm=0.1,
+                          phase_inductance_h=0.3e-3, max_reactance_ohm=0.5,
+                          ke_v_s_per_rad=0.04, ke_definition="peak_phase")
+    injection = {"pwm_frequency_hz": 10_000.0}
+    braking = config_at(-500.0, 20.0, p14)
+    reason = active_state_problem(braking, injection, capture(braking, injection))
+    assert reason is not None and f"fewer than {MIN_ACTIVE_SAMPLES:g}" in reason
+    assert "modulation index 0.04" in reason
+    motoring = config_at(500.0, 20.0, p14)
+    assert active_state_problem(motoring, injection, capture(motoring, injection)) is None
+    default = default_sim_bench()
+    for sweep in PWM_SWITCHING_SWEEP:
+        assert active_state_problem(default, sweep, capture(default, sweep)) is None

@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from hil.carrier_lock import (MAX_NUDGE_PU, MAX_PHASE_GAP, carrier_phase_gap,
+from hil.carrier_lock import (MAX_NUDGE_PU, MAX_PHASE_GAP_PERIODS, carrier_phase_gap,
                               unlocked_speed_rpm)
 
 
@@ -21,8 +21,8 @@ def test_a_locked_speed_moves_by_the_least_that_unlocks_it(speed_rpm, pole_pairs
     revolutions = 20
     moved = unlocked_speed_rpm(speed_rpm, pole_pairs, 20_000.0, revolutions)
     ratio = lambda rpm: 20_000.0 / (abs(rpm) / 60.0 * pole_pairs)      # noqa: E731
-    assert carrier_phase_gap(ratio(speed_rpm), revolutions) > MAX_PHASE_GAP
-    assert carrier_phase_gap(ratio(moved), revolutions) <= MAX_PHASE_GAP
+    assert carrier_phase_gap(ratio(speed_rpm), revolutions) > MAX_PHASE_GAP_PERIODS
+    assert carrier_phase_gap(ratio(moved), revolutions) <= MAX_PHASE_GAP_PERIODS
     assert np.sign(moved) == np.sign(speed_rpm)
     change = abs(moved / speed_rpm - 1.0)
     assert 0 < change <= MAX_NUDGE_PU
@@ -30,7 +30,7 @@ def test_a_locked_speed_moves_by_the_least_that_unlocks_it(speed_rpm, pole_pairs
     for smaller in np.arange(1, round(change / 1e-5)) * 1e-5:
         for sign in (1.0, -1.0):
             assert carrier_phase_gap(ratio(speed_rpm * (1 + sign * smaller)),
-                                     revolutions) > MAX_PHASE_GAP
+                                     revolutions) > MAX_PHASE_GAP_PERIODS
 
 
 @pytest.mark.parametrize("speed_rpm, pole_pairs, revolutions", [(731.0, 3, 20),
@@ -60,12 +60,12 @@ def test_the_record_keeps_the_nominal_speed_and_the_dyno_speed(tmp_path):
         bench.close()
     entry = record.test("baseline-locked-speed")
     nominal, dyno = (entry["operating_point"]["speed_rpm"],
-                     entry["operating_point"]["dyno_speed_rpm"])
+                     entry["operating_point"]["dyno_speed_setpoint_rpm"])
     assert nominal == op.speed_rpm and dyno != nominal
     assert abs(dyno / nominal - 1.0) <= MAX_NUDGE_PU
     pole_pairs = config.motor.pole_pairs
     assert carrier_phase_gap(20_000.0 / (dyno / 60 * pole_pairs), plan.revolutions) \
-        <= MAX_PHASE_GAP
+        <= MAX_PHASE_GAP_PERIODS
 
 
 def test_the_self_check_judges_the_speed_against_the_dyno_setpoint_it_was_given(tmp_path):
@@ -91,9 +91,39 @@ def test_the_self_check_judges_the_speed_against_the_dyno_setpoint_it_was_given(
         record.finish("complete")
         bench.close()
     entry = record.test("self-check")
-    dyno = entry["operating_point"]["dyno_speed_rpm"]
+    dyno = entry["operating_point"]["dyno_speed_setpoint_rpm"]
     assert dyno != op.speed_rpm
     speed_check = next(ch for ch in entry["checks"] if ch["name"] == "speed")
     assert speed_check["expected"] == dyno and speed_check["passed"]
     assert abs(speed_check["measured"] - dyno) < abs(speed_check["measured"] - op.speed_rpm)
-    assert record.test("disabled")["operating_point"]["dyno_speed_rpm"] == op.speed_rpm
+    assert record.test("disabled")["operating_point"]["dyno_speed_setpoint_rpm"] == op.speed_rpm
+
+
+def test_the_lock_is_judged_over_the_analysed_periods():
+    """The synchronous average groups by analysed periods of m electrical revolutions (encoder
+    decimation that does not divide a revolution): 12 rpm on 5 pole pairs at 20 kHz is r = 20000
+    a revolution — locked — and the carrier must walk from one *period* to the next."""
+    from hil.carrier_lock import carrier_locked
+
+    moved = unlocked_speed_rpm(12.0, 5, 20_000.0, 8, period_revolutions=5)
+    per_period = 20_000.0 * 5 / (moved / 60 * 5)
+    assert carrier_phase_gap(per_period, 8) <= MAX_PHASE_GAP_PERIODS
+    assert not carrier_locked(moved, 5, 20_000.0, 8, period_revolutions=5)
+    assert carrier_locked(12.0, 5, 20_000.0, 8, period_revolutions=5)
+
+
+def test_a_speed_no_move_unlocks_is_kept_and_said_to_be_locked():
+    """10 kHz, 5 pole pairs, 3000 rpm: 40 periods a revolution, and no move within 0.5 % spreads
+    4 revolutions' carrier phases: the speed is kept and ``carrier_locked`` says so."""
+    from hil.carrier_lock import carrier_locked
+
+    assert unlocked_speed_rpm(3000.0, 5, 10_000.0, 4) == 3000.0
+    assert carrier_locked(3000.0, 5, 10_000.0, 4)
+    assert not carrier_locked(3000.0 * 1.003, 5, 10_000.0, 40)
+
+
+def test_the_move_prefers_a_slower_speed():
+    """Slower keeps the voltage headroom and the speed limit the pre-flight checked."""
+    for speed_rpm, pole_pairs in ((500.0, 2), (1000.0, 2), (-500.0, 5)):
+        moved = unlocked_speed_rpm(speed_rpm, pole_pairs, 20_000.0, 8)
+        assert abs(moved) < abs(speed_rpm)

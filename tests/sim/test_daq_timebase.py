@@ -54,3 +54,8 @@ def test_the_self_check_sees_the_daq_time_base(tmp_path, case):
     # the clock read from the PWM line is the defect's, to a few ppm
     if case == "clock 0.5 % slow":
         assert checks["DAQ clock (PWM line)"]["measured"] == pytest.approx(0.995, abs=2e-5)
+        # the speed check compares with the setpoint the dyno was given (moved off the carrier
+        # lock), so it reads the clock's error alone: neither hidden nor faked by the move
+        speed = checks["speed"]
+        assert speed["expected"] == entry["operating_point"]["dyno_speed_setpoint_rpm"]
+        assert speed["measured"] / speed["expected"] == pytest.approx(1 / 0.995, abs=2e-4)
