@@ -39,9 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hil.analysis import InstrumentUncertainty, analyze_torque
-from hil.carrier_lock import unlocked_speed_rpm
 from hil.errors import InputError
-from hil.measurement import PointPlan
+from hil.measurement import PointPlan, dyno_speed_setpoint_rpm
 from hil.model import OperatingPoint, predict
 from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
 from hil.motor import TABLE_I, MotorParameters
@@ -108,8 +107,7 @@ def capture(point: Point, plan: PointPlan, transducer_bandwidth_hz: float = 1000
                          transducer=TransducerModel(bandwidth_hz=transducer_bandwidth_hz))
     twin = DriveTwin(config, seed=point.seed)
     twin.set_injection(dead_time_s=point.dead_time_s)
-    twin.speed_rpm = unlocked_speed_rpm(point.speed_rpm, motor.pole_pairs, PWM_HZ,
-                                        plan.revolutions * plan.period_revolutions)
+    twin.speed_rpm = dyno_speed_setpoint_rpm(plan, motor.pole_pairs, PWM_HZ)
     twin.current_command_a = point.current_a
     twin.enable()
     rate = plan.capture_rate_hz(motor.pole_pairs)
