@@ -19,6 +19,12 @@ DAQ cannot capture (fewer than 8 effective samples per period at any rate, e.g. 
 with the reason, never judged. Reverse rotation is braking: the model takes the
 forward-equivalent voltage phasor (hil.model.pwm_resolution.forward_phasor_peak_v).
 
+Where the drive needs so little voltage (braking: i·R and the EMF nearly cancel) that the DAQ
+puts fewer than ``MIN_ACTIVE_SAMPLES`` sample phases on the PWM period's active states, the
+extremes can fall between the samples (``active_state_problem``): there a reading *below* the
+model that does not pass is not determinable here; a pass stays a PASS and a reading above the
+zone a FAIL (the sampling can only read low).
+
 A point whose U (mostly the sampling-bias bound of few samples per period) takes more than half
 of the tolerance zone's half-width (``RESOLVED_FRACTION``, the share the validity regions allow
 the bench floor, hil.validity.FLOOR_FRACTION), and whose interval is not wholly inside the zone,
@@ -71,7 +77,7 @@ EXPECTATION = ("judged against the switched-circuit torque ripple of the drive's
 #: The fewest sample phases the DAQ puts on the active states of a PWM period (the steep segments
 #: whose ends are the within-period extremes) for the measurement to find those extremes: the
 #: model's ``active_fraction_at_peak`` × the capture's effective samples per period. Braking,
-#: where the drive needs a few per cent of V_dc, the plan read 0.41-0.76 of the twin's own ripple
+#: where the drive needs a few per cent of V_dc, the plan read 0.41-0.71 of the twin's own ripple
 #: while the model held it (the 14-pole 48 V motor at -500 rpm / 20 A, 10/20 kHz; -800 rpm /
 #: 15 A, 20 kHz). Set on the plan's own decisions over a calibration set (Table I, 8- and 14-pole
 #: 48 V motors): its wrong rejections had at most 1.74 phases there, rounded up; the holdout
@@ -98,7 +104,14 @@ def active_state_problem(config, injection, settings) -> str | None:
             f"modulation index {prediction.extras['modulation_index']:.3f}) and the DAQ's "
             f"{settings.effective_samples_per_period:.3g} effective samples per period put "
             f"{samples:.2f} sample phases on them, fewer than {MIN_ACTIVE_SAMPLES:g}: the "
-            "within-period extremes fall between the samples and the ripple reads low")
+            "within-period extremes can fall between the samples, so the ripple can read low")
+
+
+def reads_low(verdict) -> bool:
+    """Whether a verdict's reading lies below the middle of its tolerance zone: the only side a
+    sampling that misses the extremes can err on (a reading above the zone stays a FAIL)."""
+    return verdict is not None and verdict.measured_pk_pk_pu < 0.5 * (
+        verdict.lower_limit_pu + verdict.upper_limit_pu)
 
 
 def capture(config, injection):
@@ -144,9 +157,9 @@ def test_pwm_switching(measure, bench, injection):
     if isinstance(settings, str):
         pytest.skip(not_determinable(f"pwm_switching: {settings}"))
     unsampled = active_state_problem(bench.config, injection, settings)
-    if unsampled:
-        pytest.skip(not_determinable(f"pwm_switching: {unsampled}"))
     outcome = measure(plan(bench.config, injection))
+    if unsampled and not outcome.passed and reads_low(outcome.verdict):
+        pytest.skip(not_determinable(f"pwm_switching: read below the model where {unsampled}"))
     reason = unresolved(outcome.verdict)
     if reason:
         pytest.skip(not_determinable(f"pwm_switching: {reason}"))

@@ -25,8 +25,8 @@ switching state k, over the centre-aligned sequence 000, 100, 110, 111, 110, 100
 legs; ``modulation`` svpwm or sine sets the zero-vector split); its pk-pk per period, per unit of
 the mean torque, and its order-6 envelope. ``extras["active_fraction_at_peak"]``: the share of
 the period spent in the two active states at the envelope's largest angle (d_max − d_min): the
-steep segments whose ends are the path's extremes, 1.5·M to √3·M of the period — a few per cent when
-braking, where i·R and the EMF nearly cancel.
+steep segments whose ends are the path's extremes, 1.5·M to √3·M of the period — a few per
+cent when braking, where i·R and the EMF nearly cancel.
 """
 
 from __future__ import annotations

@@ -152,8 +152,8 @@ def test_no_rate_whose_sample_grid_is_synchronous_with_the_rotor():
 
 def test_a_point_whose_active_states_the_daq_cannot_sample_is_refused_with_the_reason():
     """Braking at -500 rpm / 20 A the 14-pole 48 V motor's drive needs M = 0.046: at 10 kHz the
-    active states last ≈ 7 µs of the 100 µs period and the DAQ's phases are ≈ 5.4 µs apart, too
-    few on them to find the extremes (the plan read 0.41 of the twin's ripple,
+    active states last ≈ 7.9 µs of the 100 µs period and the DAQ's phases are ≈ 5.4 µs apart:
+    1.5 phases on them, too few to find the extremes (the plan read 0.41 of the twin's ripple,
     studies/switching_sampling.py): refused, not judged. Motoring at +500 rpm it is judged, and
     so is Table I's default point at every PWM frequency of the sweep."""
     import dataclasses
@@ -183,3 +183,18 @@ def test_a_point_whose_active_states_the_daq_cannot_sample_is_refused_with_the_r
     default = default_sim_bench()
     for sweep in PWM_SWITCHING_SWEEP:
         assert active_state_problem(default, sweep, capture(default, sweep)) is None
+
+
+def test_below_the_limit_only_a_low_reading_is_not_determinable():
+    """The sampling can only miss extremes, so only a reading below the zone's middle is
+    excused; a reading above it (a drive at half the PWM frequency reads ≈ 1.9x) stays judged."""
+    from types import SimpleNamespace
+
+    from ripple_hil_testplans.test_pwm_switching import reads_low
+
+    zone = {"lower_limit_pu": 0.008, "upper_limit_pu": 0.012}
+    assert reads_low(SimpleNamespace(measured_pk_pk_pu=0.004, **zone))
+    assert reads_low(SimpleNamespace(measured_pk_pk_pu=0.0085, **zone))
+    assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.019, **zone))
+    assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.0105, **zone))
+    assert not reads_low(None)

@@ -117,3 +117,14 @@ def test_word_length_refuses_a_motor_below_its_validated_time_constant(tmp_path)
         reason = outside_region(load_bench(path))
         assert (reason is None) == inside, (motor, reason)
         assert inside or "L/R = 0.3 ms" in reason, reason
+
+
+def test_a_point_below_the_active_state_limit_still_fails_a_drive_at_half_the_pwm_frequency(
+        tmp_path):
+    """The holdout motor braking at -500 rpm / 20 A: at 20 kHz the DAQ puts fewer than
+    MIN_ACTIVE_SAMPLES phases on the active states (review h-23: 1.76), so a low reading there
+    is not determinable; a drive at half the PWM frequency reads ≈ 1.9x high, which the
+    sampling cannot cause: the plan still fails it."""
+    outcomes = run_plans(tmp_path, ["pwm_switching"], MOTOR, -500.0, 20.0,
+                         defects={"injection_scale": 0.5})
+    assert outcomes["pwm_switching"]["failed"] >= 2, outcomes
