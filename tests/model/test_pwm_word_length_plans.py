@@ -32,11 +32,16 @@ def _study():
     return module
 
 
-def run_plans(tmp_path: Path, sources, motor: str, speed_rpm: float, current_a: float,
+def run_plans(tmp_path: Path, sources, motor: str | dict, speed_rpm: float, current_a: float,
               defects: dict | None = None, seed: int = 7) -> dict[str, Counter]:
-    """Outcomes per source of the plans run on the simulated bench at this motor and point."""
+    """Outcomes per source of the plans run on the simulated bench at this motor (a name of the
+    study's, or a ``[motor]`` table of one's own) and point."""
     bench = tmp_path / "bench.toml"
-    bench.write_text(_study().bench_text(motor, speed_rpm, current_a))
+    study = _study()
+    if isinstance(motor, dict):
+        study.MOTORS = {**study.MOTORS, "own": motor}
+        motor = "own"
+    bench.write_text(study.bench_text(motor, speed_rpm, current_a))
     args = [sys.executable, "-m", "pytest", *[str(PLANS / f"test_{s}.py") for s in sources],
             "-q", "-p", "no:cacheprovider", "--hil-bench", str(bench), "--hil-seed", str(seed),
             "--hil-record", str(tmp_path / "records")]
@@ -119,12 +124,19 @@ def test_word_length_refuses_a_motor_below_its_validated_time_constant(tmp_path)
         assert inside or "L/R = 0.3 ms" in reason, reason
 
 
+#: The 14-pole 48 V motor of studies/validity.py (calibration set of studies/switching_sampling.py)
+P14_MOTOR = {"model": "14-pole 48 V PMSM (study)", "pole_count": 14, "dc_bus_v": 48.0,
+             "phase_resistance_ohm": 0.1, "phase_inductance_h": 0.3e-3, "max_reactance_ohm": 0.5,
+             "ke_v_s_per_rad": 0.04, "ke_definition": "peak_phase"}
+
+
 def test_a_point_below_the_active_state_limit_still_fails_a_drive_at_half_the_pwm_frequency(
         tmp_path):
-    """The holdout motor braking at -500 rpm / 20 A: at 20 kHz the DAQ puts fewer than
-    MIN_ACTIVE_SAMPLES phases on the active states (review h-23: 1.76), so a low reading there
-    is not determinable; a drive at half the PWM frequency reads ≈ 1.9x high, which the
-    sampling cannot cause: the plan still fails it."""
-    outcomes = run_plans(tmp_path, ["pwm_switching"], MOTOR, -500.0, 20.0,
+    """The 14-pole motor braking at -800 rpm / 10 A: the DAQ puts fewer than MIN_ACTIVE_SAMPLES
+    phases on the active states at every PWM frequency of the sweep (review h-23: 1.78, 0.85,
+    1.28), so a low reading there is not determinable. A drive at half the PWM frequency reads
+    ≈ 1.9x high, which missing the extremes cannot cause: the plan still fails it (refusing the
+    whole point, as first built, left all three not determinable)."""
+    outcomes = run_plans(tmp_path, ["pwm_switching"], P14_MOTOR, -800.0, 10.0,
                          defects={"injection_scale": 0.5})
     assert outcomes["pwm_switching"]["failed"] >= 2, outcomes
