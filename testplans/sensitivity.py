@@ -50,10 +50,17 @@ _RESULTS: dict[str, dict] = {}
 MIN_POINTS = 3
 
 
+#: A test entry's note starting with this marks a reading its plan knows to be biased (e.g. PWM
+#: switching where the DAQ cannot sample the active states): recorded, not a slope point.
+SWEEP_EXCLUDED_NOTE = "excluded from the sweep's slope: "
+
+
 def sweep_points(record, source: str) -> list[dict]:
-    """The measured points of ``source`` with a model verdict (errors and others left out)."""
+    """The measured points of ``source`` with a model verdict (errors, others and points noted
+    with ``SWEEP_EXCLUDED_NOTE`` left out)."""
     return [t for t in record.tests
-            if t.get("source") == source and t.get("verdict") and t.get("measured")]
+            if t.get("source") == source and t.get("verdict") and t.get("measured")
+            and not any(str(n).startswith(SWEEP_EXCLUDED_NOTE) for n in t.get("notes") or [])]
 
 
 def _why_not_measured(record, source: str, points: list[dict]) -> str:

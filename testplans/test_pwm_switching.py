@@ -51,7 +51,7 @@ between zero crossings. The paper's figure is recorded beside the verdict
 import pytest
 
 from ripple_hil_testplans import conditions as c
-from ripple_hil_testplans.sensitivity import check_sensitivity
+from ripple_hil_testplans.sensitivity import SWEEP_EXCLUDED_NOTE, check_sensitivity
 
 pytestmark = pytest.mark.ripple_source("pwm_switching")
 
@@ -150,7 +150,7 @@ def plan(config, injection):
 
 
 @pytest.mark.parametrize("injection", c.PWM_SWITCHING_SWEEP, ids=c.sweep_id)
-def test_pwm_switching(measure, bench, injection):
+def test_pwm_switching(measure, bench, record, injection):
     from hil.outcome_kinds import not_determinable
 
     settings = capture(bench.config, injection)
@@ -159,6 +159,10 @@ def test_pwm_switching(measure, bench, injection):
     unsampled = active_state_problem(bench.config, injection, settings)
     outcome = measure(plan(bench.config, injection))
     if unsampled and not outcome.passed and reads_low(outcome.verdict):
+        # a reading known to be biased low: recorded, but not one of the sweep's slope points
+        notes = (record.test(outcome.test_id) or {}).get("notes") or []
+        record.update_test(outcome.test_id, notes=[
+            *notes, SWEEP_EXCLUDED_NOTE + "read low where the DAQ cannot sample the active states"])
         pytest.skip(not_determinable(f"pwm_switching: read below the model where {unsampled}"))
     reason = unresolved(outcome.verdict)
     if reason:

@@ -198,3 +198,20 @@ def test_below_the_limit_only_a_low_reading_is_not_determinable():
     assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.019, **zone))
     assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.0105, **zone))
     assert not reads_low(None)
+
+
+def test_a_reading_known_to_be_biased_is_not_a_slope_point():
+    """A point excused as reading low where the DAQ cannot sample the active states is noted
+    in the record and left out of the sweep's slope (it is biased, not just uncertain)."""
+    from types import SimpleNamespace
+
+    from ripple_hil_testplans.sensitivity import SWEEP_EXCLUDED_NOTE, sweep_points
+
+    def entry(test_id, notes):
+        return {"test_id": test_id, "source": "pwm_switching", "verdict": {"x": 1},
+                "measured": {"x": 1}, "notes": notes}
+
+    record = SimpleNamespace(tests=[entry("a", ["expectation"]),
+                                    entry("b", ["expectation", SWEEP_EXCLUDED_NOTE + "low"]),
+                                    entry("c", [])])
+    assert [t["test_id"] for t in sweep_points(record, "pwm_switching")] == ["a", "c"]
