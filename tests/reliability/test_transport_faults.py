@@ -87,7 +87,10 @@ def test_modbus_exception_reply_to_the_dyno_speed_reference(sim_bench, run_recor
     sim_bench.simulated.daq.fail_next("exception")      # the point's first DAQ request
     with pytest.raises(DeviceFailure) as caught:
         measure_point(sim_bench, run_record, "dyno-refused", point())
-    assert_names(caught.value, "daq", "write dyno_speed_setpoint_rpm=500")
+    # the setpoint the dyno was given: the point's speed moved off the PWM carrier's lock
+    setpoint = run_record.test("dyno-refused")["operating_point"]["dyno_speed_setpoint_rpm"]
+    assert abs(setpoint / 500.0 - 1.0) <= 5e-3
+    assert_names(caught.value, "daq", f"write dyno_speed_setpoint_rpm={float(setpoint)}")
     assert_safe(sim_bench)
     assert_recorded_failure(sim_bench, run_record, "dyno-refused", caught.value, captured=False)
 
