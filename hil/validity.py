@@ -410,7 +410,8 @@ def acceptance_half_width_pu(rule, predicted_pu: float,
     """How far above the prediction a measured pk-pk may read and still be accepted, per unit of
     the nameplate mean torque: the rule's band on the side the floor pushes (upward)."""
     if rule.expected_range and expected_range_pu is not None:
-        return max(0.0, expected_range_pu[1] - predicted_pu) + rule.abs_tol_pu
+        return max(0.0, expected_range_pu[1] * (1.0 + rule.rel_tol) - predicted_pu) \
+            + rule.abs_tol_pu
     if rule.upper_bound:
         return max(0.0, predicted_pu * (1.0 + rule.rel_tol)) + rule.abs_tol_pu
     return rule.rel_tol * abs(predicted_pu) + rule.abs_tol_pu

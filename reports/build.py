@@ -453,7 +453,7 @@ def _method_pages(pdf: ReportPDF, content: ReportContent, record_dir: Path) -> N
              if op.get("dyno_speed_setpoint_rpm") not in (None, op.get("speed_rpm"))]
     if moved:
         largest = max(abs(op["dyno_speed_setpoint_rpm"] / op["speed_rpm"] - 1.0) for op in moved)
-        pdf.para(f"At {len(moved)} point(s) the dyno ran off the nominal speed by at most "
+        pdf.para(f"At {len(moved)} point(s) the dyno was set off the nominal speed by at most "
                  f"{largest:.3%}, where the drive's PWM carrier would have been locked to the "
                  f"rotor (the same carrier phase every revolution; hil.carrier_lock): each "
                  f"point's dyno setpoint is in the record.", size=7, style="I")

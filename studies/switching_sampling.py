@@ -75,8 +75,11 @@ SETS = {"calibration": ("table_i", "p8_48v", "p14_48v"), "holdout": ("p10_48v", 
 PASS, NOT_DETERMINABLE, WRONG = "pass", "not determinable", "WRONG REJECTION"
 
 
-def twin_at(motor: MotorParameters, speed_rpm: float, current_a: float, pwm_hz: float):
-    twin = DriveTwin(DriveConfig(motor=MotorModel(parameters=motor)), seed=1)
+def twin_at(motor: MotorParameters, speed_rpm: float, current_a: float, pwm_hz: float,
+            config: DriveConfig | None = None):
+    """The twin (``config``, default: the motor with the default drive) settled at the point."""
+    config = config or DriveConfig(motor=MotorModel(parameters=motor))
+    twin = DriveTwin(config, seed=1)
     twin.set_injection(pwm_frequency_hz=pwm_hz)
     twin.speed_rpm, twin.current_command_a = speed_rpm, current_a
     twin.enable()
@@ -88,7 +91,13 @@ def reference_pk_pk_pu(motor: MotorParameters, speed_rpm: float, current_a: floa
                        pwm_hz: float) -> float:
     """The twin's largest within-period pk-pk of Σ e_x·i_x/ω_m over one electrical revolution,
     400 samples per period from a carrier valley, per unit of its mean."""
-    twin = twin_at(motor, speed_rpm, current_a, pwm_hz)
+    return twin_torque_pk_pk_pu(None, motor, speed_rpm, current_a, pwm_hz)
+
+
+def twin_torque_pk_pk_pu(config: DriveConfig | None, motor: MotorParameters, speed_rpm: float,
+                         current_a: float, pwm_hz: float) -> float:
+    """:func:`reference_pk_pk_pu` of the twin ``config`` (None: the motor, default drive)."""
+    twin = twin_at(motor, speed_rpm, current_a, pwm_hz, config)
     twin.advance_to_carrier_valley()
     periods = int(pwm_hz / (abs(speed_rpm) / 60.0 * motor.pole_pairs))
     ch = twin.advance(periods / pwm_hz, pwm_hz * REFERENCE_SAMPLES_PER_PERIOD,

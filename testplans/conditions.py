@@ -37,6 +37,12 @@ DERIVED_RANGE_SIMPLE_RULE = DecisionRule(rel_tol=0.0, abs_tol_pu=0.001, expected
 #: drive's from its firmware documentation): a 12-bit current ADC over ±100 A, and sin/cos of the
 #: other phases computed by trigonometric identities from one table entry.
 WORD_LENGTH_FIRMWARE = {"adc_bits": 12, "trig_values": "identities"}
+#: The drive's current-ADC step, A: its ``adc_bits`` over ±100 A (the same firmware facts; PWM
+#: switching bounds the ripple the ADC adds, hil.model.pwm_switching "The drive's current ADC").
+CURRENT_ADC_STEP_A = 2.0 * 100.0 / 2 ** WORD_LENGTH_FIRMWARE["adc_bits"]
+#: Exact closed form that states a one-sided range on top of it (PWM switching's ADC dither
+#: bound): the zone is [low·0.8 − 0.002, high·1.2 + 0.002] (``CLOSED_FORM_RULE``'s band).
+CLOSED_FORM_RANGE_RULE = DecisionRule(rel_tol=0.20, abs_tol_pu=0.002, expected_range=True)
 #: The bench's own ripple with nothing injected must stay below this (pu of mean torque), so
 #: that the smallest injected ripple of the sweeps (≈ 2 %) stands clear of it.
 BASELINE_CEILING_PU = 0.01

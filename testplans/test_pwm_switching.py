@@ -64,6 +64,40 @@ MIN_REVOLUTIONS = 4
 MAX_ORDER = 24
 #: The prediction the plan judges against (module docstring).
 PREDICTION = {"model": "switched_torque", "modulation": "svpwm"}
+
+
+def loop_gain_per_period(config) -> float | None:
+    """The drive's proportional current-loop gain per PWM period, g = K_p·T_s/L, from the loop the
+    bench file states at the drive's own PWM frequency (ω_c·T_s for the continuous PI); taken to
+    hold at every PWM frequency of the sweep (the loop retuned with the carrier, as the
+    simulated drive does: its bandwidth is a fixed share of f_pwm). None: no loop stated."""
+    import math
+
+    from hil.current_loop import loop_gains
+    from hil.validity import injected_or_default
+
+    drive, motor = config.drive, config.motor
+    if drive.current_loop_bandwidth_hz is None:
+        return None
+    pwm_hz = injected_or_default(c.point(config.operating_point, "pwm_switching", {}, None),
+                                 config, "pwm_frequency_hz")
+    elec_rad_s = config.operating_point.speed_rpm / 60.0 * 2.0 * math.pi * motor.pole_pairs
+    gains = loop_gains(drive.current_loop_design, drive.current_loop_bandwidth_hz,
+                       resistance_ohm=motor.phase_resistance_ohm,
+                       inductance_h=motor.phase_inductance_h, elec_speed_rad_s=elec_rad_s,
+                       pwm_frequency_hz=pwm_hz)
+    return gains.proportional_v_per_a / (motor.phase_inductance_h * pwm_hz)
+
+
+def prediction_params(config) -> dict:
+    """The model's inputs at this bench: the switched-torque form, and the drive's current-ADC
+    step (``conditions.CURRENT_ADC_STEP_A``) with its loop gain per period, which bound the ripple
+    the ADC adds (the range's top; without a stated loop, an ideal ADC)."""
+    gain = loop_gain_per_period(config)
+    if gain is None:
+        return dict(PREDICTION)
+    return {**PREDICTION, "current_adc_step_a": c.CURRENT_ADC_STEP_A,
+            "loop_gain_per_period": gain}
 EXPECTATION = ("judged against the switched-circuit torque ripple of the drive's centre-aligned "
                "SVPWM (hil.model switched_torque; reverse rotation as braking). The paper's eqs "
                "30-31 give the phase-current ripple 2·Δi at the phase-voltage zero crossing and "
@@ -93,7 +127,7 @@ def active_state_problem(config, injection, settings) -> str | None:
     op = config.operating_point
     point = config.model_point(op.speed_rpm, op.current_a, op.current_angle_rad)
     prediction = predict("pwm_switching", point, pwm_frequency_hz=injection["pwm_frequency_hz"],
-                         **PREDICTION)
+                         **prediction_params(config))
     fraction = prediction.extras["active_fraction_at_peak"]
     samples = fraction * settings.effective_samples_per_period
     if samples >= MIN_ACTIVE_SAMPLES:
@@ -143,10 +177,10 @@ def plan(config, injection):
         rate = min(float(device["max_sample_rate_hz"]),
                    0.9 * int(device["buffer_capacity_samples"]) * elec_hz / 2.25)
         settings = CaptureSettings(rate, 2, 1, 0.0)
-    return c.point(config.operating_point, "pwm_switching", injection, c.CLOSED_FORM_RULE,
+    return c.point(config.operating_point, "pwm_switching", injection, c.CLOSED_FORM_RANGE_RULE,
                    analysis="switching", sample_rate_hz=settings.sample_rate_hz,
-                   revolutions=settings.revolutions,
-                   max_order=MAX_ORDER, prediction_params=PREDICTION, expectation=EXPECTATION)
+                   revolutions=settings.revolutions, max_order=MAX_ORDER,
+                   prediction_params=prediction_params(config), expectation=EXPECTATION)
 
 
 @pytest.mark.parametrize("injection", c.PWM_SWITCHING_SWEEP, ids=c.sweep_id)

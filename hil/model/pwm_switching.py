@@ -27,6 +27,17 @@ the mean torque, and its order-6 envelope. ``extras["active_fraction_at_peak"]``
 the period spent in the two active states at the envelope's largest angle (d_max − d_min): the
 steep segments whose ends are the path's extremes, 1.5·M to √3·M of the period — a few per
 cent when braking, where i·R and the EMF nearly cancel.
+
+**The drive's current ADC** (not in the paper; issue 29/30). The drive reads its currents
+through an ADC of step q; the loop's proportional action turns each reading's quantisation
+error into a duty change from one PWM period to the next, and the current drifts within the
+period on top of the switching ripple, so the within-period pk-pk can only grow. Measured on
+the twin (``studies/switching_adc_dither.py``: 12-bit against 24-bit ADC, same drive and dyno
+setpoint, 400 samples per period) the growth is c·q of current, with c rising about as g² in the
+loop's proportional gain per period g = K_p·T_s/L (ω_c·T_s for the continuous PI):
+c ≤ ``ADC_DITHER_GAIN``·g². Given q (``current_adc_step_a``) and g (``loop_gain_per_period``),
+the prediction states ``expected_range_pu`` = (pk-pk, pk-pk + ADC_DITHER_GAIN·g²·q/(I·|cos φ|))
+and ``extras["adc_dither_pu"]``; without them the range is the pk-pk alone (the ideal ADC).
 """
 
 from __future__ import annotations
@@ -51,6 +62,11 @@ ENVELOPE_ORDER_MIN_VARIATION = 0.05
 #: allowance (0.002 pu, the transducer class), the smallest ripple feature the plans judge
 #: (calibration: order 6 dominated where the variation was >= 0.0024 pu, not at <= 0.0012 pu).
 ENVELOPE_ORDER_MIN_VARIATION_PU = 0.002
+#: Bound of the within-period current the drive's ADC adds, in ADC steps per g² (module
+#: docstring): set on the calibration set of ``studies/switching_adc_dither.py`` (Table I, 8- and
+#: 14-pole 48 V motors, 5–20 A both directions, 10/40 kHz, g = 0.25/0.50/0.75: largest c/g² 3.56,
+#: rounded up); the holdout (10- and 12-pole) reached 3.63 (one run of 60; 1 % beyond).
+ADC_DITHER_GAIN = 3.6
 MODELS = ("paper", "switched_torque")
 MODULATIONS = ("svpwm", "sine")
 
@@ -119,9 +135,25 @@ def switched_torque_ripple_pu(theta: np.ndarray, op: OperatingPoint, period_s: f
     return torque_nm / op.mean_torque_nm
 
 
+def adc_dither_pu(op: OperatingPoint, current_adc_step_a: float,
+                  loop_gain_per_period: float) -> float:
+    """Bound of the within-period torque pk-pk the drive's current ADC of step q (A) adds under a
+    loop of proportional gain g per PWM period, per unit of the mean torque:
+    ADC_DITHER_GAIN·g²·q/(I·|cos φ|) (module docstring)."""
+    check_range("current_adc_step_a", current_adc_step_a, 0.0, 10.0, unit=" A")
+    check_range("loop_gain_per_period", loop_gain_per_period, 0.0, 2.0)
+    torque_current_a = op.current_a * abs(math.cos(op.current_angle_rad))
+    if torque_current_a <= 0:
+        raise InputError("the ADC dither bound needs a torque-producing current (I·cos φ > 0)")
+    return ADC_DITHER_GAIN * loop_gain_per_period ** 2 * current_adc_step_a / torque_current_a
+
+
 def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000.0,
-                          model: str = "paper", modulation: str = "svpwm") -> Prediction:
-    """Switching-frequency ripple (eqs 29-31, or the switched torque form) and its envelope."""
+                          model: str = "paper", modulation: str = "svpwm",
+                          current_adc_step_a: float | None = None,
+                          loop_gain_per_period: float | None = None) -> Prediction:
+    """Switching-frequency ripple (eqs 29-31, or the switched torque form) and its envelope;
+    with the drive's ADC step and loop gain, the range its ADC can add (module docstring)."""
     f_sw = check_range("pwm_frequency_hz", pwm_frequency_hz, *PWM_FREQUENCY_RANGE_HZ, unit=" Hz")
     if model not in MODELS:
         raise InputError(f"model={model!r} is not one of {', '.join(MODELS)}")
@@ -173,11 +205,24 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
                                f"{variation * pk_pk:.2g} pu (order 6 named from "
                                f"{100 * ENVELOPE_ORDER_MIN_VARIATION:g} % and "
                                f"{ENVELOPE_ORDER_MIN_VARIATION_PU:g} pu): no order named")
+    inputs = {"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
+              "modulation": modulation, **op.to_dict()}
+    dither = 0.0
+    if current_adc_step_a is not None and loop_gain_per_period is not None:
+        dither = adc_dither_pu(op, current_adc_step_a, loop_gain_per_period)
+        inputs |= {"current_adc_step_a": current_adc_step_a,
+                   "loop_gain_per_period": loop_gain_per_period}
+        assumptions.append(f"the drive's current ADC (step {current_adc_step_a:.3g} A, loop "
+                           f"gain {loop_gain_per_period:.3g} per period) can add up to "
+                           f"{dither:.3g} pu to the within-period pk-pk (ADC dither bound, "
+                           "studies/switching_adc_dither.py): the range's top")
+    else:
+        assumptions.append("an ideal current ADC: no ADC dither added to the range "
+                           "(current_adc_step_a and loop_gain_per_period not given)")
+    extras["adc_dither_pu"] = dither
     return Prediction(
         source="pwm_switching", pk_pk_pu=pk_pk, base=MEAN_TORQUE_BASE,
-        base_nm=op.mean_torque_nm, order=order,
-        inputs={"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
-                "modulation": modulation, **op.to_dict()},
+        base_nm=op.mean_torque_nm, order=order, inputs=inputs,
         equations=equations, assumptions=assumptions,
-        angle_rad=theta, waveform_pu=envelope,
+        angle_rad=theta, waveform_pu=envelope, expected_range_pu=(pk_pk, pk_pk + dither),
         extras=extras)
