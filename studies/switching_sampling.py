@@ -15,7 +15,8 @@ and the EMF nearly cancel, a few per cent (the 10-pole 48 V motor at −500 rpm 
 For each point, as the plan does it: the capture settings at the simulated DAQ's 200 kS/s
 (``capture_settings``); the twin at the dyno speed the plan commands (``hil.carrier_lock``); its
 currents quantised at the DAQ's 5 mA and analysed by ``analyze_switching``; the verdict of the
-plan's rule (``decide`` with ``CLOSED_FORM_RULE``, then the plan's ``unresolved``): pass, not
+plan's rule (``decide`` with ``CLOSED_FORM_RANGE_RULE`` and the model's range, then the plan's
+``unresolved``): pass, not
 determinable, or a wrong rejection (the drive is correct). Beside it: the twin's own ripple at
 400 samples per period from a carrier valley (the reference: what the path really is), the model
 (``switched_torque``) and the number of sample phases on the active states,
@@ -43,7 +44,7 @@ from hil.carrier_lock import unlocked_speed_rpm
 from hil.model import OperatingPoint, predict
 from hil.motor import TABLE_I, MotorParameters
 from hil.sim import DriveConfig, DriveTwin, MotorModel
-from ripple_hil_testplans.conditions import CLOSED_FORM_RULE
+from ripple_hil_testplans.conditions import CLOSED_FORM_RANGE_RULE, CURRENT_ADC_STEP_A
 from ripple_hil_testplans.test_pwm_switching import (MAX_ORDER, MIN_ACTIVE_SAMPLES, PREDICTION,
                                                      reads_low, unresolved)
 
@@ -53,6 +54,8 @@ DAQ_BUFFER_SAMPLES = 200_000
 DAQ_LSB_A = 0.005
 REFERENCE_SAMPLES_PER_PERIOD = 400
 FREQUENCIES_HZ = (10_000.0, 20_000.0, 40_000.0)
+#: The twin's loop: proportional gain per PWM period ω_c·T_s of its continuous PI at 0.08 of f_pwm.
+LOOP_GAIN_PER_PERIOD = 2.0 * math.pi * 0.08
 
 
 def _motor(poles: int, r: float, l: float, ke: float, ke_definition: str) -> MotorParameters:
@@ -122,7 +125,11 @@ def evaluate(name: str, speed_rpm: float, current_a: float, pwm_hz: float) -> di
                                 buffer_samples=DAQ_BUFFER_SAMPLES, max_order=MAX_ORDER)
     if isinstance(settings, str):
         return settings
-    prediction = predict("pwm_switching", op, pwm_frequency_hz=pwm_hz, **PREDICTION)
+    # the plan's prediction: the drive's ADC step and loop gain per period (the twin's default
+    # continuous PI at 0.08 of the PWM frequency) bound the ripple its ADC adds
+    prediction = predict("pwm_switching", op, pwm_frequency_hz=pwm_hz, **PREDICTION,
+                         current_adc_step_a=CURRENT_ADC_STEP_A,
+                         loop_gain_per_period=LOOP_GAIN_PER_PERIOD)
     dyno_rpm = unlocked_speed_rpm(speed_rpm, motor.pole_pairs, pwm_hz, settings.revolutions)
     twin = twin_at(motor, dyno_rpm, current_a, pwm_hz)
     duration = settings.revolutions / (abs(speed_rpm) / 60.0 * motor.pole_pairs)
@@ -135,8 +142,9 @@ def evaluate(name: str, speed_rpm: float, current_a: float, pwm_hz: float) -> di
                             "daq_lsb": {"ia_a": DAQ_LSB_A, "ib_a": DAQ_LSB_A}})
     result = analyze_switching(capture, pwm_frequency_hz=pwm_hz, motor=motor, max_order=MAX_ORDER)
     order = None if prediction.order is None else int(prediction.order)
-    verdict = decide(result, prediction.pk_pk_pu, order, CLOSED_FORM_RULE,
-                     base_scale=abs(result.mean_torque_nm) / op.mean_torque_nm)
+    verdict = decide(result, prediction.pk_pk_pu, order, CLOSED_FORM_RANGE_RULE,
+                     base_scale=abs(result.mean_torque_nm) / op.mean_torque_nm,
+                     expected_range_pu=prediction.expected_range_pu)
     outcome = PASS if verdict.guarded_pass else (NOT_DETERMINABLE if unresolved(verdict)
                                                   else WRONG)
     active = prediction.extras["active_fraction_at_peak"] * settings.effective_samples_per_period

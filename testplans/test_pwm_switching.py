@@ -142,10 +142,10 @@ def active_state_problem(config, injection, settings) -> str | None:
 
 
 def reads_low(verdict) -> bool:
-    """Whether a verdict's reading lies below the middle of its tolerance zone: the only side a
-    sampling that misses the extremes can err on (a reading above the zone stays a FAIL)."""
-    return verdict is not None and verdict.measured_pk_pk_pu < 0.5 * (
-        verdict.lower_limit_pu + verdict.upper_limit_pu)
+    """Whether a verdict's reading lies below the prediction: the only side a sampling that
+    misses the extremes can err on (a reading above it stays judged; the zone's middle would
+    not do, since the ADC dither bound lifts only the zone's top)."""
+    return verdict is not None and verdict.measured_pk_pk_pu < verdict.predicted_pk_pk_pu
 
 
 def capture(config, injection):
@@ -211,13 +211,17 @@ from hil.validity import FLOOR_FRACTION as RESOLVED_FRACTION  # noqa: E402
 
 def unresolved(verdict) -> str | None:
     """Why this verdict cannot tell a right drive from a wrong one, or None: U (the guard band)
-    takes more than RESOLVED_FRACTION of the tolerance zone's half-width and the interval
-    measured ± U straddles a zone edge (wholly inside: PASS; wholly outside: FAIL).
+    takes more than RESOLVED_FRACTION of the tolerance zone's half-width on the reading's side
+    of the prediction (the zone reaches further up by the ADC dither bound, not down) and the
+    interval measured ± U straddles a zone edge (wholly inside: PASS; wholly outside: FAIL).
     Where this happens: few effective samples per PWM period (a window of one period at high
     electrical speed) and a ripple small against the sampling bias bound."""
     if verdict is None or verdict.guarded_pass or verdict.signature_ok is False:
         return None
-    half_width = (verdict.upper_limit_pu - verdict.lower_limit_pu) / 2.0
+    predicted = verdict.predicted_pk_pk_pu
+    half_width = (predicted - verdict.lower_limit_pu
+                  if verdict.measured_pk_pk_pu < predicted
+                  else verdict.upper_limit_pu - predicted)
     u = verdict.expanded_uncertainty_pu
     overlaps = (verdict.measured_pk_pk_pu + u >= verdict.lower_limit_pu
                 and verdict.measured_pk_pk_pu - u <= verdict.upper_limit_pu)

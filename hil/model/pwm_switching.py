@@ -182,6 +182,8 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
     extras = {"current_ripple_pk_pk_a": peak, "voltage_peak_v": v_peak,
               "modulation_index": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
     pk_pk = peak / op.current_a
+    dither = (0.0 if current_adc_step_a is None or loop_gain_per_period is None
+              else adc_dither_pu(op, current_adc_step_a, loop_gain_per_period))
     equations = "eqs 29-31"
     order = 6.0
     if model == "switched_torque":
@@ -194,7 +196,7 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
         variation = float(np.ptp(envelope)) / pk_pk
         extras["envelope_variation_pu"] = variation
         if variation < ENVELOPE_ORDER_MIN_VARIATION \
-                or variation * pk_pk < ENVELOPE_ORDER_MIN_VARIATION_PU:
+                or variation * pk_pk < max(ENVELOPE_ORDER_MIN_VARIATION_PU, dither):
             order = None
         assumptions[:4] = [
             f"centre-aligned {modulation} carrier, ideal switches; pk-pk within one PWM period",
@@ -204,12 +206,11 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
             assumptions.append(f"envelope varies by {100 * variation:.1f} % of its maximum, "
                                f"{variation * pk_pk:.2g} pu (order 6 named from "
                                f"{100 * ENVELOPE_ORDER_MIN_VARIATION:g} % and "
-                               f"{ENVELOPE_ORDER_MIN_VARIATION_PU:g} pu): no order named")
+                               f"{ENVELOPE_ORDER_MIN_VARIATION_PU:g} pu, and above the ADC "
+                               f"dither bound {dither:.2g} pu): no order named")
     inputs = {"pwm_frequency_hz": f_sw, "pwm_period_s": period, "model": model,
               "modulation": modulation, **op.to_dict()}
-    dither = 0.0
     if current_adc_step_a is not None and loop_gain_per_period is not None:
-        dither = adc_dither_pu(op, current_adc_step_a, loop_gain_per_period)
         inputs |= {"current_adc_step_a": current_adc_step_a,
                    "loop_gain_per_period": loop_gain_per_period}
         assumptions.append(f"the drive's current ADC (step {current_adc_step_a:.3g} A, loop "

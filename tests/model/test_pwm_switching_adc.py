@@ -99,3 +99,37 @@ def test_a_correct_drive_with_a_faster_loop_passes_at_low_current_and_40_khz(tmp
     point = tests["test_pwm_switching[pwm_frequency_hz=40000]"]
     assert point["outcome"] == "passed", (point.get("message"), done.stdout[-2000:])
     assert point["prediction"]["extras"]["adc_dither_pu"] > 0.005
+
+
+def test_a_low_reading_is_resolved_against_the_zone_below_the_prediction():
+    """The ADC bound lifts the zone's top only: whether U resolves a low reading is judged on
+    the half-width below the prediction, as before the bound (the holdout's 10-pole −900 rpm /
+    25 A point at 10 kHz, 0.867 ± 0.18 of the model, was judged and failed when the lifted
+    zone's mean half-width was used)."""
+    from types import SimpleNamespace
+
+    from ripple_hil_testplans.test_pwm_switching import unresolved
+
+    def verdict(measured, u, upper):
+        return SimpleNamespace(guarded_pass=False, signature_ok=None, predicted_pk_pk_pu=0.010,
+                               lower_limit_pu=0.006, upper_limit_pu=upper,
+                               measured_pk_pk_pu=measured, expanded_uncertainty_pu=u)
+
+    # U = 0.0025 > 0.5 x 0.004 below the prediction: not resolved, whatever the top
+    assert unresolved(verdict(0.0070, 0.0025, 0.014)) is not None
+    assert unresolved(verdict(0.0070, 0.0025, 0.030)) is not None
+    # a high reading against a top lifted to 0.030: U = 0.0025 < 0.5 x 0.020 resolves it
+    assert unresolved(verdict(0.0290, 0.0025, 0.030)) is None
+
+
+def test_no_order_is_named_where_the_adc_can_add_more_than_the_envelope_varies():
+    op = OperatingPoint(speed_rpm=500.0, current_a=20.0, motor=TABLE_I)
+    ideal = predict("pwm_switching", op, pwm_frequency_hz=10e3, model="switched_torque")
+    assert ideal.order == 6.0
+    variation_pu = ideal.extras["envelope_variation_pu"] * ideal.pk_pk_pu
+    # a loop gain whose ADC bound exceeds that variation (the same ripple otherwise)
+    gain = math.sqrt(1.5 * variation_pu * 20.0 / (ADC_DITHER_GAIN * STEP_A))
+    coarse = predict("pwm_switching", op, pwm_frequency_hz=10e3, model="switched_torque",
+                     current_adc_step_a=STEP_A, loop_gain_per_period=gain)
+    assert coarse.extras["adc_dither_pu"] > variation_pu
+    assert coarse.order is None and coarse.pk_pk_pu == ideal.pk_pk_pu

@@ -186,17 +186,20 @@ def test_a_point_whose_active_states_the_daq_cannot_sample_is_refused_with_the_r
 
 
 def test_below_the_limit_only_a_low_reading_is_not_determinable():
-    """The sampling can only miss extremes, so only a reading below the zone's middle is
-    excused; a reading above it (a drive at half the PWM frequency reads ≈ 1.9x) stays judged."""
+    """The sampling can only miss extremes, so only a reading below the prediction is excused;
+    a reading above it (a drive at half the PWM frequency reads ≈ 1.9x) stays judged — also
+    below the middle of a zone that the ADC dither bound lifts at the top only."""
     from types import SimpleNamespace
 
     from ripple_hil_testplans.test_pwm_switching import reads_low
 
-    zone = {"lower_limit_pu": 0.008, "upper_limit_pu": 0.012}
+    zone = {"lower_limit_pu": 0.008, "upper_limit_pu": 0.012, "predicted_pk_pk_pu": 0.010}
     assert reads_low(SimpleNamespace(measured_pk_pk_pu=0.004, **zone))
     assert reads_low(SimpleNamespace(measured_pk_pk_pu=0.0085, **zone))
     assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.019, **zone))
     assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.0105, **zone))
+    lifted = zone | {"upper_limit_pu": 0.016}
+    assert not reads_low(SimpleNamespace(measured_pk_pk_pu=0.0105, **lifted))
     assert not reads_low(None)
 
 
