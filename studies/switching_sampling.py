@@ -54,7 +54,7 @@ DAQ_BUFFER_SAMPLES = 200_000
 DAQ_LSB_A = 0.005
 REFERENCE_SAMPLES_PER_PERIOD = 400
 FREQUENCIES_HZ = (10_000.0, 20_000.0, 40_000.0)
-#: The twin's loop: proportional gain per PWM period ω_c·T_s of its continuous PI at 0.08 of f_pwm.
+#: The twin's loop: proportional gain per PWM period ω_c·T_s of its PI at 0.08 of f_pwm.
 LOOP_GAIN_PER_PERIOD = 2.0 * math.pi * 0.08
 
 

@@ -113,6 +113,12 @@ SOURCE_OPTIONS: tuple[SourceOption, ...] = (
                  "svpwm (default, the drive's) or sine, for model=switched_torque "
                  "(pwm_switching) or derived (pwm_resolution)", str, kind=str,
                  choices=("svpwm", "sine")),
+    SourceOption("--current-adc-step-a", "current_adc_step_a", ("pwm_switching",),
+                 "the drive's current-ADC step, A (with --loop-gain-per-period: the range's top "
+                 "adds what the ADC can add; default: an ideal ADC)", float, 0.0, 10.0),
+    SourceOption("--loop-gain-per-period", "loop_gain_per_period", ("pwm_switching",),
+                 "the current loop's proportional gain per PWM period K_p·T_s/L (ω_c·T_s for "
+                 "the continuous PI)", float, 0.0, 2.0),
     SourceOption("--model", "model",
                  ("pwm_switching", "dead_time", "pwm_resolution", "word_length"),
                  "paper (default) or a physically derived form: switched_torque "
@@ -205,10 +211,10 @@ def format_prediction(pred: Prediction) -> str:
     lines = [f"{pred.source}: {100 * pred.pk_pk_pu:.4g} % pk-pk ({pred.pk_pk_nm:.4g} N·m)",
              f"  base: {pred.base} = {pred.base_nm:.4g} N·m",
              f"  order: {order}; {pred.equations}"]
-    if pred.expected_range_pu is not None:
-        low, high = pred.expected_range_pu
-        lines.append(f"  expected range: {100 * low:.4g} … {100 * high:.4g} % (the model's own "
-                     "uncertainty)")
+    low, high = pred.expected_range_pu or (None, None)
+    if low != high:
+        lines.append(f"  expected range: {100 * low:.4g} … {100 * high:.4g} % (what the model "
+                     "states it cannot resolve; see assumes)")
     lines += [f"  {key} = {value:.6g}" if isinstance(value, float) else f"  {key} = {value}"
               for key, value in pred.inputs.items() if value is not None]
     lines += [f"  assumes: {text}" for text in pred.assumptions]
