@@ -28,7 +28,6 @@ largest is printed beside it (counted, not used).
 
 from __future__ import annotations
 
-import argparse
 import math
 
 from hil.carrier_lock import unlocked_speed_rpm
@@ -36,10 +35,10 @@ from hil.model import OperatingPoint, predict
 from hil.sim import DriveConfig, DriveTwin, MotorModel
 from hil.sim.config import FirmwareModel, SensorModel
 from ripple_hil_testplans.test_pwm_switching import PREDICTION
-from switching_sampling import MOTORS, REFERENCE_SAMPLES_PER_PERIOD, twin_torque_pk_pk_pu
+from switching_sampling import (MOTORS, REFERENCE_SAMPLES_PER_PERIOD, SETS, run_chosen_sets,
+                                twin_torque_pk_pk_pu)
 
 ADC_FULL_SCALE_A = 100.0
-SETS = {"calibration": ("table_i", "p8_48v", "p14_48v"), "holdout": ("p10_48v", "p12_48v")}
 POINTS = [(250.0, 5.0), (1000.0, 5.0), (-250.0, 10.0), (500.0, 20.0), (-500.0, 20.0)]
 FREQUENCIES_HZ = (10_000.0, 40_000.0)
 BANDWIDTHS_PER_PWM = (0.04, 0.08, 0.12)
@@ -88,11 +87,7 @@ def run_set(name: str) -> list[dict]:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--set", choices=("calibration", "holdout", "both"), default="both")
-    args = parser.parse_args(argv)
-    names = list(SETS) if args.set == "both" else [args.set]
-    results = {name: run_set(name) for name in names}
+    results = run_chosen_sets(run_set, __doc__.splitlines()[0], argv)
     print(f"\n(twin at {REFERENCE_SAMPLES_PER_PERIOD} samples per PWM period)")
     for name, rows in results.items():
         ratios = [r["c_per_g2"] for r in rows]

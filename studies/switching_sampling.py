@@ -193,12 +193,17 @@ def summary(name: str, rows: list[dict]) -> None:
           f"{len(below)} points below {MIN_ACTIVE_SAMPLES:g} phases")
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def run_chosen_sets(run, description: str, argv=None) -> dict[str, list[dict]]:
+    """``run(set name)`` for the sets ``--set`` names (calibration, holdout or both)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--set", choices=("calibration", "holdout", "both"), default="both")
     args = parser.parse_args(argv)
     names = list(SETS) if args.set == "both" else [args.set]
-    results = {name: run_set(name) for name in names}
+    return {name: run(name) for name in names}
+
+
+def main(argv=None) -> None:
+    results = run_chosen_sets(run_set, __doc__.splitlines()[0], argv)
     print()
     if "calibration" in results:
         wrong = [r["active_samples"] for r in results["calibration"]
