@@ -45,13 +45,13 @@ What a region checks, in the order a refusal names it:
    ``[simulation] plant`` cannot realise (``hil.plants.capabilities``; issue 30).
 8. **Plant corner within the calibrated band** (dead time; issue 30): the electrical order at
    the plant's pole, k_c = R/(L·|ω_e|), at most the largest the plan's bands were calibrated at
-   (``Region.max_plant_corner_order``, :func:`corner_problems`). The PI's zero cancels the plant
-   pole, so a voltage disturbance reaches the current through s/((R + L·s)(s + ω_c)): ∝ k up to
-   order k_c. Beyond the analysed band's orders the dead-time torque ripple is spread evenly over
+   (``Region.max_plant_corner_order``: Table I at 125 rpm, 54.6; :func:`corner_problems`). The
+   PI's zero cancels the plant pole, so a voltage disturbance reaches the current through
+   s/((R + L·s)(s + ω_c)): ∝ k up to order k_c. Beyond the analysed band's orders the dead-time torque ripple is spread evenly over
    every analysed order (a pulse at each current zero crossing) and its pk-pk is small against
    the drive's own ripple: the 2-pole 24 V study motor at ±250 rpm (k_c = 153, L/R 0.25 ms) read
-   1.2-1.65× the model's pk-pk at every capture rate (2-20 kHz), the drive's own pk-pk with no dead time
-   0.11-0.17 % against 0.10-0.47 % predicted, and order 6 at 0.88-1.12×.
+   1.2-1.66× the model's pk-pk at every capture rate (2-20 kHz), the drive's own pk-pk with no
+   dead time 0.11-0.17 % against 0.10-0.47 % predicted, and order 6 at 0.88-1.12×.
 """
 
 from __future__ import annotations
@@ -97,11 +97,12 @@ class Region:
 
 
 #: The dead-time plan's largest plant corner order R/(L·|ω_e|) (docstring 8): the calibration
-#: set's (studies/dead_time_calibration.py: Table I, L/R 0.70 ms, down to 250 rpm on 2 pole
-#: pairs, k_c = 27.3; every point passed), rounded up to 27.5. Checked on the holdout set (motor
-#: B and Table I judged inside it, all pass; motor C, L/R 0.2 ms, is beyond it at every point).
-#: Not raised from the study motors: the validity study judges there (hil/model/README.md).
-DEAD_TIME_MAX_PLANT_CORNER_ORDER = 27.5
+#: set's largest judged (studies/dead_time_calibration.py: Table I, L/R 0.70 ms, at 125 rpm on 2
+#: pole pairs, k_c = 54.6; every judged point within the plan's bands), rounded up to 55.
+#: Checked on the holdout set (motors B and C, Table I: every judged point inside it passes as
+#: before). Not raised from the study motors: the validity study judges there
+#: (hil/model/README.md, "Low L/R at low speed").
+DEAD_TIME_MAX_PLANT_CORNER_ORDER = 55.0
 
 
 def plant_corner_order(config: BenchConfig, speed_rpm: float) -> float:

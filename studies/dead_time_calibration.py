@@ -5,9 +5,9 @@ Run: ``.venv/bin/python studies/dead_time_calibration.py [--set calibration|hold
 
 Each point must lie in the plan's validity region first (``hil.model.voltage.linear_limit_v``,
 the plant corner order R/(L·|ω_e|) ≤ ``hil.validity.DEAD_TIME_MAX_PLANT_CORNER_ORDER`` — set
-as this calibration set's largest, 27.3 — and the bench floor against half the pk-pk acceptance
-half-width, ``hil.validity``); a point outside it is printed as refused and not judged, as the
-plan would refuse it.
+as this calibration set's largest judged, 54.6 at 125 rpm — and the bench floor against half
+the pk-pk acceptance half-width, ``hil.validity``); a point outside it is printed as refused
+and not judged, as the plan would refuse it.
 
 Every point is captured as the dead-time plan captures it (``hil.measurement.PointPlan``
 defaults: transducer torque, 8 electrical revolutions after 0.05 s, the plan's sample rate,
@@ -25,8 +25,8 @@ max (|m − p| + U − abs_tol)/p) and the largest phase error + U, then the sam
 holdout set and whether every holdout point passes with the calibration's tolerances.
 
 Sets (disjoint in motor, operating point and seed):
-* calibration: Table I (4 poles, 12 V, L/R 0.70 ms), 250/500/1000 rpm × 10/20/40 A and
-  500/1000 rpm × 5 A, forward, dead times 1, 2, 4 µs, seed 1;
+* calibration: Table I (4 poles, 12 V, L/R 0.70 ms), 250/500/1000 rpm × 10/20/40 A,
+  500/1000 rpm × 5 A and 125/150 rpm × 5/10/20/40 A, forward, dead times 1, 2, 4 µs, seed 1;
 * holdout: motor B (10 poles, 48 V, 0.12 Ω, 400 µH: L/R 3.3 ms) and motor C (2 poles, 24 V,
   0.4 Ω, 80 µH: L/R 0.20 ms) at other speeds and currents, both directions, dead times 1.5, 3 µs,
   seeds 11.., plus Table I at reverse rotation and other points.
@@ -81,10 +81,14 @@ class Point:
 
 
 def calibration_set() -> list[Point]:
-    """Table I forward, seed 1: 250/500/1000 rpm × 10/20/40 A, and 5 A at 500/1000 rpm (low
-    current, where the PWM ripple's dead zone at the crossings matters), × 1/2/4 µs."""
+    """Table I forward, seed 1: 250/500/1000 rpm × 10/20/40 A, 5 A at 500/1000 rpm (low
+    current, where the PWM ripple's dead zone at the crossings matters) and 125/150 rpm ×
+    5/10/20/40 A (the plant corner order up to 55, issue 30), × 1/2/4 µs."""
     points = [(s, i) for s in (250.0, 500.0, 1000.0) for i in (10.0, 20.0, 40.0)]
     points += [(500.0, 5.0), (1000.0, 5.0)]
+    # issue 30: low speed, where the plant corner order R/(L·ω_e) is 45-55 (250 rpm: 27), so that
+    # the region's corner limit is set on the calibration motor (most are refused by the floor)
+    points += [(s, i) for s in (125.0, 150.0) for i in (5.0, 10.0, 20.0, 40.0)]
     return [Point("TableI", s, i, t, 1) for s, i in points for t in (1e-6, 2e-6, 4e-6)]
 
 

@@ -11,8 +11,12 @@ paper's figure is recorded beside it (prediction.extras).
 Validity region (``hil.validity``, checked by the pre-flight before the bench is touched): every
 edge of every leg keeps its dead time within the PWM period, i.e. the inverter's voltage (the
 steady phasor at the signed speed plus the dead time's loss along the current) within
-(V_dc/√3)·(1 − 4·T_d·f_sw) (``hil.model.voltage.linear_limit_v``, the one limit); and the bench's
-resolvable floor at most half of the pk-pk acceptance half-width.
+(V_dc/√3)·(1 − 4·T_d·f_sw) (``hil.model.voltage.linear_limit_v``, the one limit); the plant
+corner order R/(L·|ω_e|) at most the calibration set's (``hil.validity.DEAD_TIME_MAX_PLANT_CORNER_ORDER``: beyond it the
+loop spreads the ripple over every analysed order and its pk-pk is not resolved from the drive's
+own, issue 30); and the bench's resolvable floor at most half of the pk-pk acceptance
+half-width. Captured at ≥ 4 × the stated transducer bandwidth
+(``conditions.transducer_limited_rate``).
 
 Verdicts per point: the pk-pk against the model (±35 % + the bench floor 0.001 pu), the order-6
 amplitude against the model's (±15 %, guarded by its U; ``order6_amplitude_check``) and the

@@ -75,30 +75,31 @@ def test_no_stated_transducer_bandwidth_leaves_the_rate_alone():
     assert c.transducer_limited_rate(point, config) is point
 
 
-def test_the_calibration_set_lies_inside_the_plant_corner_limit():
-    """The limit is the calibration set's largest corner order (Table I at 250 rpm, 27.3),
-    rounded up: not a figure of the study motor where the validity study judges."""
+def test_the_calibration_set_sets_the_plant_corner_limit():
+    """The limit is the calibration set's largest judged corner order (Table I at 125 rpm,
+    54.6), rounded up: not a figure of the study motor where the validity study judges."""
     from hil.motor import TABLE_I
 
     table_i = SimpleNamespace(motor=TABLE_I)
-    assert plant_corner_order(table_i, 250.0) == pytest.approx(27.28, abs=0.01)
-    assert plant_corner_order(table_i, 250.0) <= DEAD_TIME_MAX_PLANT_CORNER_ORDER
+    assert plant_corner_order(table_i, 125.0) == pytest.approx(54.57, abs=0.01)
+    assert plant_corner_order(table_i, 125.0) <= DEAD_TIME_MAX_PLANT_CORNER_ORDER < 60.0
     assert plant_corner_order(table_i, 0.0) == math.inf
 
 
 def test_dead_time_on_the_2_pole_motor_at_250_rpm_is_refused_with_the_reason(tmp_path):
-    """k_c = R/(L·ω_e) = 153 at ±250 rpm: not determinable, the reason names the corner; at
-    1500 rpm (k_c 25.5) the corner limit does not refuse; Table I at 250 rpm is inside; the
-    PWM-resolution plan has no such limit (its readings were the capture's, not the model's)."""
-    for speed in (250.0, -250.0):
+    """k_c = R/(L·ω_e) = 153 at ±250 rpm and 76 at 500 rpm: not determinable, the reason names
+    the corner; at 1000 rpm (k_c 38) and on Table I at 180 rpm (k_c 38) the corner does not
+    refuse; the PWM-resolution plan has no such limit (its readings were the capture's)."""
+    def corner(config, dead_time_s=2e-6):
+        return [p for p in problems(dead_time_plan(config, {"dead_time_s": dead_time_s}), config)
+                if p.startswith("plant corner")]
+
+    for speed, order in ((250.0, "153"), (-250.0, "153"), (500.0, "76.4")):
         config = bench(tmp_path, speed, 5.0, P2_24V)
-        found = problems(dead_time_plan(config, {"dead_time_s": 2e-6}), config)
-        assert any(p.startswith("plant corner beyond the dead_time calibration: R/(L·ω_e) = "
-                                "order 153") for p in found), found
+        found = corner(config)
+        assert found and found[0].startswith(
+            "plant corner beyond the dead_time calibration: R/(L·ω_e) = order "
+            f"{order} at {speed:g} rpm (L/R 0.25 ms) vs <= 55"), found
         assert not problems(pwm_resolution_plan(config, {"pwm_period_counts": 32}), config)
-    config = bench(tmp_path, 1500.0, 5.0, P2_24V)
-    assert not [p for p in problems(dead_time_plan(config, {"dead_time_s": 2e-6}), config)
-                if p.startswith("plant corner")]
-    config = bench(tmp_path, 250.0, 10.0)
-    assert not [p for p in problems(dead_time_plan(config, {"dead_time_s": 4e-6}), config)
-                if p.startswith("plant corner")]
+    assert not corner(bench(tmp_path, 1000.0, 5.0, P2_24V))
+    assert not corner(bench(tmp_path, 180.0, 8.0), 3e-6)
