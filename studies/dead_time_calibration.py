@@ -3,9 +3,11 @@
 Run: ``.venv/bin/python studies/dead_time_calibration.py [--set calibration|holdout|both]
 [--quick] [--rel-tol 0.35 --phase-tol-deg 5 --a6-tol 0.15]`` (the plan's bands for the holdout) (both sets ≈ 30 s on one core; ``--quick``: every 4th point, for CI).
 
-Each point must lie in the plan's validity region first (``hil.model.voltage.linear_limit_v``
-and the bench floor against half the pk-pk acceptance half-width, ``hil.validity``); a point
-outside it is printed as refused and not judged, as the plan would refuse it.
+Each point must lie in the plan's validity region first (``hil.model.voltage.linear_limit_v``,
+the plant corner order R/(L·|ω_e|) ≤ ``hil.validity.DEAD_TIME_MAX_PLANT_CORNER_ORDER`` — set
+as this calibration set's largest judged, 54.6 at 125 rpm — and the bench floor against half
+the pk-pk acceptance half-width, ``hil.validity``); a point outside it is printed as refused
+and not judged, as the plan would refuse it.
 
 Every point is captured as the dead-time plan captures it (``hil.measurement.PointPlan``
 defaults: transducer torque, 8 electrical revolutions after 0.05 s, the plan's sample rate,
@@ -23,8 +25,8 @@ max (|m − p| + U − abs_tol)/p) and the largest phase error + U, then the sam
 holdout set and whether every holdout point passes with the calibration's tolerances.
 
 Sets (disjoint in motor, operating point and seed):
-* calibration: Table I (4 poles, 12 V, L/R 0.70 ms), 250/500/1000 rpm × 10/20/40 A and
-  500/1000 rpm × 5 A, forward, dead times 1, 2, 4 µs, seed 1;
+* calibration: Table I (4 poles, 12 V, L/R 0.70 ms), 250/500/1000 rpm × 10/20/40 A,
+  500/1000 rpm × 5 A and 125/150 rpm × 5/10/20/40 A, forward, dead times 1, 2, 4 µs, seed 1;
 * holdout: motor B (10 poles, 48 V, 0.12 Ω, 400 µH: L/R 3.3 ms) and motor C (2 poles, 24 V,
   0.4 Ω, 80 µH: L/R 0.20 ms) at other speeds and currents, both directions, dead times 1.5, 3 µs,
   seeds 11.., plus Table I at reverse rotation and other points.
@@ -35,6 +37,7 @@ from __future__ import annotations
 import argparse
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -44,7 +47,9 @@ from hil.measurement import PointPlan, dyno_speed_setpoint_rpm
 from hil.model import OperatingPoint, predict
 from hil.model.voltage import inverter_voltage_needed_v, linear_limit_v
 from hil.motor import TABLE_I, MotorParameters
-from hil.validity import FLOOR_COUNTS, FLOOR_FRACTION, acceptance_half_width_pu
+from hil.validity import (DEAD_TIME_MAX_PLANT_CORNER_ORDER, FLOOR_COUNTS, FLOOR_FRACTION,
+                          acceptance_half_width_pu, plant_corner_order)
+from ripple_hil_testplans.conditions import transducer_limited_rate
 from hil.sim import DriveConfig, DriveTwin, MotorModel, TransducerModel
 
 PWM_HZ = 20_000.0
@@ -76,10 +81,14 @@ class Point:
 
 
 def calibration_set() -> list[Point]:
-    """Table I forward, seed 1: 250/500/1000 rpm × 10/20/40 A, and 5 A at 500/1000 rpm (low
-    current, where the PWM ripple's dead zone at the crossings matters), × 1/2/4 µs."""
+    """Table I forward, seed 1: 250/500/1000 rpm × 10/20/40 A, 5 A at 500/1000 rpm (low
+    current, where the PWM ripple's dead zone at the crossings matters) and 125/150 rpm ×
+    5/10/20/40 A (the plant corner order up to 55, issue 30), × 1/2/4 µs."""
     points = [(s, i) for s in (250.0, 500.0, 1000.0) for i in (10.0, 20.0, 40.0)]
     points += [(500.0, 5.0), (1000.0, 5.0)]
+    # issue 30: low speed, where the plant corner order R/(L·ω_e) is 45-55 (250 rpm: 27), so that
+    # the region's corner limit is set on the calibration motor (most are refused by the floor)
+    points += [(s, i) for s in (125.0, 150.0) for i in (5.0, 10.0, 20.0, 40.0)]
     return [Point("TableI", s, i, t, 1) for s, i in points for t in (1e-6, 2e-6, 4e-6)]
 
 
@@ -144,6 +153,12 @@ def evaluate(point: Point) -> dict | None:
         return None
     from ripple_hil_testplans.test_dead_time import DEAD_TIME_RULE
 
+    corner = plant_corner_order(SimpleNamespace(motor=motor), point.speed_rpm)
+    if corner > DEAD_TIME_MAX_PLANT_CORNER_ORDER:
+        print(f"  {point}: refused (the plan's region), plant corner order {corner:.3g} > "
+              f"{DEAD_TIME_MAX_PLANT_CORNER_ORDER:g} (hil.validity.corner_problems)")
+        return None
+
     floor_pu = FLOOR_COUNTS * TORQUE_RESOLUTION_NM / op.mean_torque_nm
     half_width = acceptance_half_width_pu(DEAD_TIME_RULE, clamping.pk_pk_nm / op.mean_torque_nm,
                                           None)
@@ -151,8 +166,11 @@ def evaluate(point: Point) -> dict | None:
         print(f"  {point}: refused (the plan's region), floor {100 * floor_pu:.3f} % > "
               f"{FLOOR_FRACTION} x half-width {100 * half_width:.3f} %")
         return None
-    plan = PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
-                     speed_rpm=point.speed_rpm, current_a=point.current_a)
+    # at the plan's capture rate (testplans/conditions.transducer_limited_rate)
+    plan = transducer_limited_rate(
+        PointPlan(source="dead_time", injection={"dead_time_s": point.dead_time_s},
+                  speed_rpm=point.speed_rpm, current_a=point.current_a),
+        SimpleNamespace(motor=motor, torque=SimpleNamespace(bandwidth_hz=TRANSDUCER_HZ)))
     result = capture(point, plan)
     nameplate = op.mean_torque_nm
     measured = result.pk_pk_nm / nameplate

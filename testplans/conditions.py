@@ -122,6 +122,37 @@ def point(op, source: str, injection: dict, rule: DecisionRule | None, **overrid
     return PointPlan(source=source, injection=injection, rule=rule, **settings)
 
 
+#: Lowest capture rate per stated transducer bandwidth ([torque] bandwidth_hz) of the plans whose
+#: drive-side content is broadband (per-PWM-period patterns: quantised duties, dead-time edges):
+#: the Nyquist frequency at least 2 × the bandwidth. The DAQ samples the transducer's output, a
+#: first-order low-pass that still passes 0.45 of the drive's torque content at 2 f_t; below
+#: that rate it folds into the analysed orders. The value is the lowest ratio the dead-time and
+#: PWM-resolution bands were calibrated at (Table I at 250 rpm: 48 orders × 8.33 Hz × 10 points
+#: = 4 kHz against 1 kHz; every judged calibration and holdout point ran at ≥ 4 f_t), not a
+#: figure found at the points it changes. Provenance (issue 30): the 2-pole 24 V study motor at
+#: ±250 rpm (f_e 4.17 Hz) was captured at 2 kHz = 2 f_t and read 1.2-1.8× the dead-time model's
+#: pk-pk and 1.4-4.5× PWM resolution's; the same twin captured at 4, 7.9 or 20 kHz reads the
+#: models (hil/model/README.md, "Capture rate against the transducer's bandwidth").
+MIN_RATE_PER_TRANSDUCER_BANDWIDTH = 4.0
+
+
+def transducer_limited_rate(plan, config):
+    """``plan`` with its capture rate raised to ``MIN_RATE_PER_TRANSDUCER_BANDWIDTH`` × the
+    stated transducer bandwidth (rounded up to 500 Hz) where its own rate is lower; unchanged
+    where the bench file states no bandwidth or the rate is already high enough. The DAQ's
+    limits are the validity region's (``hil.validity.capture_problems``)."""
+    import dataclasses
+    import math
+
+    bandwidth_hz = config.torque.bandwidth_hz
+    if bandwidth_hz is None:
+        return plan
+    floor_hz = math.ceil(MIN_RATE_PER_TRANSDUCER_BANDWIDTH * bandwidth_hz / 500.0) * 500.0
+    if plan.capture_rate_hz(config.motor.pole_pairs) >= floor_hz:
+        return plan
+    return dataclasses.replace(plan, sample_rate_hz=floor_hz)
+
+
 def sweep_id(injection: dict) -> str:
     """A readable pytest id for one injection, e.g. ``dead_time_s=1e-06``."""
     return ",".join(f"{key}={value:g}" if isinstance(value, float) else f"{key}={value}"
