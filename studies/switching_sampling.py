@@ -45,8 +45,9 @@ from hil.model import OperatingPoint, predict
 from hil.motor import TABLE_I, MotorParameters
 from hil.sim import DriveConfig, DriveTwin, MotorModel
 from ripple_hil_testplans.conditions import CLOSED_FORM_RANGE_RULE, CURRENT_ADC_STEP_A
-from ripple_hil_testplans.test_pwm_switching import (MAX_ORDER, MIN_ACTIVE_SAMPLES, PREDICTION,
-                                                     reads_low, unresolved)
+from ripple_hil_testplans.test_pwm_switching import (ADC_MAX_SHARE, MAX_ORDER,
+                                                     MIN_ACTIVE_SAMPLES, PREDICTION, reads_low,
+                                                     unresolved)
 
 #: The simulated DAQ (drivers/data/daq_registers.toml): rate, buffer, current LSB (A).
 DAQ_MAX_RATE_HZ = 200_000.0
@@ -130,6 +131,9 @@ def evaluate(name: str, speed_rpm: float, current_a: float, pwm_hz: float) -> di
     prediction = predict("pwm_switching", op, pwm_frequency_hz=pwm_hz, **PREDICTION,
                          current_adc_step_a=CURRENT_ADC_STEP_A,
                          loop_gain_per_period=LOOP_GAIN_PER_PERIOD)
+    if prediction.extras["adc_dither_pu"] > ADC_MAX_SHARE * prediction.pk_pk_pu:
+        return (f"refused by the plan: ADC bound {prediction.extras['adc_dither_pu']:.2g} pu > "
+                f"{ADC_MAX_SHARE:g} x {prediction.pk_pk_pu:.2g} pu")
     dyno_rpm = unlocked_speed_rpm(speed_rpm, motor.pole_pairs, pwm_hz, settings.revolutions)
     twin = twin_at(motor, dyno_rpm, current_a, pwm_hz)
     duration = settings.revolutions / (abs(speed_rpm) / 60.0 * motor.pole_pairs)

@@ -31,7 +31,8 @@ cent when braking, where i·R and the EMF nearly cancel.
 **The drive's current ADC** (not in the paper; issue 29/30). The drive reads its currents
 through an ADC of step q; the loop's proportional action turns each reading's quantisation
 error into a duty change from one PWM period to the next, and the current drifts within the
-period on top of the switching ripple, so the within-period pk-pk can only grow. Measured on
+period on top of the switching ripple, so the within-period pk-pk grows (the study's negative
+c are its estimator's scatter, ±0.1 step). Measured on
 the twin (``studies/switching_adc_dither.py``: 12-bit against 24-bit ADC, same drive and dyno
 setpoint, 400 samples per period) the growth is c·q of current, with c rising about as g² in the
 loop's proportional gain per period g = K_p·T_s/L (ω_c·T_s for the continuous PI):
@@ -67,6 +68,10 @@ ENVELOPE_ORDER_MIN_VARIATION_PU = 0.002
 #: 14-pole 48 V motors, 5–20 A both directions, 10/40 kHz, g = 0.25/0.50/0.75: largest c/g² 3.56,
 #: rounded up); the holdout (10- and 12-pole) reached 3.63 (one run of 60; 1 % beyond).
 ADC_DITHER_GAIN = 3.6
+#: The loop gains per period g the bound was calibrated over (the continuous PI, one period of
+#: computation delay); below them a floor of ≈ 0.05-0.2 steps and a pole-matched ("discrete")
+#: PI read above 3.6·g² (a review: c/g² 4.1-4.6 at g = 0.22, 6.5-7.8 at g = 0.09).
+ADC_DITHER_CALIBRATED_GAINS = (0.25, 0.75)
 MODELS = ("paper", "switched_torque")
 MODULATIONS = ("svpwm", "sine")
 
@@ -141,9 +146,9 @@ def adc_dither_pu(op: OperatingPoint, current_adc_step_a: float,
     loop of proportional gain g per PWM period, per unit of the mean torque:
     ADC_DITHER_GAIN·g²·q/(I·|cos φ|) (module docstring)."""
     check_range("current_adc_step_a", current_adc_step_a, 0.0, 10.0, unit=" A")
-    check_range("loop_gain_per_period", loop_gain_per_period, 0.0, 2.0)
+    check_range("loop_gain_per_period", loop_gain_per_period, 0.0, 10.0)
     torque_current_a = op.current_a * abs(math.cos(op.current_angle_rad))
-    if torque_current_a <= 0:
+    if torque_current_a <= 1e-9 * op.current_a:
         raise InputError("the ADC dither bound needs a torque-producing current (I·cos φ > 0)")
     return ADC_DITHER_GAIN * loop_gain_per_period ** 2 * current_adc_step_a / torque_current_a
 
@@ -182,7 +187,14 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
     extras = {"current_ripple_pk_pk_a": peak, "voltage_peak_v": v_peak,
               "modulation_index": v_peak / op.dc_bus_v, "paper_pk_pk_pu": peak / op.current_a}
     pk_pk = peak / op.current_a
-    dither = (0.0 if current_adc_step_a is None or loop_gain_per_period is None
+    if (current_adc_step_a is None) != (loop_gain_per_period is None):
+        raise InputError("the ADC dither bound needs both current_adc_step_a and "
+                         "loop_gain_per_period (or neither: an ideal ADC)")
+    if current_adc_step_a is not None and model != "switched_torque":
+        raise InputError("the ADC dither bound was calibrated on the switched-torque form only: "
+                         "give current_adc_step_a/loop_gain_per_period with "
+                         "model='switched_torque'")
+    dither = (0.0 if current_adc_step_a is None
               else adc_dither_pu(op, current_adc_step_a, loop_gain_per_period))
     equations = "eqs 29-31"
     order = 6.0
@@ -217,6 +229,11 @@ def predict_pwm_switching(op: OperatingPoint, *, pwm_frequency_hz: float = 20000
                            f"gain {loop_gain_per_period:.3g} per period) can add up to "
                            f"{dither:.3g} pu to the within-period pk-pk (ADC dither bound, "
                            "studies/switching_adc_dither.py): the range's top")
+        if not ADC_DITHER_CALIBRATED_GAINS[0] <= loop_gain_per_period \
+                <= ADC_DITHER_CALIBRATED_GAINS[1]:
+            assumptions.append(f"loop gain {loop_gain_per_period:.3g} per period outside the "
+                               f"ADC bound's calibration (g = {ADC_DITHER_CALIBRATED_GAINS[0]:g}"
+                               f"-{ADC_DITHER_CALIBRATED_GAINS[1]:g}): extrapolated")
     else:
         assumptions.append("an ideal current ADC: no ADC dither added to the range "
                            "(current_adc_step_a and loop_gain_per_period not given)")

@@ -118,6 +118,9 @@ def test_a_low_reading_is_resolved_against_the_zone_below_the_prediction():
     # U = 0.0025 > 0.5 x 0.004 below the prediction: not resolved, whatever the top
     assert unresolved(verdict(0.0070, 0.0025, 0.014)) is not None
     assert unresolved(verdict(0.0070, 0.0025, 0.030)) is not None
+    # the edge the interval straddles decides, not the reading's side: just above the
+    # prediction with an interval reaching the lower edge (review h-25: it was judged)
+    assert unresolved(verdict(0.0101, 0.0045, 0.030)) is not None
     # a high reading against a top lifted to 0.030: U = 0.0025 < 0.5 x 0.020 resolves it
     assert unresolved(verdict(0.0290, 0.0025, 0.030)) is None
 
@@ -133,3 +136,51 @@ def test_no_order_is_named_where_the_adc_can_add_more_than_the_envelope_varies()
                      current_adc_step_a=STEP_A, loop_gain_per_period=gain)
     assert coarse.extras["adc_dither_pu"] > variation_pu
     assert coarse.order is None and coarse.pk_pk_pu == ideal.pk_pk_pu
+
+
+def test_the_bound_needs_both_inputs_and_the_switched_torque_form():
+    from hil.errors import InputError
+
+    op = OperatingPoint(speed_rpm=500.0, current_a=20.0, motor=TABLE_I)
+    with pytest.raises(InputError, match="both"):
+        predict("pwm_switching", op, model="switched_torque", loop_gain_per_period=0.5)
+    with pytest.raises(InputError, match="switched-torque"):
+        predict("pwm_switching", op, model="paper", current_adc_step_a=STEP_A,
+                loop_gain_per_period=0.5)
+    # a fast stated loop (a 2-DOF at 3.3 kHz on a 20 kHz carrier: g = 2.07) is predicted, with
+    # the extrapolation said; a current at 90° has no torque to be a share of
+    fast = predict("pwm_switching", op, model="switched_torque", current_adc_step_a=STEP_A,
+                   loop_gain_per_period=2.07)
+    assert any("extrapolated" in text for text in fast.assumptions)
+    with pytest.raises(InputError, match="torque-producing"):
+        predict("pwm_switching", OperatingPoint(speed_rpm=500.0, current_a=20.0,
+                                                current_angle_rad=math.pi / 2, motor=TABLE_I),
+                model="switched_torque", current_adc_step_a=STEP_A, loop_gain_per_period=0.5)
+
+
+@pytest.mark.timeout(600)
+def test_a_drive_at_half_the_pwm_frequency_does_not_pass_where_the_adc_swamps_the_ripple(
+        tmp_path):
+    """Braking at low current (10-pole 48 V motor, −250 rpm / 10 A) the ADC bound is several
+    times the switching ripple; with the zone lifted by it a drive switching at half the
+    commanded frequency passed (review h-25: 40 kHz read 3.8x the model inside a zone reaching
+    4.8x). Now each such point is not determinable, and none passes."""
+    sys.path.insert(0, str(REPO / "studies"))
+    try:
+        from validity import bench_table
+    finally:
+        sys.path.remove(str(REPO / "studies"))
+    bench = tmp_path / "p10-braking.toml"
+    bench.write_text(tomli_w.dumps(bench_table("p10_48v", -250.0, 10.0)))
+    records = tmp_path / "records"
+    subprocess.run([sys.executable, "-m", "hil", "run", "--bench", str(bench), "--source",
+                    "pwm_switching", "--no-report", "--record-dir", str(records),
+                    "--results-db", "off", "--sim-defect", "injection_scale=0.5"],
+                   capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    folder = next(p for p in records.iterdir() if p.is_dir())
+    points = [t for t in load_record(folder)["tests"]
+              if t["test_id"].split("::")[-1].startswith("test_pwm_switching[")]
+    assert len(points) == 3
+    assert not [t["test_id"] for t in points if t["outcome"] == "passed"]
+    refused = [t for t in points if "current ADC can add" in (t.get("message") or "")]
+    assert refused, [(t["outcome"], t.get("message")) for t in points]
