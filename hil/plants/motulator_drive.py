@@ -63,15 +63,20 @@ class EncoderShaft(model.ExternalRotorSpeed):
 
 class FixedCurrentReference:
     """A current-commanded drive's reference (motulator's ``ReferenceGenerator`` interface):
-    i_d + j·i_q = I·(−sin φ + j·cos φ) whatever the torque reference (paper eq 4); zero while
-    the gates are blocked."""
+    the current lagging the EMF by φ (the contract's ``current_angle_rad``, paper eq 4) in
+    motulator's frame, whose d axis is the magnet's and whose EMF jω·ψ_f lies on +q:
+    i_d + j·i_q = I·(sin φ + j·cos φ) = I·j·e^(−jφ), whatever the torque reference; zero while
+    the gates are blocked. (The twin writes −I·sin φ on its own d axis, which points the other
+    way: the self-check measures motulator's angle reference at 180°. Until 2026-12-07 this
+    adapter wrote −I·sin φ too, a current *leading* by φ, and the encoder plan's count order at
+    φ = 10° read 0.61 of the model: cos(φ − γ) instead of eq 7's cos(γ + φ).)"""
 
     def __init__(self, par) -> None:
         self.par = par
         self.i_s_ref = 0j
 
     def set(self, current_a: float, angle_rad: float) -> None:
-        self.i_s_ref = current_a * complex(-math.sin(angle_rad), math.cos(angle_rad))
+        self.i_s_ref = current_a * complex(math.sin(angle_rad), math.cos(angle_rad))
 
     def compute_flux_and_torque_refs(self, tau_M_ref, w_m, u_dc):
         psi = complex(self.par.psi_s_dq(self.i_s_ref))
