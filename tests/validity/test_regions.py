@@ -153,6 +153,10 @@ def test_acceptance_half_width_of_each_rule_kind():
     assert validity.acceptance_half_width_pu(c.DERIVED_RANGE_RULE, 0.02, (0.01, 0.03)) == \
         pytest.approx(0.01 + 0.001)
     assert validity.acceptance_half_width_pu(c.BASELINE_RULE, 0.0, None) == pytest.approx(0.01)
+    # a closed form with a one-sided range on top (PWM switching's ADC bound): the band applies
+    # to the range's top, as the decision's zone [low·0.8 − 0.002, high·1.2 + 0.002] does
+    assert validity.acceptance_half_width_pu(c.CLOSED_FORM_RANGE_RULE, 0.05, (0.05, 0.06)) == \
+        pytest.approx(0.06 * 1.2 - 0.05 + 0.002)
 
 
 # ------------------------------------------------------------------------------ capture
