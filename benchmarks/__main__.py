@@ -119,6 +119,7 @@ BENCHMARKS: tuple[Benchmark, ...] = (
                  r"(?P<value>\d+) points", "points", "points"),
          Pattern(r"hil run .*points in\s*" + _v(r"wall s"), "wall_s", "s"),
          Pattern(r"hil run .*=\s*" + _v(r"points/s"), "points_per_s", "points/s"),
+         Pattern(r"hil run .*points/s,\s*" + _v(r"CPU s"), "cpu_s", "s", required=False),
          Pattern(r"hil report on that record:\s*" + _v(r"wall s"), "report_wall_s", "s",
                  required=False),
          Pattern(r"pytest start-up and collection of one plan:\s*" + _v(r"s with every"),

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -32,7 +33,9 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False, pdf:
                  timeout_s: float = RUN_TIMEOUT_S) -> dict:
     """Run ``hil run`` on the simulated bench in a subprocess; return its figures.
 
-    Keys: ``wall_s`` (the whole command, process start to exit), ``points`` (test entries in the
+    Keys: ``wall_s`` (the whole command, process start to exit), ``cpu_s`` (user + system CPU
+    seconds of the run's process and its children: steadier than the wall time on a shared or
+    throttled machine, but blind to waits), ``points`` (test entries in the
     record), ``points_per_s``, ``outcomes`` (count per outcome), ``returncode``, ``record_status``
     and, with ``report``, ``report_wall_s`` (``hil report`` on the finished record).
     """
@@ -43,10 +46,12 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False, pdf:
         for source in sources or []:
             command += ["--source", source]
         env = dict(os.environ, PYTHONUNBUFFERED="1")
+        cpu_before = _children_cpu_s()
         start = time.perf_counter()
         done = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s,
                               cwd=scratch, env=env)
         wall_s = time.perf_counter() - start
+        cpu_s = _children_cpu_s() - cpu_before
         folders = sorted(p.parent for p in records.glob("*/record.json"))
         if not folders:
             raise RuntimeError(f"hil run wrote no record (exit {done.returncode}): "
@@ -55,7 +60,7 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False, pdf:
 
         record = load_record(folders[-1])
         tests = record["tests"]
-        figures = {"wall_s": wall_s, "points": len(tests),
+        figures = {"wall_s": wall_s, "cpu_s": cpu_s, "points": len(tests),
                    "points_per_s": len(tests) / wall_s if wall_s > 0 else float("nan"),
                    "outcomes": dict(Counter(t["outcome"] for t in tests)),
                    "returncode": done.returncode, "record_status": record["status"],
@@ -69,6 +74,12 @@ def time_hil_run(sources: list[str] | None = None, *, report: bool = False, pdf:
             figures["report_wall_s"] = time.perf_counter() - start
             figures["report_returncode"] = rendered.returncode
     return figures
+
+
+def _children_cpu_s() -> float:
+    """User + system CPU seconds of this process's finished children."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def time_startup(repeat: int = 3) -> dict:
@@ -144,15 +155,19 @@ def main(argv: list[str] | None = None) -> int:
     runs = [time_hil_run(args.source, report=args.report, pdf=args.pdf)
             for _ in range(max(1, args.repeat))]
     walls = sorted(run["wall_s"] for run in runs)
-    figures = runs[0] | {"wall_s": walls[len(walls) // 2], "wall_s_all": walls}
+    cpus = sorted(run["cpu_s"] for run in runs)
+    figures = runs[0] | {"wall_s": walls[len(walls) // 2], "wall_s_all": walls,
+                         "cpu_s": cpus[len(cpus) // 2], "cpu_s_all": cpus}
     figures["points_per_s"] = figures["points"] / figures["wall_s"]
     which = ", ".join(args.source) if args.source else "all plans"
     outcomes = ", ".join(f"{n} {name}" for name, n in sorted(figures["outcomes"].items()))
     print(f"hil run ({which}, simulated bench): {figures['points']} points in "
-          f"{figures['wall_s']:.2f} wall s = {figures['points_per_s']:.3f} points/s "
+          f"{figures['wall_s']:.2f} wall s = {figures['points_per_s']:.3f} points/s, "
+          f"{figures['cpu_s']:.2f} CPU s "
           f"(exit {figures['returncode']}, record {figures['record_status']}; {outcomes}"
           f"{'; PDF written by the run' if args.pdf else ''}"
-          f"{f'; median of {len(walls)}: ' + ', '.join(f'{w:.2f}' for w in walls) if len(walls) > 1 else ''})")
+          f"{f'; median of {len(walls)}: ' + ', '.join(f'{w:.2f}' for w in walls) if len(walls) > 1 else ''}"
+          f"{f'; CPU s: ' + ', '.join(f'{c:.2f}' for c in cpus) if len(cpus) > 1 else ''})")
     if "report_wall_s" in figures:
         print(f"hil report on that record: {figures['report_wall_s']:.2f} wall s "
               f"(exit {figures['report_returncode']})")

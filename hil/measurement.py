@@ -206,7 +206,8 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         entry["operating_point"].update(carrier_fields(plan, bench, pole_pairs))
         dyno_rpm = entry["operating_point"]["dyno_speed_setpoint_rpm"]
         bench.check_command(current_a=plan.current_a, speed_rpm=dyno_rpm)
-        capture = _acquire(bench, record, test_id, plan, pole_pairs, dyno_rpm)
+        capture = _acquire(bench, record, test_id, plan, pole_pairs, dyno_rpm,
+                           written_before_return=False)
         settings = analysis_settings(plan, bench)
         result = run_analysis(capture, settings, instruments=bench.config.instrument_uncertainty())
         if plan.rule is not None:
@@ -231,6 +232,7 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         judged = [judge(req, result, torque_accuracy_nm=_torque_accuracy_nm(bench))
                   for req in chosen]
         checks = plan.checks(capture, result, plan, bench) if plan.checks else None
+        record.capture_written(test_id)     # its storage fault fails the point
     except BaseException as exc:
         entry.update(outcome="error", error=f"{type(exc).__name__}: {exc}")
         _add_safely(record, entry)
@@ -328,10 +330,11 @@ def carrier_fields(plan: PointPlan, bench: Bench, pole_pairs: int) -> dict:
 
 
 def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pole_pairs: int,
-             dyno_rpm: float | None = None):
+             dyno_rpm: float | None = None, *, written_before_return: bool = True):
     """Inject, operate (the dyno at ``dyno_rpm``, default the plan's own speed: the
     characterisation's captures, whose fits read it), capture and persist the raw data, inside
-    the safety guard."""
+    the safety guard. With ``written_before_return`` False the raw data is still being written
+    when this returns: the caller waits with ``record.capture_written(test_id)``."""
     dyno_rpm = plan.speed_rpm if dyno_rpm is None else dyno_rpm
     duration_s = plan.capture_duration_s(pole_pairs)
     rate_hz = plan.capture_rate_hz(pole_pairs)
@@ -359,7 +362,11 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
                             injection=dict(plan.injection), captured_utc=utc_now(),
                             wall_time_unix_s=time.time(),
                             **getattr(bench, "angle_reference_meta", {}))
-        record.save_capture(test_id, capture)          # raw data first, before any check
+        # raw data first, before any check: written in the record's writer thread while the
+        # point goes on (RunRecord.save_capture_later); its test entry waits for it
+        saving = record.save_capture_later(test_id, capture)
+        if written_before_return:
+            saving.result()
         if failure is not None:
             raise failure
         bench.check_health()

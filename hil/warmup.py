@@ -4,13 +4,14 @@
 ``pip install .`` run it once. Without it a first ``hil run`` compiles the twin's engine before
 serving its instruments, then the analysis kernels inside its first capture's analysis and the
 model kernels inside the first prediction that needs them (issue 33: 59.6 s first run, 34.2 s the
-second). Three groups, each through the same public entry point a run calls, with the argument
+second). Four groups, the numba ones each through the same public entry point a run calls, with the argument
 types a run gives them (numba compiles one machine-code version per argument-type signature):
 
+* the project's own modules, byte-compiled (:func:`warm_bytecode`);
 * ``hil.sim`` — :func:`hil.sim.warmup.warm_up` (``run_drive``, ``run_batch``);
 * ``hil.analysis`` — :func:`hil.analysis.run_analysis` of a short simulated capture laid out as
   the Modbus DAQ driver returns it, with the bench's instrument uncertainty (the block bootstrap)
-  and the PWM-switching analysis;
+  and the PWM-switching analysis, and the switching plan's search for a capture rate;
 * ``hil.model`` — :func:`hil.model.predict` of every source with each of its models at a Table I
   operating point, and the PWM-resolution noise model the plan calls directly.
 
@@ -73,6 +74,10 @@ def warm_analysis() -> None:
                  "motor": {f.name: getattr(TABLE_I, f.name) for f in fields(TABLE_I)}}
     run_analysis(_capture(SAMPLE_RATE_HZ), torque, instruments=instruments)
     run_analysis(_capture(SWITCHING_SAMPLE_RATE_HZ), switching, instruments=instruments)
+    # the PWM-switching plan's pre-flight search for a capture rate
+    from hil.analysis.switching import effective_samples_per_period
+
+    effective_samples_per_period(SWITCHING_SAMPLE_RATE_HZ, PWM_FREQUENCY_HZ, 2)
 
 
 #: Parameters a source's prediction needs beyond the operating point (typical plan values).
@@ -113,11 +118,33 @@ def warm_model() -> None:
                   max_order=48, **loop)
 
 
+#: The project's top-level packages (the importable names ``pyproject.toml`` maps).
+PACKAGES = ("hil", "ripple_hil_drivers", "ripple_hil_fixtures", "ripple_hil_testplans",
+            "ripple_hil_reports")
+
+
+def warm_bytecode() -> None:
+    """Byte-compile the project's own modules into their ``__pycache__``. ``pip install .``
+    does it for an installed copy; an editable install (``make``) never does, and where the
+    environment sets ``PYTHONDONTWRITEBYTECODE`` (as this project's CI machine does) every run
+    would compile ~240 modules from source again (0.5 s of each ``hil run``). ``compileall``
+    writes them whatever that variable says; Python reads them whatever it says."""
+    import compileall
+    import importlib.util
+
+    for package in PACKAGES:
+        for folder in importlib.util.find_spec(package).submodule_search_locations:
+            compileall.compile_dir(folder, quiet=1)
+
+
 def warm_up() -> dict[str, float]:
     """Wall seconds per group (compile, or load from numba's cache)."""
     from hil.sim.warmup import warm_up as warm_sim
 
-    seconds = {f"hil.sim {name}": wall_s for name, wall_s in warm_sim().items()}
+    start = time.perf_counter()
+    warm_bytecode()
+    seconds = {"bytecode": time.perf_counter() - start}
+    seconds |= {f"hil.sim {name}": wall_s for name, wall_s in warm_sim().items()}
     for name, step in (("hil.analysis", warm_analysis), ("hil.model", warm_model)):
         start = time.perf_counter()
         step()

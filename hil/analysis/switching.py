@@ -64,6 +64,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from hil.analysis.angle import TWO_PI, TravelAngle, check_finite, check_time, travel_angle
 from hil.analysis.metrics import RippleResult, spectrum_fields
@@ -185,11 +186,36 @@ def effective_samples_per_period(sample_rate_hz: float, pwm_frequency_hz: float,
     from t = 0 (what :func:`analyze_switching` finds on such a capture)."""
     period_s = 1.0 / pwm_frequency_hz
     window_s = periods * period_s
-    time_s = np.arange(int(math.ceil(windows * window_s * sample_rate_hz)) + 1) / sample_rate_hz
-    index = np.floor(time_s / window_s + 1e-9).astype(np.int64)
-    keep = index < windows
-    gap = _largest_phase_gap(np.mod(time_s[keep], period_s), index[keep], period_s)
-    return period_s / gap
+    samples = int(math.ceil(windows * window_s * sample_rate_hz)) + 1
+    return period_s / _uniform_largest_phase_gap(float(sample_rate_hz), period_s, window_s,
+                                                 int(windows), samples)
+
+
+@njit(cache=True, error_model="numpy")
+def _uniform_largest_phase_gap(sample_rate_hz, period_s, window_s, windows, samples):
+    """:func:`_largest_phase_gap` of the samples k/f_s (k < ``samples``) in the windows
+    ⌊t/window_s + 1e-9⌋ < ``windows``, the same arithmetic sample by sample, compiled:
+    :func:`capture_settings` asks it of thousands of candidate rates (1 s of the default run's
+    pre-flight as numpy array work, issue 33)."""
+    largest = 0.0
+    phases = np.empty(samples)
+    k = 0
+    for window in range(windows):
+        count = 0
+        while k < samples:
+            t = k / sample_rate_hz
+            if np.floor(t / window_s + 1e-9) > window:
+                break
+            phases[count] = np.mod(t, period_s)
+            count += 1
+            k += 1
+        if count == 0:
+            continue
+        ordered = np.sort(phases[:count])
+        for i in range(1, count):
+            largest = max(largest, ordered[i] - ordered[i - 1])
+        largest = max(largest, period_s - ordered[count - 1] + ordered[0])
+    return largest
 
 
 def synchronous_grid(sample_rate_hz: float, pwm_frequency_hz: float, periods: int,

@@ -213,3 +213,20 @@ def test_windows_longer_than_the_phase_pattern_give_a_finite_uncertainty():
         u = result.uncertainty.expanded_pu
         assert math.isfinite(u) and u < 0.1 * result.pk_pk_pu, (rate, u)
         assert abs(result.pk_pk_pu - expected_peak_pu()) <= u
+
+
+@pytest.mark.parametrize("rate_hz, pwm_hz, periods, windows", [
+    (197_778.0, 20_000.0, 10, 8), (190_256.0, 10_000.0, 1, 40), (187_000.0, 40_000.0, 3, 24),
+    (199_500.0, 20_000.0, 1, 40), (195_000.0, 20_000.0, 5, 8), (200_000.0, 20_000.0, 1, 8)])
+def test_compiled_phase_gap_is_the_windows_largest_gap(rate_hz, pwm_hz, periods, windows):
+    """The pre-flight's compiled gap search gives, bit for bit, what the analysis's array form
+    (_largest_phase_gap on the capture's own sample phases) gives on the same samples."""
+    from hil.analysis.switching import _largest_phase_gap, effective_samples_per_period
+
+    period_s = 1.0 / pwm_hz
+    window_s = periods * period_s
+    time_s = np.arange(int(math.ceil(windows * window_s * rate_hz)) + 1) / rate_hz
+    index = np.floor(time_s / window_s + 1e-9).astype(np.int64)
+    keep = index < windows
+    gap = _largest_phase_gap(np.mod(time_s[keep], period_s), index[keep], period_s)
+    assert effective_samples_per_period(rate_hz, pwm_hz, periods, windows) == period_s / gap

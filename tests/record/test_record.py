@@ -16,8 +16,8 @@ import pytest
 from hil.capture import Capture
 from hil.config import default_sim_bench
 from hil.errors import HilError, InputError
-from hil.record import (FORMAT, JOURNAL_FILE, SEAL_FILE, RunRecord, load_record,
-                        safe_test_name, to_jsonable, verify_captures, verify_record)
+from hil.record import (FORMAT, JOURNAL_FILE, SEAL_FILE, RecordWriteError, RunRecord,
+                        load_record, safe_test_name, to_jsonable, verify_captures, verify_record)
 
 IDENTITIES = [{"role": "drive", "identity": {"vendor_id": 0x1234, "product_code": np.uint32(7),
                                              "serial_number": "SIM-DRIVE-1",
@@ -143,6 +143,43 @@ def test_safe_names_keep_distinct_ids_distinct():
     assert safe_test_name("t[1/2]") != safe_test_name("t[1_2]")
     with pytest.raises(InputError):
         safe_test_name("")
+
+
+def test_a_capture_written_in_the_background_is_the_capture_as_taken(record: RunRecord):
+    capture = small_capture()
+    taken = capture.channels["torque_nm"].copy()
+    saving = record.save_capture_later("point", capture)
+    capture.channels["torque_nm"] *= 2.0            # what the point does afterwards
+    capture.meta["sample_rate_hz"] = 1.0
+    with pytest.raises(HilError, match="already exists"):
+        record.save_capture_later("point", small_capture())
+    stored = record.add_test({"test_id": "point", "outcome": "passed"})   # waits for it
+    assert stored["capture"] == saving.result() == record.capture_written("point")
+    on_disk = Capture.load(record.path / stored["capture"]["file"])
+    np.testing.assert_array_equal(on_disk["torque_nm"], taken)
+    assert on_disk.meta["sample_rate_hz"] == 10_000.0
+    events = [json.loads(line)["event"] for line in
+              (record.path / JOURNAL_FILE).read_text().splitlines()]
+    assert events.index("capture") < events.index("test")
+    record.save_capture_later("characterisation", small_capture())   # no entry: finish waits
+    record.finish("complete")
+    data = load_record(record.path)
+    assert [p["test_id"] for p in data["pending_captures"]] == ["characterisation"]
+    assert verify_captures(record.path, data) == []
+
+
+def test_a_background_write_that_fails_is_raised_to_the_point(record: RunRecord, monkeypatch):
+    def full_disk(self, path):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(Capture, "save", full_disk)
+    saving = record.save_capture_later("point", small_capture())
+    with pytest.raises(RecordWriteError, match="ENOSPC|No space"):
+        record.capture_written("point")
+    assert isinstance(saving.exception(), RecordWriteError)
+    assert isinstance(record.write_error, RecordWriteError)
+    stored = record.add_test({"test_id": "point", "outcome": "error"})    # still recorded
+    assert stored["capture"] is None
 
 
 def test_verify_captures_finds_altered_missing_and_escaping_files(record: RunRecord):
