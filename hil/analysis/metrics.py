@@ -254,9 +254,11 @@ def analyze_capture(capture: Capture, *, max_order: int = DEFAULT_MAX_ORDER,
 
 
 def _band_limited_pk_pk_pu(coefficients: np.ndarray) -> np.ndarray:
-    """pk-pk per unit of |mean| of the Fourier series in each row (c_0..c_K)."""
+    """pk-pk per unit of |mean| of the Fourier series in each row (c_0..c_K): the type-A
+    bootstrap's statistic, its waveform in single precision (:func:`peak_to_peak`)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        return peak_to_peak(coefficients) / np.abs(coefficients[:, 0].real)
+        return (peak_to_peak(coefficients, single_precision=True)
+                / np.abs(coefficients[:, 0].real))
 
 
 def _bins_pk_pk_pu(bins_nm: np.ndarray) -> np.ndarray:

@@ -53,16 +53,25 @@ def reconstruct(coefficients: np.ndarray, n_points: int, *, centred: bool = Fals
     return np.fft.irfft(spectrum, n=n_points, axis=-1)
 
 
-def peak_to_peak(coefficients: np.ndarray) -> np.ndarray:
+def peak_to_peak(coefficients: np.ndarray, *, single_precision: bool = False) -> np.ndarray:
     """Peak-to-peak (N·m) of the band-limited waveform of ``coefficients`` (last axis c_0..c_K).
 
     The series is evaluated on a grid of at least 16 points per period of order K and each extreme
     is refined by a parabola through it and its two neighbours (error below 1e-4 of the amplitude).
+    ``single_precision``: the ripple (c_0 left out: a pk-pk does not depend on it) evaluated in
+    float32, ~3× faster; the pk-pk then differs by ~1e-7 of itself — for the type-A bootstrap's
+    draws, whose own scatter is thousands of times larger (issue 33: 1.2 of the default run's
+    2.2 s of bootstrap was this evaluation in float64).
     """
     max_order = coefficients.shape[-1] - 1
     points = PEAK_SEARCH_POINTS_PER_PERIOD * max(max_order, 1)
     n_points = max(64, 1 << int(np.ceil(np.log2(points))))
-    wave = reconstruct(coefficients, n_points)
+    if single_precision:
+        spectrum = np.zeros(coefficients.shape[:-1] + (n_points // 2 + 1,), dtype=np.complex64)
+        spectrum[..., 1:max_order + 1] = coefficients[..., 1:] * (n_points / 2.0)
+        wave = np.fft.irfft(spectrum, n=n_points, axis=-1)
+    else:
+        wave = reconstruct(coefficients, n_points)
     return _refined_extreme(wave) + _refined_extreme(-wave)
 
 
