@@ -60,3 +60,24 @@ def test_an_injection_dict_passes_straight_through():
         assert math.isfinite(pred.pk_pk_pu) and pred.pk_pk_pu >= 0
         data = pred.to_dict()
         assert {"pk_pk_pu", "base", "base_nm", "order", "inputs", "assumptions"} <= set(data)
+
+
+def test_remembered_predictions_hand_back_copies_inside_the_block_only(monkeypatch):
+    from hil.model import sources
+
+    calls = []
+    real = sources.SOURCES["dead_time"]
+    monkeypatch.setitem(sources.SOURCES, "dead_time",
+                        lambda op, **kw: calls.append(kw) or real(op, **kw))
+    with sources.remembered_predictions():
+        first = predict("dead_time", OP, dead_time_s=1e-6)
+        first.extras["changed by a caller"] = True
+        again = predict("dead_time", OP, dead_time_s=1e-6)
+        other = predict("dead_time", OP, dead_time_s=2e-6)
+        with sources.remembered_predictions():          # nested: the same memory
+            predict("dead_time", OP, dead_time_s=2e-6)
+    assert len(calls) == 2                                # computed once per distinct call
+    assert "changed by a caller" not in again.extras and again.pk_pk_pu == first.pk_pk_pu
+    assert other.pk_pk_pu != first.pk_pk_pu
+    predict("dead_time", OP, dead_time_s=1e-6)            # outside: computed again
+    assert len(calls) == 3
