@@ -1,5 +1,6 @@
 """Input validation of the Python API: errors name the parameter and the allowed range."""
 
+import functools
 import math
 
 import pytest
@@ -67,8 +68,13 @@ def test_remembered_predictions_hand_back_copies_inside_the_block_only(monkeypat
 
     calls = []
     real = sources.SOURCES["dead_time"]
-    monkeypatch.setitem(sources.SOURCES, "dead_time",
-                        lambda op, **kw: calls.append(kw) or real(op, **kw))
+
+    @functools.wraps(real)                  # predict reads the source's signature
+    def counted(op, **kw):
+        calls.append(kw)
+        return real(op, **kw)
+
+    monkeypatch.setitem(sources.SOURCES, "dead_time", counted)
     with sources.remembered_predictions():
         first = predict("dead_time", OP, dead_time_s=1e-6)
         first.extras["changed by a caller"] = True
