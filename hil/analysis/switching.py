@@ -449,38 +449,44 @@ def _largest_phase_gap(phase_s: np.ndarray, window: np.ndarray, period_s: float)
     return max(float(gaps.max(initial=0.0)), float(wrap.max()))
 
 
-def _corner_excess(phase_s: np.ndarray, value: np.ndarray, period_s: float) -> float:
+@njit(cache=True, error_model="numpy")
+def _corner_excess(phase_s, value, period_s):
     """How far the true maximum of a piecewise-linear periodic waveform (period ``period_s``)
     may lie above its largest sample: the two lines through the samples on either side of the
     largest one meet at the corner, which lies between the largest sample and one of its
     neighbours (both cases taken, the larger kept; a line that does not rise towards the corner
     bounds nothing and counts 0). Samples at the same phase (a window longer than the rate's
     phase pattern, e.g. 195 kHz at 20 kHz repeats every 4 periods, in windows of 5) are one
-    point, the largest value kept: a zero phase step would make the slopes undefined (NaN)."""
-    order = np.lexsort((-value, phase_s))
+    point, the largest value kept: a zero phase step would make the slopes undefined (NaN).
+    Compiled: the analysis asks it twice per PWM window (issue 33)."""
+    by_value = np.argsort(-value, kind="mergesort")       # phase first, larger value first
+    order = by_value[np.argsort(phase_s[by_value], kind="mergesort")]
     p, v = phase_s[order], value[order]
-    first = np.ones(p.size, dtype=bool)
+    first = np.ones(p.size, dtype=np.bool_)
     first[1:] = np.diff(p) > 1e-9 * period_s
     p, v = p[first], v[first]
     if p.size < 5:
         return 0.0
-    m = int(np.argmax(v))
-    period = period_s
-    idx = np.arange(m - 2, m + 3)
-    pp = p[idx % p.size] + np.floor_divide(idx, p.size) * period
-    vv = v[idx % p.size]
-
-    def meet(rise_slope, fall_slope, gap, step):
-        if not (rise_slope > 0 and fall_slope > 0 and gap > 0):
-            return 0.0
-        return float(rise_slope * np.clip((step + fall_slope * gap) / (rise_slope + fall_slope),
-                                          0.0, gap))
-
-    with np.errstate(divide="ignore", invalid="ignore"):
-        slopes = np.diff(vv) / np.diff(pp)            # between m-2, m-1, m, m+1, m+2
-    after = meet(slopes[1], -slopes[3], pp[3] - pp[2], vv[3] - vv[2])
-    before = meet(-slopes[2], slopes[0], pp[2] - pp[1], vv[1] - vv[2])
+    m = np.argmax(v)
+    pp = np.empty(5)
+    vv = np.empty(5)
+    for j in range(5):
+        i = m - 2 + j
+        pp[j] = p[i % p.size] + (i // p.size) * period_s
+        vv[j] = v[i % p.size]
+    slopes = np.diff(vv) / np.diff(pp)            # between m-2, m-1, m, m+1, m+2
+    after = _corner_meet(slopes[1], -slopes[3], pp[3] - pp[2], vv[3] - vv[2])
+    before = _corner_meet(-slopes[2], slopes[0], pp[2] - pp[1], vv[1] - vv[2])
     return max(after, before)
+
+
+@njit(cache=True, error_model="numpy")
+def _corner_meet(rise_slope, fall_slope, gap, step):
+    """Rise above the sample of the lines of ``rise_slope`` and ``fall_slope`` where they meet
+    within ``gap`` (0: a line that does not rise towards the corner bounds nothing)."""
+    if not (rise_slope > 0 and fall_slope > 0 and gap > 0):
+        return 0.0
+    return rise_slope * min(max((step + fall_slope * gap) / (rise_slope + fall_slope), 0.0), gap)
 
 
 def _sampling_bias_bound_nm(torque_nm: np.ndarray, time_s: np.ndarray, windows: _Windows,

@@ -230,3 +230,19 @@ def test_compiled_phase_gap_is_the_windows_largest_gap(rate_hz, pwm_hz, periods,
     keep = index < windows
     gap = _largest_phase_gap(np.mod(time_s[keep], period_s), index[keep], period_s)
     assert effective_samples_per_period(rate_hz, pwm_hz, periods, windows) == period_s / gap
+
+
+def test_compiled_corner_excess_bounds_a_triangle_corner_and_merges_repeated_phases():
+    """A triangle of period T sampled off its corner: the excess is the corner's rise above the
+    largest sample (the lines through the samples on either side meet at the corner); a sample
+    repeated at the same phase with a lower value changes nothing; too few points bound nothing."""
+    from hil.analysis.switching import _corner_excess
+
+    period_s = 1.0
+    phase = np.array([0.05, 0.2, 0.35, 0.45, 0.6, 0.75, 0.9])
+    triangle = np.where(phase < 0.4, phase, 0.4 - (phase - 0.4) * 0.6)
+    excess = _corner_excess(phase, triangle, period_s)
+    assert excess == pytest.approx(0.4 - triangle.max(), rel=1e-12)
+    repeated = _corner_excess(np.append(phase, 0.35), np.append(triangle, 0.1), period_s)
+    assert repeated == excess
+    assert _corner_excess(phase[:4], triangle[:4], period_s) == 0.0
