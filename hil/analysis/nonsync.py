@@ -96,13 +96,47 @@ def nonsynchronous_rms(time_s, torque_nm, angle_elec_rad, *, max_order: int,
 def synchronous_residual(angle_rad: np.ndarray, torque: np.ndarray, max_order: int
                          ) -> tuple[np.ndarray, np.ndarray]:
     """(torque less its least-squares Fourier series of orders 0..``max_order`` in the angle,
-    the series' mean); ``torque`` one row per record (rows × samples) or one record."""
-    orders = np.arange(1, max_order + 1)
-    phase = np.outer(angle_rad, orders)
-    design = np.column_stack([np.ones_like(angle_rad), np.cos(phase), np.sin(phase)])
-    # normal equations: the Fourier basis over whole revolutions is well conditioned
-    coefficients = np.linalg.solve(design.T @ design, design.T @ np.asarray(torque).T)
-    return torque - (design @ coefficients).T, coefficients[0]
+    the series' mean); ``torque`` one row per record (rows × samples) or one record.
+
+    The normal equations are built from the sample angles' power sums S(m) = Σ e^{jmθ},
+    m = 0..2K, by the product formulas (cos aθ·cos bθ = ½[cos (a−b)θ + cos (a+b)θ], …) instead of
+    a samples × (2K+1) design matrix and its Gram product, and the powers e^{jkθ} by running
+    products instead of sines and cosines: the same least squares (rounding apart, ~1e-13), 5–10×
+    faster (issue 33: 1 s of the default run). The Fourier basis over whole revolutions is well
+    conditioned, so the normal equations lose nothing."""
+    angle_rad = np.asarray(angle_rad, dtype=np.float64)
+    y = np.asarray(torque, dtype=np.float64)
+    k = int(max_order)
+    unit = np.exp(1j * angle_rad)
+    powers = np.empty((angle_rad.size, 2 * k + 1), dtype=np.complex128)   # e^{jmθ}, m = 0..2K
+    powers[:, 0] = 1.0
+    if k:
+        np.cumprod(np.broadcast_to(unit[:, None], (angle_rad.size, 2 * k)), axis=1,
+                   out=powers[:, 1:])
+    sums = powers.sum(axis=0)                                            # S(m), m = 0..2K
+    orders = np.arange(1, k + 1)
+    diff = np.subtract.outer(orders, orders)
+    total = np.add.outer(orders, orders)
+    s_diff = np.where(diff >= 0, sums[np.abs(diff)], np.conj(sums[np.abs(diff)]))
+    s_total = sums[total]
+    gram = np.empty((2 * k + 1, 2 * k + 1))
+    gram[0, 0] = angle_rad.size
+    gram[0, 1:k + 1] = gram[1:k + 1, 0] = sums[1:k + 1].real
+    gram[0, k + 1:] = gram[k + 1:, 0] = sums[1:k + 1].imag
+    gram[1:k + 1, 1:k + 1] = 0.5 * (s_diff.real + s_total.real)      # Σ cos aθ cos bθ
+    gram[k + 1:, k + 1:] = 0.5 * (s_diff.real - s_total.real)        # Σ sin aθ sin bθ
+    cos_sin = 0.5 * (s_total.imag - s_diff.imag)                     # Σ cos aθ sin bθ
+    gram[1:k + 1, k + 1:] = cos_sin
+    gram[k + 1:, 1:k + 1] = cos_sin.T
+    basis = powers[:, 1:k + 1]
+    projected = y @ basis                                            # Σ y e^{jkθ}, per record
+    right = np.concatenate([y.sum(axis=-1)[..., None], projected.real, projected.imag],
+                           axis=-1)
+    coefficients = np.linalg.solve(gram, right.T)                    # (2K+1) × records
+    mean = coefficients[0]
+    phasors = coefficients[1:k + 1] - 1j * coefficients[k + 1:]      # a_k − j b_k
+    fitted = (basis @ phasors).real.T + np.asarray(mean)[..., None]
+    return y - fitted, mean
 
 
 def nonsynchronous_rms_of_capture(capture, *, pole_pairs: int, max_order: int,

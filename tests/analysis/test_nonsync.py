@@ -89,3 +89,23 @@ def test_floor_removal_and_its_uncertainty():
     assert expanded == pytest.approx(math.sqrt(2 * u_square))
     with pytest.raises(InputError, match="raw_u=nan"):
         floor_removed(1e-3, math.nan, 1e-3, 1e-5, 1e-4)
+
+
+def test_synchronous_residual_is_the_least_squares_fit_of_the_fourier_series():
+    """The power-sum normal equations give the residual numpy's least squares gives on the
+    explicit design matrix (uneven angle steps: a speed ripple), one record or several."""
+    from hil.analysis.nonsync import synchronous_residual
+
+    rng = np.random.default_rng(7)
+    angle = np.cumsum(rng.uniform(0.5, 1.5, 3000)) * (2 * np.pi * 5 / 3000)
+    torque = rng.normal(size=(2, angle.size)) + 1.0 + 0.05 * np.cos(6 * angle)
+    orders = np.arange(1, 13)
+    design = np.column_stack([np.ones_like(angle), np.cos(np.outer(angle, orders)),
+                              np.sin(np.outer(angle, orders))])
+    fitted, *_ = np.linalg.lstsq(design, torque.T, rcond=None)
+    residual, mean = synchronous_residual(angle, torque, 12)
+    np.testing.assert_allclose(residual, torque - (design @ fitted).T, atol=1e-12)
+    np.testing.assert_allclose(mean, fitted[0], atol=1e-12)
+    one, one_mean = synchronous_residual(angle, torque[0], 12)
+    np.testing.assert_allclose(one, residual[0], atol=1e-12)
+    assert np.ndim(one_mean) == 0
