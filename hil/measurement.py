@@ -234,8 +234,14 @@ def measure_point(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan
         checks = plan.checks(capture, result, plan, bench) if plan.checks else None
         record.capture_written(test_id)     # its storage fault fails the point
     except BaseException as exc:
-        entry.update(outcome="error", error=f"{type(exc).__name__}: {exc}")
+        # a storage fault of this point's raw data outranks whatever else failed meanwhile:
+        # it is what stops the run (as when the capture was written before anything else)
+        storage = record.capture_fault(test_id)
+        failure = storage if storage is not None and storage is not exc else exc
+        entry.update(outcome="error", error=f"{type(failure).__name__}: {failure}")
         _add_safely(record, entry)
+        if failure is not exc:
+            raise failure from exc
         raise
     accepted = ((verdict is None or verdict.guarded_pass)
                 and (phase_verdict is None or phase_verdict.guarded_pass)
@@ -335,6 +341,8 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
     characterisation's captures, whose fits read it), capture and persist the raw data, inside
     the safety guard. With ``written_before_return`` False the raw data is still being written
     when this returns: the caller waits with ``record.capture_written(test_id)``."""
+    if record.write_error is not None:      # the record cannot keep raw data: drive nothing
+        raise record.write_error
     dyno_rpm = plan.speed_rpm if dyno_rpm is None else dyno_rpm
     duration_s = plan.capture_duration_s(pole_pairs)
     rate_hz = plan.capture_rate_hz(pole_pairs)

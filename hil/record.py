@@ -277,6 +277,7 @@ class RunRecord:
         #: captures being written by the writer thread, by test id (:meth:`save_capture_later`)
         self._writing: dict[str, Future] = {}
         self._writer: ThreadPoolExecutor | None = None
+        self._closing = False
 
     # ------------------------------------------------------------------ create / open
     @classmethod
@@ -420,6 +421,9 @@ class RunRecord:
                            units=dict(capture.units), meta=copy.deepcopy(capture.meta))
         with self._lock:
             self._require_running()
+            if self._closing:
+                raise HilError(f"record {self.record_id}: being closed; the capture of test "
+                               f"{test_id!r} cannot be added")
             if test_id in self._writing or target.exists():
                 raise HilError(f"record: a capture for test {test_id!r} already exists "
                                f"({relative}); test ids must be unique within a run")
@@ -455,17 +459,15 @@ class RunRecord:
             raise HilError(f"record: no capture of test {test_id!r} is being written")
         return future.result()
 
-    def _wait_for_captures(self, test_id: str | None = None) -> None:
-        """Wait until the capture of ``test_id`` (None: every capture) is written or failed
-        (a failure was raised to whoever waited on its Future and set :attr:`write_error`)."""
+    def capture_fault(self, test_id: str) -> "RecordWriteError | None":
+        """The storage fault of the capture of ``test_id`` (waiting for its write), or None:
+        none, not written in the background, or written."""
         with self._lock:
-            futures = list(self._writing.values()) if test_id is None else \
-                [self._writing[test_id]] if test_id in self._writing else []
-        for future in futures:
-            try:
-                future.result()
-            except Exception:     # noqa: BLE001 - reported through the Future and write_error
-                pass
+            future = self._writing.get(test_id)
+        if future is None:
+            return None
+        error = future.exception()
+        return error if isinstance(error, RecordWriteError) else None
 
     def add_test(self, entry: dict) -> dict:
         """Append one test's entry (one journal line).
@@ -481,7 +483,7 @@ class RunRecord:
         test_id = entry.get("test_id")
         safe_test_name(test_id)  # validates
         _check_fields(test_id, {"outcome": entry.get("outcome")} | entry)
-        self._wait_for_captures(test_id)
+        self.capture_fault(test_id)     # waits: the capture's event precedes the entry
         with self._lock:
             self._require_running()
             if self.test(test_id) is not None:
@@ -513,12 +515,14 @@ class RunRecord:
                              f"{', '.join(FINAL_STATUSES)}")
         from hil import seal
 
-        self._wait_for_captures()
         with self._lock:
             self._require_running()
-            if self._writer is not None:
-                self._writer.shutdown(wait=True)
-                self._writer = None
+            self._closing = True                # no capture may start from here on
+            writer, self._writer = self._writer, None
+        if writer is not None:      # outside the lock: a queued write takes it to journal itself
+            writer.shutdown(wait=True)
+        with self._lock:
+            self._require_running()
             try:
                 key, unsigned = seal.station_key(), None
             except seal.StationKeyError as exc:
@@ -542,6 +546,7 @@ class RunRecord:
                 # not closed: in memory as on disk (header + journal), status running
                 self.data.update(status="running", finished_utc=None)
                 self.data.pop("seal", None)
+                self._closing = False
                 self.write_error = self.write_error or RecordWriteError(target, exc)
                 raise RecordWriteError(target, exc) from exc
             try:        # a journal left beside a finished record.json is never replayed

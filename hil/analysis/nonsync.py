@@ -25,6 +25,10 @@ import numpy as np
 from hil.analysis.angle import TWO_PI, check_finite, check_time, travel_angle
 from hil.errors import InputError
 
+#: Largest condition number of the fit's normal equations: beyond it the samples' angles do not
+#: pin the series down (fewer samples than unknowns, or orders aliased onto each other by too
+#: few samples per revolution) and the residual would be meaningless.
+MAX_NORMAL_CONDITION = 1e10
 #: Blocks per revolution for the type-A scatter; each must be far longer than the residual's
 #: correlation time (1/4 electrical revolution is 15 ms at 500 rpm with 2 pole pairs).
 DEFAULT_BLOCKS_PER_REVOLUTION = 4
@@ -128,6 +132,11 @@ def synchronous_residual(angle_rad: np.ndarray, torque: np.ndarray, max_order: i
     cos_sin = 0.5 * (s_total.imag - s_diff.imag)                     # Σ cos aθ sin bθ
     gram[1:k + 1, k + 1:] = cos_sin
     gram[k + 1:, 1:k + 1] = cos_sin.T
+    if angle_rad.size < 2 * k + 1 or np.linalg.cond(gram) > MAX_NORMAL_CONDITION:
+        raise InputError(f"{angle_rad.size} samples at these angles cannot resolve the Fourier "
+                         f"series to order {k} (2K+1 = {2 * k + 1} unknowns; normal equations "
+                         f"condition {np.linalg.cond(gram):.3g}): sample faster or lower "
+                         "max_order")
     basis = powers[:, 1:k + 1]
     projected = y @ basis                                            # Σ y e^{jkθ}, per record
     right = np.concatenate([y.sum(axis=-1)[..., None], projected.real, projected.imag],

@@ -45,6 +45,7 @@ def source_parameters(source: str) -> list[str]:
 
 _memo_lock = threading.Lock()
 _memo: dict | None = None
+_memo_users = 0
 
 
 @contextlib.contextmanager
@@ -53,18 +54,21 @@ def remembered_predictions() -> Iterator[None]:
     made for the same source, operating point and parameters instead of computing it again.
     A run's pre-flight, its validity checks and its points ask the same prediction up to three
     times (issue 33: 147 calls, 48 distinct, in the default run); the ``hil run`` plugin holds
-    this open for its session. Outside it nothing is kept, so a test that changes a model's
-    constants between two calls sees the change."""
-    global _memo
+    this open for its session. Blocks may overlap in any order (the memory lasts while one is
+    open). Outside them nothing is kept, so a test that changes a model's constants between two
+    calls sees the change."""
+    global _memo, _memo_users
     with _memo_lock:
-        outer = _memo
-        if outer is None:
+        _memo_users += 1
+        if _memo is None:
             _memo = {}
     try:
         yield
     finally:
         with _memo_lock:
-            _memo = outer
+            _memo_users -= 1
+            if _memo_users == 0:
+                _memo = None
 
 
 def _memo_key(source: str, op: OperatingPoint, params: dict) -> tuple | None:

@@ -109,3 +109,14 @@ def test_synchronous_residual_is_the_least_squares_fit_of_the_fourier_series():
     one, one_mean = synchronous_residual(angle, torque[0], 12)
     np.testing.assert_allclose(one, residual[0], atol=1e-12)
     assert np.ndim(one_mean) == 0
+
+
+@pytest.mark.parametrize("per_revolution", [40, 50])
+def test_a_fit_the_samples_cannot_resolve_is_refused(per_revolution):
+    """40 samples per revolution over 2 revolutions are fewer than the 97 unknowns of order 48;
+    50 per revolution are enough in number but alias order k onto 50 − k (review h-27)."""
+    from hil.analysis.nonsync import synchronous_residual
+
+    angle = np.arange(2 * per_revolution) * 2 * np.pi / per_revolution
+    with pytest.raises(InputError, match="cannot resolve the Fourier series to order 48"):
+        synchronous_residual(angle, np.ones_like(angle), 48)

@@ -87,3 +87,15 @@ def test_remembered_predictions_hand_back_copies_inside_the_block_only(monkeypat
     assert other.pk_pk_pu != first.pk_pk_pu
     predict("dead_time", OP, dead_time_s=1e-6)            # outside: computed again
     assert len(calls) == 3
+
+
+def test_remembered_predictions_blocks_may_end_in_any_order():
+    from hil.model import sources
+
+    first, second = sources.remembered_predictions(), sources.remembered_predictions()
+    first.__enter__()
+    second.__enter__()
+    first.__exit__(None, None, None)
+    assert sources._memo is not None                       # the second block still open
+    second.__exit__(None, None, None)
+    assert sources._memo is None                           # nothing kept after the last
