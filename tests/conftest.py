@@ -4,14 +4,31 @@ import functools
 import os
 import re
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
 import pytest
 
-from hil.bench import Bench
-from hil.config import default_sim_bench
-from hil.record import RunRecord
+
+def _keep_bytecode_caches() -> None:
+    """Let this session and every process it starts write Python's and pytest's bytecode caches
+    (``__pycache__``), which ``PYTHONDONTWRITEBYTECODE`` (set on some hosts) turns off.
+
+    Without them each of the suite's hundreds of Python processes compiles the project's
+    sources again, and each ``hil run`` (a pytest session of its own) rewrites the plans'
+    asserts again: ~1 s of CPU per run, and ~10 s of each xdist worker's collection (18 s
+    against 8 s). The caches are checked against each source's size and time stamp, so a
+    changed file is never read stale; numba's caches already sit in the same folders."""
+    sys.dont_write_bytecode = False
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
+
+_keep_bytecode_caches()
+
+from hil.bench import Bench  # noqa: E402  (after the bytecode setting: these imports cache)
+from hil.config import default_sim_bench  # noqa: E402
+from hil.record import RunRecord  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
