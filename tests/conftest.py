@@ -66,12 +66,32 @@ SHARED_SESSION_FOLDERS = ("tests/campaign", "tests/drivers_daq", "tests/drivers_
 LONG_RUNNING_FOLDERS = ("tests/independent", "tests/integration", "tests/mutations",
                         "tests/results", "tests/campaign", "tests/station", "tests/validity",
                         "tests/characterisation", "tests/sim", "tests/plans", "tests/reports")
+#: The longest work units, longest first (seconds on one otherwise idle core): they start
+#: before every other unit, so none is handed out late and left running alone at the end.
+LONGEST_FIRST = (
+    # ~135 s: motulator's carrier comparison, 1.2 simulated seconds
+    "tests/independent/test_foreign_bench.py::test_foreign_bench_self_check_runs_as_a_user_would",
+    "tests/results",                                   # ~90 s: six whole runs, PostgreSQL
+    "tests/campaign",                                  # ~75 s: Dask clusters
+    "tests/independent/test_motulator_diagnosis.py",   # ~65 s: 12 motulator points
+    "tests/integration/test_long_lived_sim_bench.py",  # ~60 s: whole runs on one sim-bench
+    "tests/validity/test_validity_study.py",           # ~40 s: two whole runs
+)
 _SHARED_FIXTURES = re.compile(r"scope\s*=\s*[\"'](module|class|package)[\"']|def setup_module")
 
 
 def _in(folders: tuple[str, ...], scope: str) -> bool:
-    """``scope`` (a node id, a file or a folder) lies in one of ``folders``."""
-    return any(scope == f or scope.startswith(f + "/") for f in folders)
+    """``scope`` (a node id, a file or a folder) lies in one of ``folders`` (node ids, files or
+    folders)."""
+    return any(scope == f or scope.startswith((f + "/", f + "::")) for f in folders)
+
+
+def _start_order(scope: str) -> tuple[int, bool]:
+    """Sort key of a work unit: LONGEST_FIRST in its order, then the LONG_RUNNING_FOLDERS, then
+    the rest (a stable sort keeps xdist's own order, most tests first, within each group)."""
+    longest = next((i for i, unit in enumerate(LONGEST_FIRST) if _in((unit,), scope)),
+                   len(LONGEST_FIRST))
+    return longest, not _in(LONG_RUNNING_FOLDERS, scope)
 
 
 @functools.lru_cache(maxsize=None)
@@ -83,8 +103,8 @@ def _file_shares_fixtures(rootdir: Path, path: str) -> bool:
 def pytest_xdist_make_scheduler(config, log):
     """``make test``'s pytest-xdist scheduling: a folder of SHARED_SESSION_FOLDERS goes whole to
     one worker, a file with module-scoped fixtures whole to one worker (each is built once), any
-    other test to whichever worker is free; the LONG_RUNNING_FOLDERS start first, each group in
-    xdist's own order (most tests first)."""
+    other test to whichever worker is free; the LONGEST_FIRST units start first, then the
+    LONG_RUNNING_FOLDERS, each group in xdist's own order (most tests first)."""
     from xdist.scheduler import LoadScopeScheduling
 
     rootdir = config.rootpath
@@ -103,8 +123,7 @@ def pytest_xdist_make_scheduler(config, log):
             # xdist names a test to a worker by its index in them)
             if not getattr(self, "_long_first", False):
                 self._long_first = True
-                units = sorted(self.workqueue.items(),
-                               key=lambda unit: not _in(LONG_RUNNING_FOLDERS, unit[0]))
+                units = sorted(self.workqueue.items(), key=lambda unit: _start_order(unit[0]))
                 self.workqueue.clear()
                 self.workqueue.update(units)
             super()._assign_work_unit(node)
