@@ -4,6 +4,7 @@ import functools
 import os
 import re
 import shutil
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -99,17 +100,53 @@ def _file_shares_fixtures(rootdir: Path, path: str) -> bool:
     return bool(_SHARED_FIXTURES.search((rootdir / path).read_text(encoding="utf-8")))
 
 
+_WARM_UP = pytest.StashKey[subprocess.Popen]()
+#: The longest a cold warm-up may take (~45 s on an idle machine) before the tests start anyway.
+WARM_UP_TIMEOUT_S = 600.0
+
+
+def _start_warm_up(config) -> None:
+    """Build numba's on-disk caches of every kernel a run uses (``python -m hil.warmup``, which
+    ``make`` runs at install) while the workers collect. With the caches built it only loads
+    them (~3 s, hidden behind the collection); on a cold cache (a new checkout, an edited
+    engine) the first tests' processes would otherwise each compile the same kernels at the
+    same time (~30 s of CPU each; the campaign's twin fixture took 65 s on a cold cache, 2 s on
+    a warm one)."""
+    config.stash[_WARM_UP] = subprocess.Popen([sys.executable, "-m", "hil.warmup"],
+                                              stdout=subprocess.DEVNULL,
+                                              stderr=subprocess.DEVNULL)
+
+
+def _finish_warm_up(config, timeout_s: float = WARM_UP_TIMEOUT_S) -> None:
+    """Wait for the warm-up; stop it after ``timeout_s`` (the tests then compile what they
+    need themselves)."""
+    process = config.stash.get(_WARM_UP, None)
+    if process is None:
+        return
+    try:
+        process.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
 @pytest.hookimpl(optionalhook=True)                   # a hook of pytest-xdist's
 def pytest_xdist_make_scheduler(config, log):
     """``make test``'s pytest-xdist scheduling: a folder of SHARED_SESSION_FOLDERS goes whole to
     one worker, a file with module-scoped fixtures whole to one worker (each is built once), any
     other test to whichever worker is free; the LONGEST_FIRST units start first, then the
-    LONG_RUNNING_FOLDERS, each group in xdist's own order (most tests first)."""
+    LONG_RUNNING_FOLDERS, each group in xdist's own order (most tests first). The first tests
+    are handed out once numba's caches are built (``_start_warm_up``)."""
     from xdist.scheduler import LoadScopeScheduling
 
     rootdir = config.rootpath
+    _start_warm_up(config)          # the workers are collecting meanwhile
 
     class FolderFileOrTest(LoadScopeScheduling):
+        def schedule(self) -> None:
+            _finish_warm_up(config)
+            super().schedule()
+
         def _split_scope(self, nodeid: str) -> str:
             path = nodeid.split("::")[0]
             folder = next((f for f in SHARED_SESSION_FOLDERS if _in((f,), path)), None)
@@ -148,6 +185,7 @@ def pytest_configure(config):
 
 
 def pytest_unconfigure(config):
+    _finish_warm_up(config, timeout_s=0.0)      # a session stopped before its first test
     folder = config.stash.get(_WORKER_TMP, None)
     if folder:
         shutil.rmtree(folder, ignore_errors=True)
