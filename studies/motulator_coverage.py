@@ -39,6 +39,7 @@ manifest's loop — the same fit, so the figures carry over. Results: printed an
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import subprocess
@@ -65,7 +66,10 @@ SMALL_U_SHARE = 0.25
 
 
 # ------------------------------------------------------------------------------ diagnosis
+@functools.cache
 def cli_has_manifest() -> bool:
+    """Whether this tree's ``hil diagnose`` has ``--manifest`` (asked once per process: a
+    subprocess of ~1 s, and the answer cannot change while the process runs)."""
     proc = subprocess.run([sys.executable, "-m", "hil", "diagnose", "--help"],
                           capture_output=True, text=True)
     return "--manifest" in proc.stdout

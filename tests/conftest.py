@@ -4,14 +4,32 @@ import functools
 import os
 import re
 import shutil
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
 import pytest
 
-from hil.bench import Bench
-from hil.config import default_sim_bench
-from hil.record import RunRecord
+
+def _keep_bytecode_caches() -> None:
+    """Let this session and every process it starts write Python's and pytest's bytecode caches
+    (``__pycache__``), which ``PYTHONDONTWRITEBYTECODE`` (set on some hosts) turns off.
+
+    Without them each of the suite's hundreds of Python processes compiles the project's
+    sources again, and each ``hil run`` (a pytest session of its own) rewrites the plans'
+    asserts again: ~1 s of CPU per run, and ~10 s of each xdist worker's collection (18 s
+    against 8 s). The caches are checked against each source's size and time stamp, so a
+    changed file is never read stale; numba's caches already sit in the same folders."""
+    sys.dont_write_bytecode = False
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
+
+_keep_bytecode_caches()
+
+from hil.bench import Bench  # noqa: E402  (after the bytecode setting: these imports cache)
+from hil.config import default_sim_bench  # noqa: E402
+from hil.record import RunRecord  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -49,12 +67,32 @@ SHARED_SESSION_FOLDERS = ("tests/campaign", "tests/drivers_daq", "tests/drivers_
 LONG_RUNNING_FOLDERS = ("tests/independent", "tests/integration", "tests/mutations",
                         "tests/results", "tests/campaign", "tests/station", "tests/validity",
                         "tests/characterisation", "tests/sim", "tests/plans", "tests/reports")
+#: The longest work units, longest first (seconds on one otherwise idle core): they start
+#: before every other unit, so none is handed out late and left running alone at the end.
+LONGEST_FIRST = (
+    # ~135 s: motulator's carrier comparison, 1.2 simulated seconds
+    "tests/independent/test_foreign_bench.py::test_foreign_bench_self_check_runs_as_a_user_would",
+    "tests/results",                                   # ~90 s: six whole runs, PostgreSQL
+    "tests/campaign",                                  # ~75 s: Dask clusters
+    "tests/independent/test_motulator_diagnosis.py",   # ~65 s: 12 motulator points
+    "tests/integration/test_long_lived_sim_bench.py",  # ~60 s: whole runs on one sim-bench
+    "tests/validity/test_validity_study.py",           # ~40 s: two whole runs
+)
 _SHARED_FIXTURES = re.compile(r"scope\s*=\s*[\"'](module|class|package)[\"']|def setup_module")
 
 
 def _in(folders: tuple[str, ...], scope: str) -> bool:
-    """``scope`` (a node id, a file or a folder) lies in one of ``folders``."""
-    return any(scope == f or scope.startswith(f + "/") for f in folders)
+    """``scope`` (a node id, a file or a folder) lies in one of ``folders`` (node ids, files or
+    folders)."""
+    return any(scope == f or scope.startswith((f + "/", f + "::")) for f in folders)
+
+
+def _start_order(scope: str) -> tuple[int, bool]:
+    """Sort key of a work unit: LONGEST_FIRST in its order, then the LONG_RUNNING_FOLDERS, then
+    the rest (a stable sort keeps xdist's own order, most tests first, within each group)."""
+    longest = next((i for i, unit in enumerate(LONGEST_FIRST) if _in((unit,), scope)),
+                   len(LONGEST_FIRST))
+    return longest, not _in(LONG_RUNNING_FOLDERS, scope)
 
 
 @functools.lru_cache(maxsize=None)
@@ -62,17 +100,53 @@ def _file_shares_fixtures(rootdir: Path, path: str) -> bool:
     return bool(_SHARED_FIXTURES.search((rootdir / path).read_text(encoding="utf-8")))
 
 
+_WARM_UP = pytest.StashKey[subprocess.Popen]()
+#: The longest a cold warm-up may take (~45 s on an idle machine) before the tests start anyway.
+WARM_UP_TIMEOUT_S = 600.0
+
+
+def _start_warm_up(config) -> None:
+    """Build numba's on-disk caches of every kernel a run uses (``python -m hil.warmup``, which
+    ``make`` runs at install) while the workers collect. With the caches built it only loads
+    them (~3 s, hidden behind the collection); on a cold cache (a new checkout, an edited
+    engine) the first tests' processes would otherwise each compile the same kernels at the
+    same time (~30 s of CPU each; the campaign's twin fixture took 65 s on a cold cache, 2 s on
+    a warm one)."""
+    config.stash[_WARM_UP] = subprocess.Popen([sys.executable, "-m", "hil.warmup"],
+                                              stdout=subprocess.DEVNULL,
+                                              stderr=subprocess.DEVNULL)
+
+
+def _finish_warm_up(config, timeout_s: float = WARM_UP_TIMEOUT_S) -> None:
+    """Wait for the warm-up; stop it after ``timeout_s`` (the tests then compile what they
+    need themselves)."""
+    process = config.stash.get(_WARM_UP, None)
+    if process is None:
+        return
+    try:
+        process.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
 @pytest.hookimpl(optionalhook=True)                   # a hook of pytest-xdist's
 def pytest_xdist_make_scheduler(config, log):
     """``make test``'s pytest-xdist scheduling: a folder of SHARED_SESSION_FOLDERS goes whole to
     one worker, a file with module-scoped fixtures whole to one worker (each is built once), any
-    other test to whichever worker is free; the LONG_RUNNING_FOLDERS start first, each group in
-    xdist's own order (most tests first)."""
+    other test to whichever worker is free; the LONGEST_FIRST units start first, then the
+    LONG_RUNNING_FOLDERS, each group in xdist's own order (most tests first). The first tests
+    are handed out once numba's caches are built (``_start_warm_up``)."""
     from xdist.scheduler import LoadScopeScheduling
 
     rootdir = config.rootpath
+    _start_warm_up(config)          # the workers are collecting meanwhile
 
     class FolderFileOrTest(LoadScopeScheduling):
+        def schedule(self) -> None:
+            _finish_warm_up(config)
+            super().schedule()
+
         def _split_scope(self, nodeid: str) -> str:
             path = nodeid.split("::")[0]
             folder = next((f for f in SHARED_SESSION_FOLDERS if _in((f,), path)), None)
@@ -86,8 +160,7 @@ def pytest_xdist_make_scheduler(config, log):
             # xdist names a test to a worker by its index in them)
             if not getattr(self, "_long_first", False):
                 self._long_first = True
-                units = sorted(self.workqueue.items(),
-                               key=lambda unit: not _in(LONG_RUNNING_FOLDERS, unit[0]))
+                units = sorted(self.workqueue.items(), key=lambda unit: _start_order(unit[0]))
                 self.workqueue.clear()
                 self.workqueue.update(units)
             super()._assign_work_unit(node)
@@ -112,6 +185,7 @@ def pytest_configure(config):
 
 
 def pytest_unconfigure(config):
+    _finish_warm_up(config, timeout_s=0.0)      # a session stopped before its first test
     folder = config.stash.get(_WORKER_TMP, None)
     if folder:
         shutil.rmtree(folder, ignore_errors=True)

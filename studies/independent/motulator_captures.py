@@ -6,6 +6,7 @@ never imports ``hil``. Usage::
 
     .venv-motulator/bin/python studies/independent/motulator_captures.py SPEC.json OUT_DIR
     ... | .venv-motulator/bin/python studies/independent/motulator_captures.py - OUT_DIR
+    ... motulator_captures.py --jobs 3 SPEC.json OUT_DIR     # the points in 3 processes at once
 
 Spec (JSON; every key optional, defaults in :data:`DEFAULT_SPEC`)::
 
@@ -362,18 +363,35 @@ def motulator_version() -> str:
     return version("motulator")
 
 
-def generate(spec: dict, out_dir: Path) -> Path:
+def simulated_points(spec: dict, points: list[dict], jobs: int = 1) -> list[dict]:
+    """``simulate_point`` of each point, in ``jobs`` processes at once: each point is its own
+    simulation from rest, and motulator is deterministic, so the results are those of the
+    points simulated one after another."""
+    jobs = min(jobs, len(points))
+    if jobs <= 1:
+        return [simulate_point(spec, point) for point in points]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        return list(pool.map(simulate_point, [spec] * len(points), points))
+
+
+def generate(spec: dict, out_dir: Path, *, jobs: int = 1) -> Path:
     spec = _merge(spec)
     out_dir.mkdir(parents=True, exist_ok=True)
     emf_deg = measure_emf_a_rising_zero_elec_deg(spec["motor"])
-    files, checks = [], []
-    for point in spec["points"]:
-        name = _label(point) + ".csv"
-        files.append((name, point))
-        if spec.get("reuse_existing") and (out_dir / name).is_file():
-            checks.append({"file": name, "reused": True})   # same spec → same capture
+    files = [(_label(point) + ".csv", point) for point in spec["points"]]
+    reused = {name for name, _ in files
+              if spec.get("reuse_existing") and (out_dir / name).is_file()}   # same spec → same capture
+    new = [(name, point) for name, point in files if name not in reused]
+    results = dict(zip((name for name, _ in new),
+                       simulated_points(spec, [point for _, point in new], jobs)))
+    checks = []
+    for name, _ in files:
+        if name in reused:
+            checks.append({"file": name, "reused": True})
             continue
-        result = simulate_point(spec, point)
+        result = results[name]
         columns = result["columns"]
         header = ",".join(columns)
         data = np.column_stack(list(columns.values()))
@@ -415,12 +433,15 @@ def main(argv: list[str]) -> int:
     if len(argv) == 2 and argv[0] == "--restate":
         print(restate(Path(argv[1])))
         return 0
+    jobs = 1
+    if len(argv) == 4 and argv[0] == "--jobs" and argv[1].isdigit():
+        jobs, argv = int(argv[1]), argv[2:]
     if len(argv) != 2:
-        print("usage: motulator_captures.py SPEC.json|- OUT_DIR\n"
+        print("usage: motulator_captures.py [--jobs N] SPEC.json|- OUT_DIR\n"
               "       motulator_captures.py --restate OUT_DIR", file=sys.stderr)
         return 2
     text = sys.stdin.read() if argv[0] == "-" else Path(argv[0]).read_text()
-    print(generate(json.loads(text), Path(argv[1])))
+    print(generate(json.loads(text), Path(argv[1]), jobs=jobs))
     return 0
 
 

@@ -47,14 +47,17 @@ def available() -> bool:
         ".motulator-stamp").is_file()
 
 
-def generate(spec: dict, out_dir: str | Path, *, timeout_s: float = 1800.0) -> Path:
-    """Simulate ``spec`` with motulator into ``out_dir``; returns ``out_dir/manifest.toml``."""
+def generate(spec: dict, out_dir: str | Path, *, timeout_s: float = 1800.0,
+             jobs: int = 1) -> Path:
+    """Simulate ``spec`` with motulator into ``out_dir`` (its points in ``jobs`` processes at
+    once); returns ``out_dir/manifest.toml``."""
     if not available():
         raise SimulatorMissing(f"{VENV_PYTHON.parent.parent} is missing or unfinished: run "
                                ".ci/setup-motulator (it needs a Python 3.12 or 3.13 for "
                                "motulator 0.18)")
     out_dir = Path(out_dir)
-    proc = subprocess.run([str(VENV_PYTHON), str(GENERATOR), "-", str(out_dir)],
+    proc = subprocess.run([str(VENV_PYTHON), str(GENERATOR), "--jobs", str(jobs), "-",
+                           str(out_dir)],
                           input=json.dumps(spec), text=True, capture_output=True,
                           timeout=timeout_s, env={k: v for k, v in os.environ.items()
                                                   if k != "PYTHONPATH"})

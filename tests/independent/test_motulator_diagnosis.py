@@ -19,7 +19,8 @@ What each test proves:
 The motulator tests skip ONLY when ``.venv-motulator`` is absent (``.ci/setup-motulator``
 creates it; it needs Python 3.12/3.13), with that reason. They use motulator's averaged PWM
 model (ZOH, 20 kHz, double update) and 2 mechanical revolutions per capture to stay under
-~90 s on one core; the study runs the full set.
+~90 s on one core; the study runs the full set. Their simulations run side by side (a process
+per point or drive: each is its own simulation from rest, the same as one after another).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -135,7 +137,8 @@ def offsets_captures(tmp_path_factory):
         pytest.skip(f"{independent.VENV_PYTHON.parent.parent} absent or unfinished: run "
                     ".ci/setup-motulator")
     out = tmp_path_factory.mktemp("motulator_offsets")
-    independent.generate(_offsets_drive(), out)
+    drive = _offsets_drive()
+    independent.generate(drive, out, jobs=len(drive["points"]))     # each point its own process
     return out
 
 
@@ -192,7 +195,11 @@ def test_reduced_coverage_has_no_confident_wrong(tmp_path):
     rng = np.random.default_rng(7)
     specs = [independent.random_drive(rng, mech_revolutions=2, pwm_model="zoh", motor=m)
              for m in ("table_i", "p8_48v", "table_i")]
-    cases = [study.run_drive(spec, tmp_path / f"d{i}", None) for i, spec in enumerate(specs)]
+    # the drives side by side, as the study runs them (--jobs): each is its own motulator
+    # process and folder, and motulator is deterministic, so the cases are those run one by one
+    with ThreadPoolExecutor(max_workers=len(specs)) as pool:
+        cases = list(pool.map(lambda i: study.run_drive(specs[i], tmp_path / f"d{i}", None),
+                              range(len(specs))))
     assert not [c["error"] for c in cases if "error" in c]
     rows = {r["name"]: r for r in study.table(cases)}
     assert set(rows) == set(study.PARAMETERS)
