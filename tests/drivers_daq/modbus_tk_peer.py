@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import struct
+import socket
 import time
 
 import serial
@@ -124,7 +125,18 @@ def modbus_tk_tcp(device: DaqDevice, unit_id: int = 1):
             if time.monotonic() > deadline:
                 raise RuntimeError("modbus-tk TCP server did not start")
             time.sleep(0.01)
-        yield server._sock.getsockname()[:2]
+        address = server._sock.getsockname()[:2]
+        # bound is not yet listening (a loaded CI host refused the driver's connect in between):
+        # wait until a connection is accepted
+        while True:
+            try:
+                socket.create_connection(address, timeout=1.0).close()
+                break
+            except ConnectionRefusedError:
+                if time.monotonic() > deadline:
+                    raise RuntimeError("modbus-tk TCP server did not listen") from None
+                time.sleep(0.01)
+        yield address
 
 
 @contextlib.contextmanager
