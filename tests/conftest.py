@@ -25,7 +25,26 @@ def _keep_bytecode_caches() -> None:
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 
+def _no_spinning_thread_pools() -> None:
+    """Idle thread-pool threads sleep instead of spinning, in this session's workers and every
+    process they start (each variable only where not set already): OpenBLAS's
+    (``OPENBLAS_THREAD_TIMEOUT=4``: 2^4 cycles, not 2^28) and GNU OpenMP's, under numba's
+    parallel batch kernel (``OMP_WAIT_POLICY=PASSIVE``).
+
+    The suite keeps both cores busy with its own processes; a pool thread spinning after each
+    call on the small matrices the analyses fit took a core from another test's process (a
+    least-squares fit of 4000 x 12, 300 times: 1.2 s of CPU on an idle machine and 9-18 s
+    with the cores busy, where it also took 16-24 s of wall time; 0.3 s of CPU and ~1 s with
+    sleeping threads). The pools keep their threads and the arithmetic stays as it was; only
+    their waiting changes.
+    The libraries read the variables when they load, so the workers (started after this) and
+    their subprocesses get them."""
+    os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", "4")
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 _keep_bytecode_caches()
+_no_spinning_thread_pools()
 
 from hil.bench import Bench  # noqa: E402  (after the bytecode setting: these imports cache)
 from hil.config import default_sim_bench  # noqa: E402
