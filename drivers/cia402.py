@@ -728,13 +728,20 @@ class Cia402Drive:
             "age_s": age_s,
         }
 
-    def check_health(self) -> None:
-        """Raise HeartbeatLost if the heartbeat is older than the timeout, DeviceFault on EMCY/FAULT."""
+    def check_health(self, *, synchronise: bool = False) -> None:
+        """Raise HeartbeatLost if the heartbeat is older than the timeout, DeviceFault on EMCY/FAULT.
+
+        ``synchronise``: first read the statusword over SDO. One node's frames keep their order
+        on CAN and the bus thread hands them over in that order, so every EMCY the drive sent
+        before its reply has been seen when the reply arrives: a fault raised at the end of a
+        capture fails the check that follows it instead of the next point's."""
         action = "check health"
         if self._connected_at is None:
             raise self._error(HeartbeatLost, action, f"not connected to node {self.node_id}")
         if self.bus_lost() is not None:     # TransportLost, whatever the last heartbeat's age
             raise self._error(HeartbeatLost, action, "CAN bus lost")
+        read_word = (self.sdo_read(0x6041, action=f"{action}: read statusword 0x6041")
+                     if synchronise else None)
         self._check_heartbeat(action)
         emcy = self._emcy
         if emcy is not None:
@@ -746,7 +753,7 @@ class Cia402Drive:
             raise self._error(DeviceFault, action,
                               f"node {self.node_id} left NMT OPERATIONAL (heartbeat state "
                               f"{self._heartbeat_state})")
-        state_word = self._fresh_tpdo(0x6041)
-        if state_word is not None and sm.state_from_statusword(state_word) == sm.FAULT:
-            raise self._error(DeviceFault, action, "drive statusword shows FAULT")
+        for state_word in (read_word, self._fresh_tpdo(0x6041)):
+            if state_word is not None and sm.state_from_statusword(state_word) == sm.FAULT:
+                raise self._error(DeviceFault, action, "drive statusword shows FAULT")
 

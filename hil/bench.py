@@ -247,9 +247,10 @@ class Bench:
                                  f"{limit:g} {unit}")
 
     # ------------------------------------------------------------------ safety
-    def check_health(self) -> None:
-        """Raise if the drive reported an EMCY / fault or its heartbeat stopped."""
-        self.drive.check_health()
+    def check_health(self, *, synchronise: bool = False) -> None:
+        """Raise if the drive reported an EMCY / fault or its heartbeat stopped; ``synchronise``
+        waits for every report the drive sent before the check (one SDO round trip)."""
+        self.drive.check_health(synchronise=synchronise)
 
     @contextlib.contextmanager
     def guard(self, step: str):

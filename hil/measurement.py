@@ -377,7 +377,7 @@ def _acquire(bench: Bench, record: RunRecord, test_id: str, plan: PointPlan, pol
             saving.result()
         if failure is not None:
             raise failure
-        bench.check_health()
+        bench.check_health(synchronise=True)    # a fault sent as the capture ended fails it
         bench.check_capture(capture)
         bench.make_safe(f"{test_id}: point finished")
     return capture

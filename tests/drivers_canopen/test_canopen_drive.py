@@ -155,6 +155,19 @@ def test_emcy_fault_and_working_fault_reset(drive, sim_drive, twin):
     assert twin.enabled
 
 
+def test_synchronised_health_check_sees_an_emcy_sent_just_before_it(drive, sim_drive):
+    """The check right after a capture: the drive faults and the check follows at once. With
+    ``synchronise`` the statusword's SDO reply comes after the EMCY on the bus, so the check
+    fails every time (without it, whether the EMCY was already dispatched is a race)."""
+    for attempt in range(20):
+        drive.enable()
+        sim_drive.raise_fault(code=0x4310, text=f"hot{attempt}")
+        with pytest.raises(DeviceFault, match="0x4310"):
+            drive.check_health(synchronise=True)
+        assert drive.fault_reset() == "SWITCH ON DISABLED"
+        drive.check_health(synchronise=True)
+
+
 def heartbeat_frames(spy, node_id: int, duration_s: float) -> list[float]:
     """Time stamps (s, the bus clock) of the node's heartbeat frames seen on ``spy``."""
     stamps, deadline = [], time.monotonic() + duration_s
