@@ -36,9 +36,8 @@ def _no_spinning_thread_pools() -> None:
     least-squares fit of 4000 x 12, 300 times: 1.2 s of CPU on an idle machine and 9-18 s
     with the cores busy, where it also took 16-24 s of wall time; 0.3 s of CPU and ~1 s with
     sleeping threads). The pools keep their threads and the arithmetic stays as it was; only
-    their waiting changes.
-    The libraries read the variables when they load, so the workers (started after this) and
-    their subprocesses get them."""
+    their waiting changes. The libraries read the variables when they load, so the workers
+    (started after this) and their subprocesses get them."""
     os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", "4")
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
@@ -86,16 +85,17 @@ SHARED_SESSION_FOLDERS = ("tests/campaign", "tests/drivers_daq", "tests/drivers_
 LONG_RUNNING_FOLDERS = ("tests/independent", "tests/integration", "tests/mutations",
                         "tests/results", "tests/campaign", "tests/station", "tests/validity",
                         "tests/characterisation", "tests/sim", "tests/plans", "tests/reports")
-#: The longest work units, longest first (seconds on one otherwise idle core): they start
-#: before every other unit, so none is handed out late and left running alone at the end.
+#: The longest work units, longest first (approximate wall seconds on the 2-core machine):
+#: they start before every other unit, so none is handed out late and left running alone at
+#: the end.
 LONGEST_FIRST = (
-    # ~135 s: motulator's carrier comparison, 1.2 simulated seconds
+    # ~110 s: motulator's carrier comparison, 1.2 simulated seconds
     "tests/independent/test_foreign_bench.py::test_foreign_bench_self_check_runs_as_a_user_would",
     "tests/results",                                   # ~90 s: six whole runs, PostgreSQL
-    "tests/campaign",                                  # ~75 s: Dask clusters
+    "tests/campaign",                                  # ~70 s: Dask clusters
     "tests/independent/test_motulator_diagnosis.py",   # ~65 s: 12 motulator points
-    "tests/integration/test_long_lived_sim_bench.py",  # ~60 s: whole runs on one sim-bench
-    "tests/validity/test_validity_study.py",           # ~40 s: two whole runs
+    "tests/integration/test_long_lived_sim_bench.py",  # ~45 s: whole runs on one sim-bench
+    "tests/validity/test_validity_study.py",           # ~25 s: two whole runs
 )
 _SHARED_FIXTURES = re.compile(r"scope\s*=\s*[\"'](module|class|package)[\"']|def setup_module")
 

@@ -1,17 +1,21 @@
-"""Dask LocalClusters on 127.0.0.1 shared by the campaign tests (one and two worker processes)."""
+"""Dask LocalClusters on 127.0.0.1 shared by the campaign tests (one and two worker processes).
+
+Each is shared by the tests of one module and closed after them (~3 s to start): an idle
+LocalCluster's processes keep ~0.1 core busy (heartbeats, memory monitors), which a
+session-long cluster took from the rest of its xdist worker's tests for the whole session."""
 
 import pytest
 
 from hil.campaign import dask_client
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def client_two():
     with dask_client(n_workers=2) as client:
         yield client
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def client_one():
     with dask_client(n_workers=1) as client:
         yield client
