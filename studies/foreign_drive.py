@@ -52,13 +52,19 @@ PLANS = {
     "dead_time": "(test_dead_time and 3e-06])",
     "pwm_resolution": "(test_pwm_resolution and 64])",
     "word_length": "(test_word_length and 12])",
+    # added 2026-12-08 (run at every point with --plan): 20 kHz is the drive's own carrier.
+    # The encoder is not run at every point: its 12 rpm capture costs ≈ 30 min of motulator
+    # (``--part encoder`` runs it at one point)
+    "pwm_switching": "(test_pwm_switching and 20000)",
+    "baseline": "test_baseline",
 }
 #: the correct drive's points per motor (speed rpm, peak current A); "near" = the motor's
 #: near-voltage-limit speed at 20 A (``studies/validity.near_limit_speed_rpm``)
 POINTS = {
     "table_i": [(1000.0, 20.0), (-1000.0, 20.0), (1000.0, 5.0), (1000.0, 30.0), ("near", 20.0),
                 ("-near", 20.0)],
-    "p8_48v": [(800.0, 15.0), (-800.0, 15.0), (800.0, 5.0), ("near", 20.0)],
+    "p8_48v": [(800.0, 15.0), (-800.0, 15.0), (800.0, 5.0), ("near", 20.0), ("-near", 20.0),
+               (-800.0, 5.0)],
 }
 #: defect label -> (plan that must catch it, --sim-defect values, point (motor, rpm, A)); each
 #: run starts with the self-check's angle reference, as a user's run of all plans does
@@ -149,12 +155,17 @@ def record_row(record_dir: Path, row: dict) -> dict:
     return row
 
 
-def run_correct(motor: str, point, out: Path) -> dict:
+def run_correct(motor: str, point, out: Path, plans: list[str] | None = None) -> dict:
+    """One run of ``plans`` (default all of :data:`PLANS`) at the point, the self-check's
+    angle reference always with them (the order-phase verdicts need it)."""
     speed = speed_of(motor, point[0])
+    chosen = {name: PLANS[name] for name in plans} if plans else PLANS
+    if "self_check" not in chosen:
+        chosen = {"self_check": ANGLE_REFERENCE} | chosen
     with tempfile.TemporaryDirectory(prefix="foreign-") as tmp:
         folder = Path(tmp)
         bench = bench_copy(motor, speed, point[1], folder)
-        row = hil_run(bench, PLANS, folder)
+        row = hil_run(bench, chosen, folder)
     return {"part": "correct", "motor": motor, "speed_rpm": speed, "current_a": point[1]} | row
 
 
@@ -276,6 +287,9 @@ def main(argv=None) -> int:
                                            "encoder", "all"),
                         default="all")
     parser.add_argument("--motor", action="append", choices=sorted(POINTS))
+    parser.add_argument("--plan", action="append", choices=sorted(PLANS),
+                        help="with --part correct: run only these plans (and the angle "
+                             "reference) at each point")
     parser.add_argument("--only", action="append", default=[],
                         help="a defect label, or a point as MOTOR:SPEED:CURRENT")
     parser.add_argument("--out", default="studies/results/foreign")
@@ -310,7 +324,7 @@ def main(argv=None) -> int:
     if args.part == "encoder":
         jobs = [("encoder", None, None)]
     for kind, what, point in jobs:
-        row = (run_correct(what, point, out) if kind == "correct" else
+        row = (run_correct(what, point, out, args.plan) if kind == "correct" else
                run_defect(what, out) if kind == "defect" else
                run_dead_time_after_fix(out) if kind == "dead-time" else
                run_encoder_correct(out) if kind == "encoder" else run_control(out))

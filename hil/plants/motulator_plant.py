@@ -45,6 +45,7 @@ has no ``advance_to_carrier_valley``): a free-running DAQ, as on a real bench.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 from types import SimpleNamespace
@@ -61,6 +62,9 @@ from hil.sim.injection import Injection
 PLANT_INDEPENDENT_ACTUAL = frozenset({"daq_voltage_gain"})
 
 PLANT = "motulator"
+#: How often a command that must stop the worker (disable, close) looks for a stretch to
+#: abandon while it waits for ``MotulatorPlant.lock``, s.
+LOCK_POLL_S = 0.05
 #: the channels ``advance`` can return (the same names as the ripple-hil twin's)
 CHANNELS = ("time_s", "rotor_angle_mech_rad", "encoder_counts", "ia_a", "ib_a", "ic_a",
             "torque_em_nm", "torque_shaft_nm", "speed_rpm", "id_a", "iq_a", "va_v", "vb_v",
@@ -109,6 +113,7 @@ class MotulatorPlant:
         self._filter_nm: float | None = None
         self._latest: dict = {}
         self._drive = None               # motulator objects, built on first use
+        self._computing = None           # the worker while it computes a stretch (``_run``)
 
     @classmethod
     def from_bench(cls, bench, *, seed: int = 0) -> "MotulatorPlant":
@@ -140,8 +145,9 @@ class MotulatorPlant:
             self._configured_drive()
 
     def close(self) -> None:
-        """End motulator's worker process (it also ends with this process)."""
-        with self.lock:
+        """End motulator's worker process (it also ends with this process); a stretch it is
+        computing is abandoned first, without waiting for it."""
+        with self._lock_abandoning("the bench was closed"):
             if self._drive is not None:
                 self._drive.close()
                 self._drive = None
@@ -177,7 +183,11 @@ class MotulatorPlant:
             self._enabled = True
 
     def disable(self) -> None:
-        with self.lock:
+        """Gates off. A stretch being computed (a capture: minutes of motulator) is abandoned
+        at once, its capture failed: the drive it simulated is no longer the drive on the
+        bench, and the DAQ's capture thread holds ``lock`` until it ends, so waiting for it
+        would block the drive's CAN thread and every instrument's stop behind it."""
+        with self._lock_abandoning("the drive was disabled during the capture"):
             self._enabled = False
 
     @property
@@ -263,9 +273,32 @@ class MotulatorPlant:
                               encoder_counts_per_rev=self.config.sensors.encoder_counts_per_rev)
         return self._drive
 
+    @contextlib.contextmanager
+    def _lock_abandoning(self, reason: str):
+        """``lock``, abandoning whatever stretch the worker computes meanwhile (``_run`` holds
+        the lock while it computes; a stretch that starts while this waits is abandoned too):
+        the worker is ended, that ``_run`` raises and the next stretch starts a new worker."""
+        while not self.lock.acquire(timeout=LOCK_POLL_S):
+            computing = self._computing
+            if computing is not None:
+                computing.cancel(reason)
+        try:
+            yield
+        finally:
+            self.lock.release()
+
     def _run(self, drive, duration_s: float):
         """Simulate ``duration_s`` from ``time_s``; the history (plant time) of that stretch."""
-        history = drive.run(self.time_s, duration_s)
+        from hil.plants.motulator_process import RunCancelled
+
+        self._computing = drive
+        try:
+            history = drive.run(self.time_s, duration_s)
+        except RunCancelled:
+            self._drive = None           # its worker is gone: the next stretch starts anew
+            raise
+        finally:
+            self._computing = None
         self.time_s = history.t_end
         self._angle_mech_rad = history.angle_end_rad
         history.torque_nm = self._transducer(history.t, history.tau)

@@ -16,6 +16,10 @@ import subprocess
 import sys
 
 
+class RunCancelled(RuntimeError):
+    """The worker was ended by :meth:`DriveProcess.cancel` while a call waited on it."""
+
+
 class DriveProcess:
     """``MotulatorDrive(motor, t0_s)`` in a worker process; same ``configure`` / ``run``.
 
@@ -24,6 +28,7 @@ class DriveProcess:
     error). It ends when its standard input closes, i.e. with this process at the latest."""
 
     def __init__(self, motor, t0_s: float) -> None:
+        self._cancelled: str | None = None
         self._process = subprocess.Popen(
             [sys.executable, "-m", "hil.plants.motulator_process"], stdin=subprocess.PIPE,
             stdout=subprocess.PIPE)
@@ -35,6 +40,12 @@ class DriveProcess:
     def run(self, t_plant_s: float, duration_s: float):
         return self._call("run", t_plant_s, duration_s)
 
+    def cancel(self, reason: str) -> None:
+        """End the worker now, from any thread: a call waiting on it raises
+        :class:`RunCancelled` with ``reason`` (the drive was disabled, the bench closed)."""
+        self._cancelled = reason
+        self._process.kill()
+
     def close(self) -> None:
         try:
             self._process.stdin.close()
@@ -43,6 +54,8 @@ class DriveProcess:
             self._process.kill()
 
     def _call(self, name: str, *args, **kwargs):
+        if self._cancelled is not None:
+            raise RunCancelled(f"motulator {name}() abandoned: {self._cancelled}")
         if self._process.poll() is not None:
             raise RuntimeError(f"the motulator worker process has exited "
                                f"(code {self._process.returncode})")
@@ -51,6 +64,8 @@ class DriveProcess:
             self._process.stdin.flush()
             ok, value = pickle.load(self._process.stdout)
         except (EOFError, OSError, pickle.UnpicklingError) as exc:
+            if self._cancelled is not None:
+                raise RunCancelled(f"motulator {name}() abandoned: {self._cancelled}") from None
             raise RuntimeError(f"the motulator worker process ended during {name}(): "
                                f"{exc}") from None
         if not ok:

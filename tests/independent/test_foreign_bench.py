@@ -233,6 +233,55 @@ def test_foreign_plant_physics():
     assert 7.0 < out["current_lag_deg"] < 13.0, out["current_lag_deg"]
 
 
+ABANDON = r"""
+import json, threading, time
+from hil.config import load_bench
+from hil.plants import make_plant
+plant = make_plant(load_bench("hil/examples/foreign.toml"), seed=1)
+plant.prepare()
+plant.speed_rpm = 1000.0
+plant.current_command_a = 20.0
+plant.enable()
+out = {}
+def capture():                     # the DAQ's capture thread: minutes of motulator
+    try:
+        with plant.lock:
+            plant.advance(5.0, 20000.0, channels=("torque_nm",))
+        out["capture"] = "finished"
+    except Exception as exc:
+        out["capture"] = f"{type(exc).__name__}: {exc}"
+worker = threading.Thread(target=capture)
+worker.start()
+time.sleep(2.0)                    # well inside the stretch's computation
+started = time.perf_counter()
+plant.disable()
+out["disable_s"] = time.perf_counter() - started
+worker.join(30.0)
+out["enabled"] = plant.enabled
+d = plant.advance(0.002, 20000.0, channels=("ia_a",))      # a new worker, gates blocked
+out["after_samples"] = len(d["ia_a"])
+out["after_ia_max_a"] = float(abs(d["ia_a"]).max())
+started = time.perf_counter()
+plant.close()
+out["close_s"] = time.perf_counter() - started
+print(json.dumps(out))
+"""
+
+
+@needs_foreign_venv
+def test_disabling_the_drive_abandons_a_capture_being_computed():
+    """Gates off during a capture (a safety guard, Ctrl-C, a heartbeat loss): the plant stops
+    at once and the capture fails, instead of the drive's CAN thread waiting minutes for
+    motulator to finish a stretch nobody will use (found when a stopped ``hil run`` of the
+    encoder plan hung in its bench's close for the rest of its 30-minute capture)."""
+    out = _in_foreign_venv(ABANDON, timeout_s=120.0)
+    assert out["disable_s"] < 2.0, out
+    assert out["capture"].startswith("RunCancelled") and "disabled" in out["capture"], out
+    assert out["enabled"] is False
+    assert out["after_samples"] == 40 and out["after_ia_max_a"] < 1e-6, out
+    assert out["close_s"] < 5.0, out
+
+
 def _run_self_check(tmp_path: Path, *defects: str) -> dict:
     table = foreign_table()
     table["operating_point"]["speed_rpm"] = 1500.0
