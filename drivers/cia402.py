@@ -552,10 +552,16 @@ class Cia402Drive:
                              "disable voltage")
 
     def fault_reset(self, timeout_s: float = 1.0) -> str:
-        """Rising edge of controlword bit 7 in FAULT → SWITCH ON DISABLED (transition 15)."""
+        """Rising edge of controlword bit 7 in FAULT → SWITCH ON DISABLED (transition 15).
+
+        Whether the drive is in FAULT is read over SDO, not from the latest TPDO: right after an
+        EMCY the last statusword TPDO can still be the one sent before the fault (its FAULT
+        statusword not dispatched yet), and the reset would be skipped."""
         deadline = time.monotonic() + timeout_s
-        if self.state not in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
-            return self.state
+        state = sm.state_from_statusword(
+            self.sdo_read(0x6041, action="fault reset: read statusword 0x6041"))
+        if state not in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+            return state
         self._send_controlword(sm.CW_DISABLE_VOLTAGE, "fault reset: clear bit 7")
         state = self._command(sm.CW_FAULT_RESET, (sm.SWITCH_ON_DISABLED,), deadline, "fault reset")
         self._send_controlword(sm.CW_DISABLE_VOLTAGE, "fault reset: release bit 7")
