@@ -68,25 +68,25 @@ PREDICTION = {"model": "switched_torque", "modulation": "svpwm"}
 
 def loop_gain_per_period(config) -> float | None:
     """The drive's proportional current-loop gain per PWM period, g = K_p·T_s/L, from the loop the
-    bench file states at the drive's own PWM frequency (ω_c·T_s for the continuous PI); taken to
-    hold at every PWM frequency of the sweep (the loop retuned with the carrier, as the
-    simulated drive does: its bandwidth is a fixed share of f_pwm). None: no loop stated."""
-    import math
-
-    from hil.current_loop import loop_gains
+    bench file states at the drive's own PWM frequency (ω_c·T_s for the continuous PI on the
+    motor it was tuned on); taken to hold at every PWM frequency of the sweep (the loop retuned
+    with the carrier, as the simulated drive does: its bandwidth is a fixed share of f_pwm).
+    K_p is designed on the motor the drive's gains came from (``BenchConfig.loop_tuning``: its
+    nameplate) and L is the winding's (the characterised motor): a winding whose L is 0.7 of
+    its nameplate sees g/0.7. None: no loop stated."""
+    from hil.model.dead_time import stated_loop_gains
     from hil.validity import injected_or_default
 
-    drive, motor = config.drive, config.motor
+    drive, op = config.drive, config.operating_point
     if drive.current_loop_bandwidth_hz is None:
         return None
-    pwm_hz = injected_or_default(c.point(config.operating_point, "pwm_switching", {}, None),
-                                 config, "pwm_frequency_hz")
-    elec_rad_s = config.operating_point.speed_rpm / 60.0 * 2.0 * math.pi * motor.pole_pairs
-    gains = loop_gains(drive.current_loop_design, drive.current_loop_bandwidth_hz,
-                       resistance_ohm=motor.phase_resistance_ohm,
-                       inductance_h=motor.phase_inductance_h, elec_speed_rad_s=elec_rad_s,
-                       pwm_frequency_hz=pwm_hz)
-    return gains.proportional_v_per_a / (motor.phase_inductance_h * pwm_hz)
+    pwm_hz = injected_or_default(c.point(op, "pwm_switching", {}, None), config,
+                                 "pwm_frequency_hz")
+    point = config.model_point(op.speed_rpm, op.current_a, op.current_angle_rad,
+                               allow_beyond_voltage_limit=True)
+    gains = stated_loop_gains(point, drive.current_loop_design, drive.current_loop_bandwidth_hz,
+                              pwm_hz)
+    return gains.proportional_v_per_a / (config.motor.phase_inductance_h * pwm_hz)
 
 
 def prediction_params(config) -> dict:

@@ -57,6 +57,27 @@ def test_the_plan_states_the_drive_loop_gain_and_adc():
     assert params["current_adc_step_a"] == c.CURRENT_ADC_STEP_A == pytest.approx(STEP_A)
 
 
+def test_the_loop_gain_per_period_keeps_the_drive_s_tuning():
+    """A characterised winding whose L is 0.7 of the nameplate the drive's gains were designed
+    on: K_p = ω_c·L_nameplate acts on 0.7·L, so g is the stated ω_c·T_s / 0.7 (it read ω_c·T_s,
+    and a correct drive's 40 kHz point on such a motor failed against a bound 2× too small)."""
+    import dataclasses
+
+    from hil.config import default_sim_bench
+    from ripple_hil_testplans.test_pwm_switching import loop_gain_per_period
+
+    stated = default_sim_bench()
+    winding = dataclasses.replace(stated.motor,
+                                  phase_inductance_h=0.7 * stated.motor.phase_inductance_h,
+                                  phase_resistance_ohm=1.45 * stated.motor.phase_resistance_ohm)
+    characterised = dataclasses.replace(stated, motor=winding, loop_tuning=stated.motor)
+    assert loop_gain_per_period(characterised) == pytest.approx(
+        loop_gain_per_period(stated) / 0.7, rel=1e-12)
+    # without a tuning motor the gains are designed on the winding itself: ω_c·T_s again
+    assert loop_gain_per_period(dataclasses.replace(characterised, loop_tuning=None)) == \
+        pytest.approx(loop_gain_per_period(stated), rel=1e-12)
+
+
 def test_the_bound_covers_the_twin_on_a_holdout_motor():
     """The 12-pole 48 V motor (holdout of the study) at 250 rpm / 5 A, 40 kHz: the twin's 12-bit
     ADC adds to the within-period pk-pk what its 24-bit one does not, and no more than the bound."""
