@@ -154,6 +154,13 @@ class Channel:
     def counter_bits(self) -> int:
         return 16 * self.words
 
+    @property
+    def range_si(self) -> tuple[float, float] | None:
+        """(lowest, highest) engineering value an ``int16`` sample can carry; None: a counter."""
+        if self.is_counter:
+            return None
+        return (-32768 * self.scale + self.offset, 32767 * self.scale + self.offset)
+
     def to_raw(self, values: np.ndarray) -> tuple[np.ndarray, bool]:
         """Engineering values -> raw integers; returns (raw, clipped) with int16 saturation."""
         if self.is_counter:

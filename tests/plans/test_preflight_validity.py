@@ -73,3 +73,27 @@ def test_a_run_whose_first_points_are_refused_still_agrees_its_rules_first(tmp_p
     assert entry["message"].startswith(NOT_DETERMINABLE_PREFIX + "voltage headroom"), entry
     record = load_record(sorted((tmp_path / "records").iterdir())[-1])
     assert record["decision_rule"]["validity_regions"]["self_check"]["braking"] is True
+
+
+def test_the_self_check_runs_near_the_voltage_limit_of_a_fast_motor(tmp_path):
+    """An 8-pole 48 V motor at −2475 rpm (165 Hz electrical): the self-check's 7919 Hz resolves
+    orders up to 23 (23.99), and its analysed band follows (``conditions.self_check_max_order``) instead of
+    refusing the module — the angle reference with it — at every near-limit point (found on the
+    foreign bench, issue 30). The correct drive passes the self-check; the angle reference is
+    refused, saying why: the line back EMF there (≈ 43 V) is beyond the DAQ's ±32.8 V v_ab
+    channel (it failed with a clipped capture once the module was no longer refused)."""
+    table = tomllib.loads(bench_at(tmp_path, -2475.0, 20.0).read_text())
+    table["motor"] |= {"model": "8-pole 48 V PMSM (study)", "serial_number": "STUDY-P8",
+                       "pole_count": 8, "dc_bus_v": 48.0, "phase_resistance_ohm": 0.12,
+                       "phase_inductance_h": 0.3e-3, "max_reactance_ohm": 0.4,
+                       "ke_v_s_per_rad": 0.06, "ke_definition": "rms_phase"}
+    bench = tmp_path / "p8.toml"
+    bench.write_text(tomli_w.dumps(table))
+    done, tests = run(tmp_path, bench, "test_self_check.py", "-k",
+                      "test_bench_self_check or test_angle_reference")
+    check = tests["test_bench_self_check"]
+    assert check["outcome"] == "passed", (check.get("message"), done.stdout[-2000:])
+    assert check["measured"]["analysis_settings"]["max_order"] == 23
+    refused = tests["test_angle_reference"]
+    assert refused["message"].startswith(NOT_DETERMINABLE_PREFIX + "the line-to-line back EMF")
+    assert "would clip" in refused["message"] and not refused.get("capture")
