@@ -188,19 +188,19 @@ SELF_CHECK_CLOCK_TOL_PU = 1.05e-4
 SELF_CHECK_MAX_ENCODER_RMS_COUNTS = 1.0
 
 
-def self_check_max_order(op, pole_pairs: int | None) -> int:
-    """The orders the self-check's ripple reading analyses (it is recorded, never judged: the
-    checks read the capture itself): the plans' 48, or at a speed where ``SELF_CHECK_SAMPLE_RATE_HZ``
-    resolves fewer, what it resolves. Found on the foreign bench (8-pole 48 V motor at
-    −2475 rpm, 165 Hz electrical: orders up to 23): the fixed 48 refused the whole self-check module,
-    the angle reference with it, at every near-limit point."""
+def self_check_max_order(speed_rpm: float, pole_pairs: int | None,
+                         rate_hz: float = SELF_CHECK_SAMPLE_RATE_HZ) -> int:
+    """The orders a self-check point's ripple reading analyses (recorded, never judged: its
+    checks read the capture itself, or one named order): the plans' 48, or at a speed where
+    ``rate_hz`` resolves fewer, what it resolves. Found on the foreign bench (8-pole 48 V motor
+    at −2475 rpm, 165 Hz electrical: orders up to 23): the fixed 48 refused the whole
+    self-check module, the angle reference with it, at every near-limit point."""
     from hil.measurement import PointPlan
 
     default = PointPlan.__dataclass_fields__["max_order"].default
-    if pole_pairs is None or op.speed_rpm == 0:
+    if pole_pairs is None or speed_rpm == 0:
         return default
-    elec_hz = abs(op.speed_rpm) / 60.0 * pole_pairs
-    resolved = int(SELF_CHECK_SAMPLE_RATE_HZ / 2.0 / elec_hz)
+    resolved = int(rate_hz / 2.0 / (abs(speed_rpm) / 60.0 * pole_pairs))
     return default if resolved < 1 else min(default, resolved)
 
 
@@ -234,7 +234,7 @@ def self_check_point(op, pole_pairs: int | None = None):
 
     return point(op, "self_check", {}, None, kind="self_check", checks=checks,
                  sample_rate_hz=SELF_CHECK_SAMPLE_RATE_HZ,
-                 max_order=self_check_max_order(op, pole_pairs))
+                 max_order=self_check_max_order(op.speed_rpm, pole_pairs))
 
 
 # ---------------------------------------------------------------------------- ripple map
