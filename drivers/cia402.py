@@ -561,6 +561,7 @@ class Cia402Drive:
         state = sm.state_from_statusword(
             self.sdo_read(0x6041, action="fault reset: read statusword 0x6041"))
         if state not in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+            self._emcy = None       # an EMCY without a fault (a warning): acknowledged
             return state
         self._send_controlword(sm.CW_DISABLE_VOLTAGE, "fault reset: clear bit 7")
         state = self._command(sm.CW_FAULT_RESET, (sm.SWITCH_ON_DISABLED,), deadline, "fault reset")
@@ -735,19 +736,29 @@ class Cia402Drive:
         }
 
     def check_health(self, *, synchronise: bool = False) -> None:
-        """Raise HeartbeatLost if the heartbeat is older than the timeout, DeviceFault on EMCY/FAULT.
+        """Raise HeartbeatLost if the heartbeat is older than the timeout, DeviceFault on EMCY or
+        a FAULT / FAULT REACTION ACTIVE statusword.
 
-        ``synchronise``: first read the statusword over SDO. One node's frames keep their order
-        on CAN and the bus thread hands them over in that order, so every EMCY the drive sent
-        before its reply has been seen when the reply arrives: a fault raised at the end of a
-        capture fails the check that follows it instead of the next point's."""
+        ``synchronise``: after the checks of what has been received, read the statusword over
+        SDO and check again. One node's frames keep their order on CAN and the bus thread hands
+        them over in that order, so every EMCY the drive sent before its reply has been seen when
+        the reply arrives: a fault raised at the end of a capture fails the check that follows it
+        instead of the next point's. What was already known (an EMCY, a lost heartbeat) is
+        reported before the SDO read is tried, so a silent drive is named for what it did."""
         action = "check health"
+        self._check_received(action)
+        if synchronise:
+            word = self.sdo_read(0x6041, action=f"{action}: read statusword 0x6041")
+            self._check_received(action)
+            self._check_statusword(word, action)
+
+    def _check_received(self, action: str) -> None:
+        """The health check on what the bus thread has received: connection, heartbeat, EMCY,
+        NMT state, the latest fresh statusword TPDO."""
         if self._connected_at is None:
             raise self._error(HeartbeatLost, action, f"not connected to node {self.node_id}")
         if self.bus_lost() is not None:     # TransportLost, whatever the last heartbeat's age
             raise self._error(HeartbeatLost, action, "CAN bus lost")
-        read_word = (self.sdo_read(0x6041, action=f"{action}: read statusword 0x6041")
-                     if synchronise else None)
         self._check_heartbeat(action)
         emcy = self._emcy
         if emcy is not None:
@@ -759,7 +770,10 @@ class Cia402Drive:
             raise self._error(DeviceFault, action,
                               f"node {self.node_id} left NMT OPERATIONAL (heartbeat state "
                               f"{self._heartbeat_state})")
-        for state_word in (read_word, self._fresh_tpdo(0x6041)):
-            if state_word is not None and sm.state_from_statusword(state_word) == sm.FAULT:
-                raise self._error(DeviceFault, action, "drive statusword shows FAULT")
+        self._check_statusword(self._fresh_tpdo(0x6041), action)
+
+    def _check_statusword(self, word: int | None, action: str) -> None:
+        state = None if word is None else sm.state_from_statusword(word)
+        if state in (sm.FAULT, sm.FAULT_REACTION_ACTIVE):
+            raise self._error(DeviceFault, action, f"drive statusword shows {state}")
 

@@ -156,10 +156,12 @@ class Channel:
 
     @property
     def range_si(self) -> tuple[float, float] | None:
-        """(lowest, highest) engineering value an ``int16`` sample can carry; None: a counter."""
+        """(lowest, highest) engineering value an ``int16`` sample can carry (either sign of
+        ``scale``); None: a counter."""
         if self.is_counter:
             return None
-        return (-32768 * self.scale + self.offset, 32767 * self.scale + self.offset)
+        ends = (-32768 * self.scale + self.offset, 32767 * self.scale + self.offset)
+        return (min(ends), max(ends))
 
     def to_raw(self, values: np.ndarray) -> tuple[np.ndarray, bool]:
         """Engineering values -> raw integers; returns (raw, clipped) with int16 saturation."""

@@ -154,6 +154,51 @@ def angle_reference_point(op, checks):
                    drive_enabled=False, extra_channels=(EMF_CHANNEL,), checks=checks)
 
 
+def channel_span_si(register_map, name: str) -> tuple[float, float] | None:
+    """(lowest, highest) value the acquisition's ``name`` channel can carry, SI: a DAQ's int16
+    range, a scope's screen (None: unknown, or not a linear channel)."""
+    if hasattr(register_map, "screen_v"):          # a scope channel map
+        channel = register_map.channel(name)
+        if channel.kind != "linear":
+            return None
+        ends = [volts * channel.si_per_volt for volts in register_map.screen_v(channel)]
+        return (min(ends), max(ends))
+    channel = next((ch for ch in getattr(register_map, "channels", ()) if ch.name == name), None)
+    return getattr(channel, "range_si", None)
+
+
+def angle_reference_problem(config, register_map) -> str | None:
+    """Why the back EMF's angle cannot be measured at this point, known before capturing: the
+    line-to-line EMF peak (√3·E from the motor's Ke) beyond ``EMF_RANGE_SHARE`` of the EMF
+    channel's range on either side (the capture would clip), or the time-skew bound alone
+    (``selfcheck.emf_angle_reference``: 360°·f_e/rate/√3) at or above the largest u that
+    passes (a 20-pole motor at 2900 rpm, 483 Hz: 5.02° at 20 kHz — the check failed a correct
+    drive once the module was no longer refused there)."""
+    import math
+
+    op = config.operating_point
+    pole_pairs = config.motor.pole_pairs
+    span = channel_span_si(register_map, EMF_CHANNEL) if register_map is not None else None
+    if span is not None:
+        line_peak_v = math.sqrt(3.0) * config.model_point(
+            op.speed_rpm, op.current_a, allow_beyond_voltage_limit=True).emf_peak_v
+        room_v = min(-span[0], span[1])
+        if line_peak_v > EMF_RANGE_SHARE * room_v:
+            return (f"the line-to-line back EMF at {op.speed_rpm:g} rpm peaks at "
+                    f"{line_peak_v:.3g} V (√3·E from the motor's Ke), beyond {EMF_RANGE_SHARE:g} "
+                    f"of the acquisition's {EMF_CHANNEL} range {span[0]:.4g}..{span[1]:.4g} V: "
+                    "the capture would clip; the angle reference needs a lower speed or a wider "
+                    "voltage channel")
+    rate_hz = angle_reference_point(op, None).capture_rate_hz(pole_pairs)
+    skew_deg = 360.0 * abs(op.speed_rpm) / 60.0 * pole_pairs / rate_hz / math.sqrt(3.0)
+    if skew_deg >= selfcheck.MAX_REFERENCE_U_DEG:
+        return (f"at {op.speed_rpm:g} rpm the time skew between the voltage and angle channels "
+                f"(up to one sample of {rate_hz:g} Hz) alone gives the angle reference a u of "
+                f"{skew_deg:.3g}° electrical, not below the {selfcheck.MAX_REFERENCE_U_DEG:g}° "
+                "it must resolve: measure it at a lower speed")
+    return None
+
+
 def test_angle_reference(measure, bench):
     """Phase a's back-EMF rising zero crossing against the DAQ's angle channel (issue 23 item 0):
     measured, checked against the bench file's ``[daq] emf_a_rising_zero_elec_deg`` when it
@@ -165,19 +210,9 @@ def test_angle_reference(measure, bench):
             "be measured; captures carry no angle reference (the diagnosis then measures it "
             "from the phase currents or reports signs as not identifiable)"))
     config = bench.config
-    channel = next((ch for ch in getattr(register_map, "channels", ())
-                    if ch.name == EMF_CHANNEL), None)
-    span = getattr(channel, "range_si", None)
-    if span is not None:
-        op = config.operating_point
-        line_peak_v = 3 ** 0.5 * config.model_point(
-            op.speed_rpm, op.current_a, allow_beyond_voltage_limit=True).emf_peak_v
-        if line_peak_v > EMF_RANGE_SHARE * min(abs(span[0]), abs(span[1])):
-            pytest.skip(not_determinable(
-                f"the line-to-line back EMF at {op.speed_rpm:g} rpm peaks at {line_peak_v:.3g} V "
-                f"(√3·E from the motor's Ke), beyond {EMF_RANGE_SHARE:g} of the DAQ's {EMF_CHANNEL} "
-                f"range ±{min(abs(span[0]), abs(span[1])):.4g} V: the capture would clip; the "
-                "angle reference needs a lower speed or a wider voltage channel"))
+    refused = angle_reference_problem(config, register_map)
+    if refused:
+        pytest.skip(not_determinable(refused))
     found = {}
 
     def checks(capture, result, plan, bench):

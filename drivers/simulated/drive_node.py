@@ -438,6 +438,10 @@ class SimulatedDrive:
         with self._twin_loss_lock:
             if not self._twin_loss_pending:
                 return
+            if self._twin_loss_disables:
+                # before the lock: a plant computing a stretch under it abandons the stretch
+                # (hil.plants.motulator_plant) instead of finishing it with the gates on
+                self.twin.disable()
             with self.twin.lock:
                 if self._twin_loss_disables:
                     self.twin.disable()

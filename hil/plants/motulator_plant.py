@@ -141,7 +141,7 @@ class MotulatorPlant:
     def prepare(self) -> None:
         """Start motulator's worker process before the instruments serve (the first capture
         then starts at once)."""
-        with self.lock:
+        with self.lock, self._worker_busy():
             self._configured_drive()
 
     def close(self) -> None:
@@ -228,7 +228,7 @@ class MotulatorPlant:
                              f"{', '.join(CHANNELS)}")
         if not settle_s >= 0 or not duration_s >= 0 or not sample_rate_hz > 0:
             raise ValueError("settle_s and duration_s must be >= 0, sample_rate_hz > 0")
-        with self.lock:
+        with self.lock, self._worker_busy():
             drive = self._configured_drive()
             if settle_s > 0:
                 self._run(drive, settle_s)
@@ -265,13 +265,30 @@ class MotulatorPlant:
 
         applied = self._applied()
         if self._drive is None:
-            self._drive = DriveProcess(self.motor, self.time_s)
+            worker = DriveProcess()
+            self._computing = worker          # its start-up (seconds) can be abandoned too
+            worker.start(self.motor, self.time_s)
+            self._drive = worker
         loop_hz = self.bandwidth_hz * self.defects.current_loop_bandwidth_scale
         self._drive.configure(applied, enabled=self._enabled,
                               current_a=self._current_command_a, speed_rpm=self._speed_rpm,
                               bandwidth_hz=loop_hz, design=self.design,
                               encoder_counts_per_rev=self.config.sensors.encoder_counts_per_rev)
         return self._drive
+
+    @contextlib.contextmanager
+    def _worker_busy(self):
+        """While the worker starts, is configured or computes (``lock`` held): ``_computing``
+        names it for ``_lock_abandoning``; afterwards a worker that was cancelled at any moment
+        of it — even after its reply had arrived — is dropped, and the next stretch starts a
+        new one (a review found a late cancel leaving every later ``advance`` refused)."""
+        try:
+            yield
+        finally:
+            for worker in (self._computing, self._drive):
+                if worker is not None and worker.cancelled:
+                    self._drive = None
+            self._computing = None
 
     @contextlib.contextmanager
     def _lock_abandoning(self, reason: str):
@@ -289,16 +306,8 @@ class MotulatorPlant:
 
     def _run(self, drive, duration_s: float):
         """Simulate ``duration_s`` from ``time_s``; the history (plant time) of that stretch."""
-        from hil.plants.motulator_process import RunCancelled
-
         self._computing = drive
-        try:
-            history = drive.run(self.time_s, duration_s)
-        except RunCancelled:
-            self._drive = None           # its worker is gone: the next stretch starts anew
-            raise
-        finally:
-            self._computing = None
+        history = drive.run(self.time_s, duration_s)
         self.time_s = history.t_end
         self._angle_mech_rad = history.angle_end_rad
         history.torque_nm = self._transducer(history.t, history.tau)

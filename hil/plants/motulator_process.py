@@ -21,18 +21,25 @@ class RunCancelled(RuntimeError):
 
 
 class DriveProcess:
-    """``MotulatorDrive(motor, t0_s)`` in a worker process; same ``configure`` / ``run``.
+    """``MotulatorDrive`` in a worker process (``start``, then ``configure`` / ``run``).
 
     The worker is ``python -m hil.plants.motulator_process`` with this Python; requests and
     replies are pickles on its standard input and output (its own prints go to standard
     error). It ends when its standard input closes, i.e. with this process at the latest."""
 
-    def __init__(self, motor, t0_s: float) -> None:
+    def __init__(self) -> None:
         self._cancelled: str | None = None
         self._process = subprocess.Popen(
             [sys.executable, "-m", "hil.plants.motulator_process"], stdin=subprocess.PIPE,
             stdout=subprocess.PIPE)
+
+    def start(self, motor, t0_s: float) -> None:
+        """Build ``MotulatorDrive(motor, t0_s)`` in the worker (seconds: motulator's imports)."""
         self._call("start", motor, t0_s)
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancelled is not None
 
     def configure(self, applied, **commands) -> None:
         self._call("configure", applied, **commands)

@@ -261,6 +261,18 @@ out["enabled"] = plant.enabled
 d = plant.advance(0.002, 20000.0, channels=("ia_a",))      # a new worker, gates blocked
 out["after_samples"] = len(d["ia_a"])
 out["after_ia_max_a"] = float(abs(d["ia_a"]).max())
+# a cancel that lands after the stretch's reply arrived (a review's race): the stretch stands,
+# its killed worker must not be kept for the next one
+from hil.plants import motulator_process
+real_run = motulator_process.DriveProcess.run
+def run_then_cancelled(self, *args, **kwargs):
+    history = real_run(self, *args, **kwargs)
+    self.cancel("cancelled after its reply")
+    return history
+motulator_process.DriveProcess.run = run_then_cancelled
+out["late_samples"] = len(plant.advance(0.002, 20000.0, channels=("ia_a",))["ia_a"])
+motulator_process.DriveProcess.run = real_run
+out["next_samples"] = len(plant.advance(0.002, 20000.0, channels=("ia_a",))["ia_a"])
 started = time.perf_counter()
 plant.close()
 out["close_s"] = time.perf_counter() - started
@@ -270,7 +282,8 @@ print(json.dumps(out))
 
 @needs_foreign_venv
 def test_disabling_the_drive_abandons_a_capture_being_computed():
-    """Gates off during a capture (a safety guard, Ctrl-C, a heartbeat loss): the plant stops
+    """Gates off during a capture (a safety guard, Ctrl-C, a heartbeat loss: the simulated
+    drive disables the plant before it waits for the plant's lock): the plant stops
     at once and the capture fails, instead of the drive's CAN thread waiting minutes for
     motulator to finish a stretch nobody will use (found when a stopped ``hil run`` of the
     encoder plan hung in its bench's close for the rest of its 30-minute capture)."""
@@ -280,6 +293,7 @@ def test_disabling_the_drive_abandons_a_capture_being_computed():
     assert out["enabled"] is False
     assert out["after_samples"] == 40 and out["after_ia_max_a"] < 1e-6, out
     assert out["close_s"] < 5.0, out
+    assert out["late_samples"] == out["next_samples"] == 40, out
 
 
 def _run_self_check(tmp_path: Path, *defects: str) -> dict:

@@ -80,7 +80,7 @@ def test_the_self_check_runs_near_the_voltage_limit_of_a_fast_motor(tmp_path):
     orders up to 23 (23.99), and its analysed band follows (``conditions.self_check_max_order``) instead of
     refusing the module — the angle reference with it — at every near-limit point (found on the
     foreign bench, issue 30). The correct drive passes the self-check; the angle reference is
-    refused, saying why: the line back EMF there (≈ 43 V) is beyond the DAQ's ±32.8 V v_ab
+    refused, saying why: the line back EMF there (38.1 V) is beyond the DAQ's ±32.8 V v_ab
     channel (it failed with a clipped capture once the module was no longer refused)."""
     table = tomllib.loads(bench_at(tmp_path, -2475.0, 20.0).read_text())
     table["motor"] |= {"model": "8-pole 48 V PMSM (study)", "serial_number": "STUDY-P8",
