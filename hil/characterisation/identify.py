@@ -33,6 +33,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from hil.capture import Capture
+from hil.errors import InputError
+
+#: The fewest samples an electrical revolution's least-squares fit (cos, sin, constant) takes.
+MIN_SAMPLES_PER_REVOLUTION = 16
 
 #: v_ab leads v_an by 30° (positive sequence in the electrical angle): V_ab = √3·e^{jπ/6}·V_an
 LINE_TO_NEUTRAL = 1.0 / (math.sqrt(3.0) * complex(math.cos(math.pi / 6), math.sin(math.pi / 6)))
@@ -85,7 +89,7 @@ def fit_per_revolution(signal: np.ndarray, theta: np.ndarray, order: int = 1
     phasors, constants = [], []
     for turn in np.unique(turns)[:-1]:
         pick = turns == turn
-        if pick.sum() < 16:
+        if pick.sum() < MIN_SAMPLES_PER_REVOLUTION:
             continue
         angle = order * theta[pick]
         basis = np.column_stack([np.cos(angle), np.sin(angle), np.ones(pick.sum())])
@@ -93,7 +97,13 @@ def fit_per_revolution(signal: np.ndarray, theta: np.ndarray, order: int = 1
         phasors.append(complex(a, -b))
         constants.append(float(c))
     if len(phasors) < 2:
-        raise ValueError("fewer than two whole electrical revolutions in the capture")
+        whole = max(len(np.unique(turns)) - 1, 0)
+        per_turn = len(theta) / max(whole, 1)
+        raise InputError(
+            f"the characterisation needs two whole electrical revolutions of at least "
+            f"{MIN_SAMPLES_PER_REVOLUTION} samples each; the capture has {whole} of ~"
+            f"{per_turn:.3g} samples: the electrical frequency is too high for the capture's "
+            "rate (a lower speed, or fewer poles at this speed)")
     return np.array(phasors), np.array(constants)
 
 

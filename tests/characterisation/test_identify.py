@@ -83,3 +83,22 @@ def test_a_daq_voltage_gain_error_is_covered_by_its_stated_accuracy_class():
             assert (abs(item.value - truth) <= item.expanded) is covered
     assert emf.u_without_gain < 0.1 * emf.psi.u          # Z takes the gain once, not via E
     assert "accuracy class" in emf.psi.method and "accuracy class" in resistance.method
+
+
+def test_too_few_samples_per_revolution_is_a_clear_input_error():
+    """A 24-pole motor at 2900 rpm (580 Hz electrical) sampled at 7919 Hz: 13.7 samples per
+    revolution (14.1 counted over whole ones), fewer than a fit takes. The stage's error is a HilError the run
+    reports in one line (exit 6), not a ValueError that ended pytest with an INTERNALERROR."""
+    import numpy as np
+    import pytest
+
+    from hil.characterisation.identify import fit_per_revolution
+    from hil.errors import HilError
+
+    t = np.arange(0, 0.05, 1 / 7919.0)
+    theta = 2 * np.pi * 580.0 * t
+    with pytest.raises(HilError, match=r"at least 16 samples each; the capture has 28 of ~14.1 samples"):
+        fit_per_revolution(np.sin(theta), theta)
+    t = np.arange(0, 0.05, 1 / 47317.0)               # the same revolutions, sampled finely
+    phasors, _ = fit_per_revolution(np.sin(2 * np.pi * 580.0 * t), 2 * np.pi * 580.0 * t)
+    assert len(phasors) >= 2
