@@ -95,6 +95,19 @@ def test_sees_an_emcy_and_resets_the_fault(driver, responder):
     driver.check_health()
 
 
+def test_a_synchronised_check_and_the_reset_see_a_fault_at_once(driver, responder):
+    """The independent responder faults and the driver checks at once (the check after a
+    capture): the SDO reply orders the EMCY before it, and fault_reset reads FAULT over SDO
+    rather than from a TPDO that may predate the fault."""
+    for code in (0x4310, 0x2310, 0x3210):
+        driver.enable()
+        responder.raise_fault(code, 0x03, b"now")
+        with pytest.raises(DeviceFault, match=f"0x{code:04X}|statusword shows FAULT"):
+            driver.check_health(synchronise=True)
+        assert driver.fault_reset() == "SWITCH ON DISABLED" == responder.state
+        driver.check_health(synchronise=True)
+
+
 def test_detects_heartbeat_loss_at_the_consumer_time(driver, responder):
     timeout_s, period_s = driver.heartbeat_timeout_s, driver.producer_heartbeat_ms / 1000
     driver.check_health()
