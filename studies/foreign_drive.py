@@ -80,10 +80,15 @@ DEFECTS = {
                                    ("table_i", 1000.0, 20.0)),
     "transducer reads 5 % high": ("self_check", {"transducer_scale": 1.05},
                                   ("table_i", 1000.0, 20.0)),
+    # the 10 kHz point (20 kHz is the default, which injection_scale leaves alone): the drive
+    # switches at 5 kHz, twice the ripple
+    "PWM frequency applied at half": ("pwm_switching", {"injection_scale": 0.5},
+                                      ("table_i", 1000.0, 20.0)),
 }
 #: selectors of plans run only for a defect
 DEFECT_SELECTORS = {"encoder": "(test_encoder_resolution and 50])",
-                    "self_check": "test_bench_self_check"}
+                    "self_check": "test_bench_self_check",
+                    "pwm_switching": "(test_pwm_switching and 10000)"}
 ANGLE_REFERENCE = "test_angle_reference"
 CAUGHT, MISSED = "caught", "MISSED"
 #: a stored test marked ``"superseded": "<why>"`` (after the fact): judged against a model of a
@@ -169,8 +174,13 @@ def run_correct(motor: str, point, out: Path, plans: list[str] | None = None) ->
     return {"part": "correct", "motor": motor, "speed_rpm": speed, "current_a": point[1]} | row
 
 
-def run_defect(label: str, out: Path) -> dict:
+def run_defect(label: str, out: Path, *, reference: bool = False) -> dict:
+    """The defect's plan at its point with the defect; ``reference``: the same run of the
+    correct drive (a "correct" row), so that "caught" is measured against a drive that passes
+    the same test there."""
     plan, defects, (motor, speed, current) = DEFECTS[label]
+    if reference:
+        defects = {}
     selector = DEFECT_SELECTORS.get(plan, PLANS.get(plan))
     sources = {"self_check": ANGLE_REFERENCE} | {plan: selector}
     if plan == "self_check":
@@ -179,6 +189,9 @@ def run_defect(label: str, out: Path) -> dict:
         folder = Path(tmp)
         bench = bench_copy(motor, speed, current, folder)
         row = hil_run(bench, sources, folder, defects)
+    if reference:
+        return {"part": "correct", "motor": motor, "speed_rpm": speed, "current_a": current,
+                "reference_for": label} | row
     row = {"part": "defect", "defect": label, "plan": plan, "defects": defects,
            "motor": motor, "speed_rpm": speed, "current_a": current} | row
     return row | {"outcome": defect_outcome(row)}
@@ -283,8 +296,8 @@ def table(rows: list[dict]) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("correct", "defects", "control", "dead-time",
-                                           "encoder", "all"),
+    parser.add_argument("--part", choices=("correct", "defects", "defect-references",
+                                           "control", "dead-time", "encoder", "all"),
                         default="all")
     parser.add_argument("--motor", action="append", choices=sorted(POINTS))
     parser.add_argument("--plan", action="append", choices=sorted(PLANS),
@@ -317,6 +330,9 @@ def main(argv=None) -> int:
     if args.part in ("defects", "all"):
         jobs += [("defect", label, None) for label in DEFECTS
                  if not args.only or label in args.only]
+    if args.part == "defect-references":
+        jobs = [("reference", label, None) for label in DEFECTS
+                if not args.only or label in args.only]
     if args.part == "control":
         jobs = [("control", None, None)]
     if args.part == "dead-time":
@@ -326,6 +342,7 @@ def main(argv=None) -> int:
     for kind, what, point in jobs:
         row = (run_correct(what, point, out, args.plan) if kind == "correct" else
                run_defect(what, out) if kind == "defect" else
+               run_defect(what, out, reference=True) if kind == "reference" else
                run_dead_time_after_fix(out) if kind == "dead-time" else
                run_encoder_correct(out) if kind == "encoder" else run_control(out))
         rows.append(row)
