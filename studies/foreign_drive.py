@@ -254,7 +254,7 @@ def defect_outcome(row: dict) -> str:
 def table(rows: list[dict]) -> str:
     lines = ["## Correct foreign drive", "",
              "| motor | point | test | result | reason |", "|---|---|---|---|---|"]
-    judged = wrong = model_points = model_judged = 0
+    judged = wrong = model_points = model_judged = replaced = 0
     for row in (r for r in rows if r["part"] == "correct"):
         point = f"{row['speed_rpm']:+g} rpm, {row['current_a']:g} A"
         if not row["tests"]:
@@ -266,6 +266,9 @@ def table(rows: list[dict]) -> str:
             reason = t.get("void") or t.get("superseded") or reason
             lines.append(f"| {row['motor']} | {point} | {t['test']} | {category} | "
                          f"{reason} |")
+            if category in (SUPERSEDED, VOID):    # each run again in a row of its own
+                replaced += 1
+                continue
             if t["source"] not in ("self_check",):
                 model_points += 1
                 model_judged += category in (PASS, WRONG)
@@ -273,7 +276,9 @@ def table(rows: list[dict]) -> str:
             wrong += category == WRONG
     lines += ["", f"Judged {judged}, wrong rejections {wrong}; model-validation tests judged "
               f"{model_judged}/{model_points}"
-              + (f" ({100 * model_judged / model_points:.0f} %)" if model_points else ""), "",
+              + (f" ({100 * model_judged / model_points:.0f} %)" if model_points else "")
+              + (f"; {replaced} superseded or void rows (run again, counted in their re-runs' "
+                 "rows) left out" if replaced else ""), "",
               "## Defects of the foreign drive", "",
               "| defect | --sim-defect | plan | result | reason |", "|---|---|---|---|---|"]
     for row in (r for r in rows if r["part"] == "defect"):
